@@ -1,0 +1,115 @@
+//! The command line: argument definitions (clap) and one function per subcommand.
+//! `main.rs` only parses and calls [`run`].
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use crate::error::{Error, Result};
+
+/// Haiko — a terminal editor for interior lighting design.
+#[derive(Debug, Parser)]
+#[command(name = "haiko", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands (DESIGN §6).
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Edit a room in the terminal: curves, aiming, live preview.
+    Edit {
+        /// The room file (rooms/*.toml).
+        room: PathBuf,
+        /// Inline image protocol for the preview.
+        #[arg(long, value_enum, default_value_t = Graphics::Auto)]
+        graphics: Graphics,
+    },
+    /// Luminous intensity curve report: flux, asymmetry, truncation error per SH order.
+    Lid {
+        /// An IES LM-63 or EULUMDAT file, or ROOM.toml#LIGHT for a light of a room.
+        source: String,
+        /// Highest order to tabulate (default: the chosen order, at least 16).
+        #[arg(long)]
+        order: Option<usize>,
+        /// Window applied to the truncated series (default: automatic, NUMERICS §3.4).
+        #[arg(long, value_enum)]
+        window: Option<WindowArg>,
+        /// Print one JSON object instead of tables.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Illuminance at given points: CSV `x,y,z,nx,ny,nz` in, the same plus `lux` out.
+    Probe {
+        /// The room file.
+        room: PathBuf,
+        /// Input CSV with header `x,y,z,nx,ny,nz`.
+        #[arg(long)]
+        points: PathBuf,
+        /// Direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
+    },
+    /// Work-plane calculation grid: E_avg, E_min, E_max, U0 = E_min/E_avg.
+    Grid {
+        /// The room file.
+        room: PathBuf,
+        /// Work-plane height above the floor, m.
+        #[arg(long)]
+        height: f64,
+        /// Grid spacing, m.
+        #[arg(long)]
+        spacing: f64,
+        /// Distance kept from the walls, m (default: half the spacing).
+        #[arg(long)]
+        margin: Option<f64>,
+        /// Print JSON with every point.
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
+    },
+}
+
+/// `--graphics` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Graphics {
+    /// Ask the terminal, fall back to half-blocks.
+    Auto,
+    /// DEC sixel.
+    Sixel,
+    /// kitty graphics protocol.
+    Kitty,
+    /// iTerm2 inline images.
+    Iterm2,
+    /// Unicode half-blocks (works everywhere).
+    Halfblocks,
+}
+
+/// `--window` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WindowArg {
+    /// No window (plain truncation).
+    None,
+    /// Hann window.
+    Hann,
+    /// Lanczos σ-factors.
+    Lanczos,
+    /// Cesàro (C,2) means: never negative, but blurred.
+    Cesaro2,
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Edit { .. } => Err(Error::internal(
+            "`haiko edit` is not built yet (issue: the terminal editor); use `haiko lid` meanwhile",
+        )),
+        Command::Lid { .. } | Command::Probe { .. } | Command::Grid { .. } => {
+            Err(Error::internal("this command is not built yet"))
+        }
+    }
+}

@@ -1,0 +1,13 @@
+//! Haiko: a terminal editor for interior lighting design.
+//!
+//! Data flows one way (DESIGN §2): [`scene`] → [`transport`] (plan, bake) → [`relight`] →
+//! [`render`] → the terminal UI or a PNG. [`photometry`] owns the luminous intensity curves and
+//! their spherical-harmonic series.
+
+pub mod cli;
+pub mod error;
+pub mod photometry;
+pub mod scene;
+pub mod transport;
+
+pub use error::{Error, Result};

@@ -1,0 +1,11 @@
+//! The `haiko` binary: parses the command line and dispatches; no logic here.
+
+use clap::Parser;
+
+fn main() {
+    let cli = haiko::cli::Cli::parse();
+    if let Err(err) = haiko::cli::run(cli) {
+        eprintln!("haiko: {err}");
+        std::process::exit(err.exit_code());
+    }
+}

@@ -1,0 +1,3 @@
+//! Light transport: the effect plan, direct light, visibility, interreflection, the bake cache.
+
+pub mod visibility;

@@ -1,0 +1,1 @@
+//! One integration-test binary for the whole crate (fast to build): each area is a module.
