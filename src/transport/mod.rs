@@ -1,3 +1,5 @@
 //! Light transport: the effect plan, direct light, visibility, interreflection, the bake cache.
 
+pub mod direct;
+pub mod occlusion;
 pub mod visibility;

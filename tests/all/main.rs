@@ -1,1 +1,3 @@
 //! One integration-test binary for the whole crate (fast to build): each area is a module.
+
+mod direct;
