@@ -44,7 +44,7 @@ fn isotropic_source_over_a_plane() {
     ] {
         let e = illuminance_at(LIGHT, 0.0, &curve, DOWN, 1.0, &floor_point(d), None);
         assert_rel(e, lux, 2e-8, &format!("isotropic d={d} (NUMERICS value)"));
-        let exact = 1000.0 * 2.0 / (4.0 + d * d as f64).powf(1.5);
+        let exact = 1000.0 * 2.0 / (4.0_f64 + d * d).powf(1.5);
         assert_rel(e, exact, 1e-13, &format!("isotropic d={d} (formula)"));
     }
 }
