@@ -146,24 +146,22 @@ pub fn triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     2.0 * numerator.atan2(denominator)
 }
 
-/// Luminous flux (lm) that a source at `position` sends onto a planar convex polygon (world, m),
-/// `∫ I(ω) dΩ` over the polygon's solid angle. The polygon is fanned into triangles, each split
-/// recursively until its longest edge is below a quarter of its distance to the source, and the
-/// intensity at each piece's centroid is weighted by the piece's exact solid angle.
-/// `intensity(dir)` is in cd for a unit world direction; it may be negative (SH basis emitters).
-/// Only the side the polygon's `normal` faces is lit; the near-field softening `r²/(r² + a²)` is
-/// applied per piece. Divide by the area for the patch-averaged illuminance.
-pub fn polygon_flux(
+/// Solid-angle quadrature over a planar convex polygon (world, m) seen from a source at
+/// `position`: the polygon is fanned into triangles, each split recursively until its longest
+/// edge is below a quarter of its distance to the source; `visit(dir, weight, point)` is called
+/// once per piece with the unit direction to the piece's centroid, its exact solid angle (sr)
+/// times the near-field softening `r²/(r² + a²)`, and the centroid (world). Only the side the
+/// polygon's `normal` faces is visited. `Σ weight · I(dir)` is the flux (lm) onto the polygon.
+pub fn polygon_quadrature(
     position: DVec3,
     radius_m: f64,
     polygon: &[DVec3],
     normal: DVec3,
-    intensity: impl Fn(DVec3) -> f64,
-) -> f64 {
+    mut visit: impl FnMut(DVec3, f64, DVec3),
+) {
     if (polygon[0] - position).dot(normal) >= 0.0 {
-        return 0.0; // the source is behind (or in the plane of) the polygon
+        return; // the source is behind (or in the plane of) the polygon
     }
-    let mut flux = 0.0;
     let mut stack: Vec<([DVec3; 3], u32)> = (1..polygon.len() - 1)
         .map(|k| {
             (
@@ -191,12 +189,32 @@ pub fn polygon_flux(
             continue;
         }
         let omega = triangle_solid_angle(a, b, c);
-        flux += intensity(mid / r2.sqrt()) * omega * r2 / (r2 + radius_m * radius_m);
+        visit(
+            mid / r2.sqrt(),
+            omega * r2 / (r2 + radius_m * radius_m),
+            position + mid,
+        );
     }
+}
+
+/// Luminous flux (lm) that a source at `position` sends onto a planar convex polygon (world, m),
+/// `∫ I(ω) dΩ` by [`polygon_quadrature`]. `intensity(dir)` is in cd for a unit world direction; it
+/// may be negative (SH basis emitters). Divide by the area for the patch-averaged illuminance.
+pub fn polygon_flux(
+    position: DVec3,
+    radius_m: f64,
+    polygon: &[DVec3],
+    normal: DVec3,
+    intensity: impl Fn(DVec3) -> f64,
+) -> f64 {
+    let mut flux = 0.0;
+    polygon_quadrature(position, radius_m, polygon, normal, |dir, weight, _| {
+        flux += intensity(dir) * weight
+    });
     flux
 }
 
-/// Recursion limit of [`polygon_flux`]: 4^10 pieces per triangle at most.
+/// Recursion limit of [`polygon_quadrature`]: 4^10 pieces per triangle at most.
 const MAX_SPLIT_DEPTH: u32 = 10;
 
 /// Photopic weight of a linear-RGB colour multiplier (Rec. 709 luminance coefficients), so a

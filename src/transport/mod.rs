@@ -1,5 +1,6 @@
 //! Light transport: the effect plan, direct light, visibility, interreflection, the bake cache.
 
+pub mod cache;
 pub mod direct;
 pub mod occlusion;
 pub mod visibility;

@@ -1,0 +1,272 @@
+//! The bake cache on disk: one file per baked light, keyed by a hash of everything that affects
+//! the bake, with a header and a checksum. Stale or corrupt files are detected and rebuilt, never
+//! trusted; writes are atomic (temporary file in the same directory, fsync, rename).
+//!
+//! Layout (little-endian): `b"HAIKOBAK"`, format version (u32), reserved (u32), key (u64),
+//! payload length (u64), payload checksum (FNV-1a 64, u64), payload.
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// File magic.
+const MAGIC: &[u8; 8] = b"HAIKOBAK";
+/// Bumped whenever the payload layout or the bake's maths change.
+pub const FORMAT_VERSION: u32 = 1;
+const HEADER_LEN: usize = 8 + 4 + 4 + 8 + 8 + 8;
+
+/// FNV-1a 64-bit: a stable hash (unlike `std`'s `DefaultHasher`) for cache keys and checksums.
+#[derive(Debug, Clone, Copy)]
+pub struct Fnv64(u64);
+
+impl Default for Fnv64 {
+    fn default() -> Self {
+        Fnv64(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv64 {
+    /// Hashes raw bytes.
+    pub fn bytes(&mut self, data: &[u8]) -> &mut Self {
+        for &b in data {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self
+    }
+    /// Hashes an f64 by its bit pattern (so −0.0 ≠ 0.0; inputs come from files, not arithmetic).
+    pub fn f64(&mut self, v: f64) -> &mut Self {
+        self.bytes(&v.to_le_bytes())
+    }
+    /// Hashes a u64.
+    pub fn u64(&mut self, v: u64) -> &mut Self {
+        self.bytes(&v.to_le_bytes())
+    }
+    /// Hashes a string with its length (so concatenations differ).
+    pub fn str(&mut self, s: &str) -> &mut Self {
+        self.u64(s.len() as u64).bytes(s.as_bytes())
+    }
+    /// The hash value.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// Where cache files live: `$HAIKO_CACHE_DIR`, else `$XDG_CACHE_HOME/haiko`, else
+/// `$HOME/.cache/haiko`, else `haiko-cache` in the system temporary directory.
+pub fn default_dir() -> PathBuf {
+    let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    env("HAIKO_CACHE_DIR")
+        .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("haiko")))
+        .or_else(|| env("HOME").map(|d| d.join(".cache").join("haiko")))
+        .unwrap_or_else(|| std::env::temp_dir().join("haiko-cache"))
+}
+
+/// The file for a key inside `dir`.
+pub fn file_for(dir: &Path, key: u64) -> PathBuf {
+    dir.join(format!("{key:016x}.bake"))
+}
+
+/// What reading a cache file found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CacheLoad {
+    /// A valid file for this key: the payload.
+    Hit(Vec<u8>),
+    /// No file.
+    Missing,
+    /// A file that is not valid for this key; the reason is a one-line notice.
+    Invalid(String),
+}
+
+/// Reads and checks a cache file against `key`.
+pub fn read(path: &Path, key: u64) -> CacheLoad {
+    let data = match fs::read(path) {
+        Ok(d) => d,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return CacheLoad::Missing,
+        Err(e) => return CacheLoad::Invalid(format!("cannot read {}: {e}", path.display())),
+    };
+    match check(&data, key) {
+        Ok(()) => CacheLoad::Hit(data[HEADER_LEN..].to_vec()),
+        Err(why) => CacheLoad::Invalid(format!("{}: {why}", path.display())),
+    }
+}
+
+fn check(data: &[u8], key: u64) -> Result<(), String> {
+    if data.len() < HEADER_LEN || &data[..8] != MAGIC {
+        return Err("not a Haiko bake file (truncated header or wrong magic)".into());
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(data[o..o + 4].try_into().expect("4 bytes"));
+    let u64_at = |o: usize| u64::from_le_bytes(data[o..o + 8].try_into().expect("8 bytes"));
+    let version = u32_at(8);
+    if version != FORMAT_VERSION {
+        return Err(format!(
+            "format version {version}, this Haiko writes {FORMAT_VERSION}"
+        ));
+    }
+    if u64_at(16) != key {
+        return Err("made for different inputs (key mismatch)".into());
+    }
+    let len = u64_at(24);
+    if len != (data.len() - HEADER_LEN) as u64 {
+        return Err(format!(
+            "payload is {} bytes, header says {len} (truncated?)",
+            data.len() - HEADER_LEN
+        ));
+    }
+    if Fnv64::default().bytes(&data[HEADER_LEN..]).finish() != u64_at(32) {
+        return Err("checksum mismatch (corrupted)".into());
+    }
+    Ok(())
+}
+
+/// Writes a cache file atomically: a temporary file in the same directory, fsync, rename.
+pub fn write_atomic(path: &Path, key: u64, payload: &[u8]) -> std::io::Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    fs::create_dir_all(dir)?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        path.file_name().and_then(|n| n.to_str()).unwrap_or("bake"),
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut f = fs::File::create(&tmp)?;
+        f.write_all(MAGIC)?;
+        f.write_all(&FORMAT_VERSION.to_le_bytes())?;
+        f.write_all(&0u32.to_le_bytes())?;
+        f.write_all(&key.to_le_bytes())?;
+        f.write_all(&(payload.len() as u64).to_le_bytes())?;
+        f.write_all(&Fnv64::default().bytes(payload).finish().to_le_bytes())?;
+        f.write_all(payload)?;
+        f.sync_all()?;
+        fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Appends little-endian values to a payload.
+#[derive(Debug, Default)]
+pub struct PayloadWriter(pub Vec<u8>);
+
+impl PayloadWriter {
+    /// Appends a u64.
+    pub fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    /// Appends a length-prefixed f32 slice.
+    pub fn f32s(&mut self, v: &[f32]) {
+        self.u64(v.len() as u64);
+        for x in v {
+            self.0.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    /// Appends a length-prefixed f64 slice.
+    pub fn f64s(&mut self, v: &[f64]) {
+        self.u64(v.len() as u64);
+        for x in v {
+            self.0.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+}
+
+/// Reads what [`PayloadWriter`] wrote; every read checks bounds (a checked file can still be from
+/// a buggy writer).
+#[derive(Debug)]
+pub struct PayloadReader<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl<'a> PayloadReader<'a> {
+    /// Starts reading `data`.
+    pub fn new(data: &'a [u8]) -> Self {
+        PayloadReader { data, at: 0 }
+    }
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(n)?;
+        let s = self.data.get(self.at..end)?;
+        self.at = end;
+        Some(s)
+    }
+    /// Reads a u64.
+    pub fn u64(&mut self) -> Option<u64> {
+        self.take(8)
+            .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")))
+    }
+    /// Reads a length-prefixed f32 slice.
+    pub fn f32s(&mut self) -> Option<Vec<f32>> {
+        let n = usize::try_from(self.u64()?).ok()?;
+        let bytes = self.take(n.checked_mul(4)?)?;
+        Some(
+            bytes
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+                .collect(),
+        )
+    }
+    /// Reads a length-prefixed f64 slice.
+    pub fn f64s(&mut self) -> Option<Vec<f64>> {
+        let n = usize::try_from(self.u64()?).ok()?;
+        let bytes = self.take(n.checked_mul(8)?)?;
+        Some(
+            bytes
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect(),
+        )
+    }
+    /// True when everything was read.
+    pub fn is_done(&self) -> bool {
+        self.at == self.data.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv_matches_the_reference_vectors() {
+        assert_eq!(Fnv64::default().finish(), 0xcbf29ce484222325);
+        assert_eq!(Fnv64::default().bytes(b"a").finish(), 0xaf63dc4c8601ec8c);
+        assert_eq!(Fnv64::default().bytes(b"foobar").finish(), 0x85944171f73967e8);
+    }
+
+    #[test]
+    fn round_trip_and_every_kind_of_damage_is_caught() {
+        let dir = std::env::temp_dir().join(format!("haiko-cache-test-{}", std::process::id()));
+        let path = file_for(&dir, 42);
+        let mut w = PayloadWriter::default();
+        w.f32s(&[1.0, -2.5, 3.25]);
+        w.f64s(&[std::f64::consts::PI]);
+        write_atomic(&path, 42, &w.0).unwrap();
+        let CacheLoad::Hit(payload) = read(&path, 42) else {
+            panic!("expected a hit")
+        };
+        let mut r = PayloadReader::new(&payload);
+        assert_eq!(r.f32s().unwrap(), vec![1.0, -2.5, 3.25]);
+        assert_eq!(r.f64s().unwrap(), vec![std::f64::consts::PI]);
+        assert!(r.is_done());
+        assert!(matches!(read(&path, 43), CacheLoad::Invalid(m) if m.contains("key")));
+        let good = fs::read(&path).unwrap();
+        let mut flipped = good.clone();
+        *flipped.last_mut().unwrap() ^= 0x10;
+        fs::write(&path, &flipped).unwrap();
+        assert!(matches!(read(&path, 42), CacheLoad::Invalid(m) if m.contains("checksum")));
+        fs::write(&path, &good[..good.len() - 3]).unwrap();
+        assert!(matches!(read(&path, 42), CacheLoad::Invalid(m) if m.contains("truncated")));
+        let mut old = good.clone();
+        old[8] = 0;
+        fs::write(&path, &old).unwrap();
+        assert!(matches!(read(&path, 42), CacheLoad::Invalid(m) if m.contains("version")));
+        assert_eq!(read(&file_for(&dir, 7), 7), CacheLoad::Missing);
+        assert_eq!(
+            fs::read_dir(&dir).unwrap().count(),
+            1,
+            "no temporary files left behind"
+        );
+        fs::remove_dir_all(&dir).unwrap();
+    }
+}
