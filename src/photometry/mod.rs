@@ -1,9 +1,21 @@
 //! What a luminaire emits: intensity curves, their Legendre / spherical-harmonic series,
 //! truncation and ringing control, aiming, and IES LM-63 / EULUMDAT files.
 
+pub mod aim;
 pub mod curve;
+pub mod edit;
 pub mod gauss;
+pub mod legendre;
 pub mod lidfile;
+pub mod sh;
+pub mod truncation;
+pub mod weights;
 
+pub use aim::{aimed_coefficients, eval_aimed};
 pub use curve::{Curve, CurveError};
+pub use edit::IncrementalWeights;
+pub use legendre::{legendre_series, legendre_table};
 pub use lidfile::{LidFile, LidFormat, read_lid_file};
+pub use sh::{ShBasis, sh_count, sh_index};
+pub use truncation::{TruncationStats, Window, auto_window, choose_order, truncation_stats};
+pub use weights::{HatMoments, ZonalWeights};
