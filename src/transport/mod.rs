@@ -1,6 +1,8 @@
 //! Light transport: the effect plan, direct light, visibility, interreflection, the bake cache.
 
+pub mod basis;
 pub mod cache;
 pub mod direct;
 pub mod occlusion;
+pub mod plan;
 pub mod visibility;

@@ -1,0 +1,237 @@
+//! The effect plan (DESIGN §4): inspect the scene and decide, with a reason for each, which effects
+//! the bake simulates — visibility, interreflection, colour channels, each light's SH order, window
+//! and emission mask, and whether direct light comes from the basis.
+
+use glam::DVec3;
+use serde::Serialize;
+
+use crate::photometry::{Curve, Window, ZonalWeights, auto_window, choose_order, sh_count};
+use crate::scene::{DirectMode, Scene};
+
+/// Target relative L2 error of a curve's SH series when the basis carries only indirect light
+/// (hybrid mode): indirect light is a smooth average of the emission, so a coarse series suffices.
+pub const HYBRID_TARGET_REL_L2: f64 = 0.05;
+/// Highest automatic order in hybrid mode.
+pub const HYBRID_MAX_ORDER: usize = 16;
+/// Target relative L2 error in paper mode (the basis carries the direct light too).
+pub const BASIS_TARGET_REL_L2: f64 = 0.02;
+/// Highest automatic order in paper mode.
+pub const BASIS_MAX_ORDER: usize = 30;
+/// A light this close to a room surface (m) counts as mounted on it.
+pub const MOUNT_DISTANCE_M: f64 = 0.1;
+
+/// One yes/no decision and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Decision {
+    /// Whether the effect is simulated.
+    pub on: bool,
+    /// Why, in one line.
+    pub reason: String,
+}
+
+/// What the bake does for one light.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LightPlan {
+    /// The light's name.
+    pub name: String,
+    /// SH order N of its basis emitters.
+    pub order: usize,
+    /// Why this order.
+    pub order_reason: String,
+    /// Window applied to its series at relight time.
+    #[serde(serialize_with = "window_name")]
+    pub window: Window,
+    /// Why this window.
+    pub window_reason: String,
+    /// Inward normal of the mounting surface when basis emitters are masked to the half-space in
+    /// front of it (NUMERICS §5), else `None`.
+    pub mask: Option<[f64; 3]>,
+    /// Why (not) masked.
+    pub mask_reason: String,
+    /// Basis columns per channel, (N + 1)².
+    pub columns: usize,
+}
+
+fn window_name<S: serde::Serializer>(w: &Window, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(w.name())
+}
+
+/// Options that override the plan (tests force a full simulation to prove the plan changes no
+/// answer).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlanOptions {
+    /// Cast visibility rays even where nothing can occlude.
+    pub force_visibility: bool,
+    /// Solve three channels even for a grey room.
+    pub force_rgb: bool,
+    /// Add this to every light's order.
+    pub order_boost: usize,
+}
+
+/// The plan for a scene.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Plan {
+    /// Visibility tests (shadow rays).
+    pub visibility: Decision,
+    /// Interreflection solve.
+    pub interreflection: Decision,
+    /// Colour channels solved (1 or 3).
+    pub channels: usize,
+    /// Why that many channels.
+    pub channels_reason: String,
+    /// Direct light from the basis (paper mode) instead of exact per edit.
+    pub direct_basis: Decision,
+    /// Per light.
+    pub lights: Vec<LightPlan>,
+    /// Fine vertices (display mesh).
+    pub fine_vertices: usize,
+    /// Coarse patches (solver mesh).
+    pub coarse_patches: usize,
+    /// Total basis columns, Σ (N + 1)² × channels.
+    pub columns: usize,
+    /// Bytes of the stored basis (direct and total irradiance per column and coarse patch, f32).
+    pub basis_bytes: usize,
+    /// Bytes of the dense form-factor matrix (f32), 0 when there is no solve.
+    pub form_factor_bytes: usize,
+    /// Visibility rays cast to build the form factors (0 when visibility is off or no solve).
+    pub form_factor_rays: usize,
+}
+
+/// Rays per form-factor entry when visibility is on (centroid to sample points of the patch).
+pub const FORM_FACTOR_RAYS: usize = 4;
+
+/// Plans the bake of `scene`.
+pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
+    let occluders = scene.boxes.len() + scene.mesh_bounds.len();
+    let visibility = if occluders > 0 {
+        Decision {
+            on: true,
+            reason: format!(
+                "{} box(es) and {} mesh(es) can occlude; rays are traced only where a BVH bound meets the segment",
+                scene.boxes.len(),
+                scene.mesh_bounds.len()
+            ),
+        }
+    } else if options.force_visibility {
+        Decision { on: true, reason: "forced on (nothing can occlude in this convex room)".into() }
+    } else {
+        Decision { on: false, reason: "the room is an empty convex box: every point sees every other".into() }
+    };
+    let rho_max = scene.surfaces.iter().map(|s| s.reflectance.max()).fold(0.0, f64::max);
+    let interreflection = if rho_max > 0.0 {
+        Decision {
+            on: true,
+            reason: format!(
+                "reflectances up to {rho_max:.2}; solved to a certified relative error of {:.0e}",
+                scene.settings.tolerance
+            ),
+        }
+    } else {
+        Decision { on: false, reason: "every reflectance is 0: no light is reflected".into() }
+    };
+    let coloured = scene.surfaces.iter().filter(|s| !s.reflectance.is_grey()).count();
+    let (channels, channels_reason) = if coloured > 0 {
+        (3, format!("{coloured} surface(s) have coloured reflectance"))
+    } else if options.force_rgb {
+        (3, "forced to RGB (the room is grey)".into())
+    } else if scene.lights.iter().any(|l| l.is_coloured()) {
+        (1, "grey room: light colours scale each light's result, one channel suffices".into())
+    } else {
+        (1, "grey room and white lights".into())
+    };
+    let paper = scene.settings.direct == DirectMode::Basis;
+    let direct_basis = if paper {
+        Decision { on: true, reason: "direct = \"basis\" (paper mode): direct light comes from the SH series".into() }
+    } else {
+        Decision { on: false, reason: "hybrid mode: direct light is exact at every edit, the basis carries only indirect light".into() }
+    };
+    let lights: Vec<LightPlan> = scene.lights.iter().map(|l| plan_light(scene, l, paper, options)).collect();
+    let n_coarse = scene.coarse.patches.len();
+    let per_channel: usize = lights.iter().map(|l| l.columns).sum();
+    let columns = per_channel * channels;
+    let solve = interreflection.on;
+    Plan {
+        fine_vertices: scene.fine.n_vertices(),
+        coarse_patches: n_coarse,
+        columns,
+        basis_bytes: if solve { 2 * columns * n_coarse * 4 } else { 0 },
+        form_factor_bytes: if solve { n_coarse * n_coarse * 4 } else { 0 },
+        form_factor_rays: if solve && visibility.on { n_coarse * n_coarse * FORM_FACTOR_RAYS } else { 0 },
+        visibility,
+        interreflection,
+        channels,
+        channels_reason,
+        direct_basis,
+        lights,
+    }
+}
+
+fn plan_light(scene: &Scene, light: &crate::scene::Light, paper: bool, options: PlanOptions) -> LightPlan {
+    let (target, cap) = if paper { (BASIS_TARGET_REL_L2, BASIS_MAX_ORDER) } else { (HYBRID_TARGET_REL_L2, HYBRID_MAX_ORDER) };
+    let (base, order_reason) = match light.order {
+        Some(n) => (n, format!("fixed by the room file ({n})")),
+        None => {
+            let n = choose_order(&light.curve, target, cap);
+            (n, order_reason(&light.curve, n, target, cap))
+        }
+    };
+    let order = base + options.order_boost;
+    let order_reason =
+        if options.order_boost > 0 { format!("{order_reason}; raised by {} (forced)", options.order_boost) } else { order_reason };
+    let weights = ZonalWeights::exact(&light.curve, order);
+    let window = auto_window(&light.curve, &weights, order);
+    let window_reason = match window {
+        Window::None => "the series stays above −0.5 % of the peak".to_string(),
+        _ => "the series dips below −0.5 % of the peak (ringing)".to_string(),
+    };
+    let (mask, mask_reason) = mounting_mask(scene, light);
+    LightPlan {
+        name: light.name.clone(),
+        order,
+        order_reason,
+        window,
+        window_reason,
+        mask: mask.map(|n| n.to_array()),
+        mask_reason,
+        columns: sh_count(order),
+    }
+}
+
+fn order_reason(curve: &Curve, n: usize, target: f64, cap: usize) -> String {
+    let w = ZonalWeights::exact(curve, n);
+    let err = crate::photometry::truncation_stats(curve, &w, n, Window::None).rel_l2_error;
+    if err <= target {
+        format!("lowest order with relative L2 error ≤ {:.0} % ({:.1} %)", target * 100.0, err * 100.0)
+    } else {
+        format!("capped at {cap}: the curve needs more for {:.0} % (error {:.1} %; sharp cut-off?)", target * 100.0, err * 100.0)
+    }
+}
+
+/// The inward normal of the room surface a light is mounted on, when its curve emits nothing
+/// behind that surface for its aim: emitters are then masked to the half-space in front of it.
+fn mounting_mask(scene: &Scene, light: &crate::scene::Light) -> (Option<DVec3>, String) {
+    let p = light.position;
+    let s = scene.room_size;
+    let candidates = [
+        (p.z, DVec3::Z, "floor"),
+        (s.z - p.z, DVec3::NEG_Z, "ceiling"),
+        (p.x, DVec3::X, "wall x = 0"),
+        (s.x - p.x, DVec3::NEG_X, "wall x = max"),
+        (p.y, DVec3::Y, "wall y = 0"),
+        (s.y - p.y, DVec3::NEG_Y, "wall y = max"),
+    ];
+    let Some(&(d, n, name)) = candidates.iter().min_by(|a, b| a.0.total_cmp(&b.0)) else {
+        return (None, String::new());
+    };
+    if d > MOUNT_DISTANCE_M {
+        return (None, format!("free-standing ({d:.2} m from the nearest surface)"));
+    }
+    // Largest γ at which the curve is non-zero; the mask is exact when that cone stays in front.
+    let reach_deg = light.curve.points().filter(|p| p.1 > 0.0).map(|p| p.0).fold(0.0, f64::max);
+    let tilt_deg = light.aim.dot(n).clamp(-1.0, 1.0).acos().to_degrees();
+    if reach_deg + tilt_deg <= 90.0 + 1e-9 {
+        (Some(n), format!("mounted {d:.2} m from the {name}: emitters masked to the room side"))
+    } else {
+        (None, format!("{d:.2} m from the {name}, but the curve reaches {reach_deg:.0}° at a {tilt_deg:.0}° tilt: no mask"))
+    }
+}
