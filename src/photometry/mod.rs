@@ -3,7 +3,10 @@
 
 pub mod curve;
 pub mod gauss;
+pub mod ies;
+pub mod ldt;
 pub mod lidfile;
 
 pub use curve::{Curve, CurveError};
+pub use ies::write_ies;
 pub use lidfile::{LidFile, LidFormat, read_lid_file};
