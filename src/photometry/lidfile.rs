@@ -60,7 +60,7 @@ pub fn read_lid_file(path: &Path) -> Result<LidFile> {
         _ => {
             return Err(Error::input(
                 path,
-                "",
+                "file extension",
                 format!(
                     "unknown photometric file type '.{extension}' (expected .ies for IES LM-63 \
                      or .ldt for EULUMDAT)"
