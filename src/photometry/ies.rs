@@ -121,7 +121,10 @@ impl Header {
 
     /// `[LUMINAIRE]`, else `[LUMCAT]`, else the first free-text line (LM-63-1986 files).
     fn luminaire(self) -> String {
-        self.luminaire.or(self.catalogue).or(self.first_text).unwrap_or_default()
+        self.luminaire
+            .or(self.catalogue)
+            .or(self.first_text)
+            .unwrap_or_default()
     }
 }
 
@@ -160,7 +163,12 @@ fn read_photometry(numbers: &mut Numbers) -> Result<StoredPlanes> {
         3.0 => Some("Type A photometry is not supported (Haiko reads Type C files only)".into()),
         _ => Some("the photometric type must be 1 (C), 2 (B) or 3 (A)".into()),
     })?;
-    for what in ["units type", "luminous width", "luminous length", "luminous height"] {
+    for what in [
+        "units type",
+        "luminous width",
+        "luminous length",
+        "luminous height",
+    ] {
         numbers.number(&|| what.into(), |_| None)?;
     }
     let ballast_factor = numbers.number(&|| "ballast factor".into(), positive)?;
@@ -183,9 +191,10 @@ fn read_photometry(numbers: &mut Numbers) -> Result<StoredPlanes> {
         let mut values = Vec::with_capacity(n_vertical);
         for &g in &gamma_deg {
             let index = numbers.count_read - candela_start + 1;
-            let value = numbers.number(&|| format!("value {index} (candela for C={c}°, γ={g}°)"), |v| {
-                (v < 0.0).then(|| "candela cannot be negative".into())
-            })?;
+            let value = numbers.number(
+                &|| format!("value {index} (candela for C={c}°, γ={g}°)"),
+                |v| (v < 0.0).then(|| "candela cannot be negative".into()),
+            )?;
             values.push(value * scale);
         }
         planes.push((c, values));

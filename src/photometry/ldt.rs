@@ -63,7 +63,9 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
     }
     let c_first_line = fields.next + 1;
     let c_deg = fields.list(mc, |k| format!("C-angle {k}"))?;
-    check_c_angles(path, &c_deg, |k| format!("line {}, C-angle {}", c_first_line + k, k + 1))?;
+    check_c_angles(path, &c_deg, |k| {
+        format!("line {}, C-angle {}", c_first_line + k, k + 1)
+    })?;
     let gamma_first_line = fields.next + 1;
     let gamma_deg = fields.list(ng, |k| format!("γ-angle {k}"))?;
     check_gamma_grid(path, &gamma_deg, |k| {
@@ -114,7 +116,9 @@ fn read_lamp_sets(fields: &mut Fields) -> Result<LampSets> {
             fields.text(&label)?;
             None
         } else {
-            Some(fields.number(&label, |v| (v < 0.0).then(|| "a lamp flux cannot be negative".into()))?)
+            Some(fields.number(&label, |v| {
+                (v < 0.0).then(|| "a lamp flux cannot be negative".into())
+            })?)
         };
         sets.flux.push((flux, flux_line));
         fields.text(&format!("field 26d (colour of lamp set {set})"))?;
@@ -218,9 +222,19 @@ impl<'a> Fields<'a> {
         let value = match cleaned.parse::<f64>() {
             Ok(v) if v.is_finite() => v,
             Ok(_) => {
-                return Err(Error::input(self.path, place, format!("{shown:?} is not a finite number")));
+                return Err(Error::input(
+                    self.path,
+                    place,
+                    format!("{shown:?} is not a finite number"),
+                ));
             }
-            Err(_) => return Err(Error::input(self.path, place, format!("{shown:?} is not a number"))),
+            Err(_) => {
+                return Err(Error::input(
+                    self.path,
+                    place,
+                    format!("{shown:?} is not a number"),
+                ));
+            }
         };
         match check(value) {
             None => Ok(value),

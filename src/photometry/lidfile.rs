@@ -161,7 +161,11 @@ impl StoredPlanes {
         for (c_deg, values) in &self.planes {
             for image in self.symmetry.images(*c_deg) {
                 let reduced = image.rem_euclid(360.0);
-                let c = if 360.0 - reduced < SAME_ANGLE_DEG { 0.0 } else { reduced };
+                let c = if 360.0 - reduced < SAME_ANGLE_DEG {
+                    0.0
+                } else {
+                    reduced
+                };
                 full.push((c, values));
             }
         }
@@ -193,7 +197,11 @@ fn c_weights(c_deg: &[f64]) -> Vec<f64> {
 ///
 /// The LM-63 ranges are 0–90°, 0–180° and 90–180°; any grid inside 0–180° is accepted (the curve
 /// is 0 outside it) so that every valid [`Curve`] can be written and read back.
-pub(crate) fn check_gamma_grid(path: &Path, gamma_deg: &[f64], place: impl Fn(usize) -> String) -> Result<()> {
+pub(crate) fn check_gamma_grid(
+    path: &Path,
+    gamma_deg: &[f64],
+    place: impl Fn(usize) -> String,
+) -> Result<()> {
     for (k, &g) in gamma_deg.iter().enumerate() {
         if !(0.0..=180.0).contains(&g) {
             return Err(Error::input(
@@ -206,7 +214,10 @@ pub(crate) fn check_gamma_grid(path: &Path, gamma_deg: &[f64], place: impl Fn(us
             return Err(Error::input(
                 path,
                 place(k),
-                format!("γ = {g}° is below the previous angle {}° (angles must increase)", gamma_deg[k - 1]),
+                format!(
+                    "γ = {g}° is below the previous angle {}° (angles must increase)",
+                    gamma_deg[k - 1]
+                ),
             ));
         }
         if k > 1 && g == gamma_deg[k - 1] && g == gamma_deg[k - 2] {
@@ -239,13 +250,20 @@ pub(crate) fn check_c_angles(path: &Path, c_deg: &[f64], place: impl Fn(usize) -
             ));
         }
         if !(0.0..=360.0).contains(&c) {
-            return Err(Error::input(path, place(k), format!("C = {c}° is outside 0–360°")));
+            return Err(Error::input(
+                path,
+                place(k),
+                format!("C = {c}° is outside 0–360°"),
+            ));
         }
         if k > 0 && c <= c_deg[k - 1] {
             return Err(Error::input(
                 path,
                 place(k),
-                format!("C = {c}° does not increase from the previous angle {}°", c_deg[k - 1]),
+                format!(
+                    "C = {c}° does not increase from the previous angle {}°",
+                    c_deg[k - 1]
+                ),
             ));
         }
     }
@@ -278,7 +296,10 @@ mod tests {
     fn quadrant_expands_to_the_full_circle() {
         let stored = planes(
             CSymmetry::Quadrant,
-            [0.0, 30.0, 60.0, 90.0].iter().map(|&c| (c, vec![c, 1.0])).collect(),
+            [0.0, 30.0, 60.0, 90.0]
+                .iter()
+                .map(|&c| (c, vec![c, 1.0]))
+                .collect(),
         );
         let full = stored.expand();
         let angles: Vec<f64> = full.iter().map(|p| p.0).collect();
