@@ -8,11 +8,13 @@
 //! γ (degrees from nadir); the horizontal angles C (degrees); the candela values, all γ for each
 //! C in turn.
 //!
-//! Intensities become absolute candela as `value × candela-multiplier × ballast-factor`. With
-//! lumens/lamp = −1 the file is absolute photometry; with rated lumens/lamp the values are for
-//! the rated lamps, which is what Haiko uses (it has no other lamp flux to scale to). The
-//! LM-63-2019 file-generation-type (1.00001, 1.10000, …) is a code, not a factor (FORMATS §2,
-//! pitfall 10), and is ignored.
+//! Intensities become absolute candela as `value × candela-multiplier × ballast-factor`, and
+//! also × the ballast-lamp photometric factor in LM-63-1986 and -1991 files, where the field
+//! after the ballast factor still was that multiplier. With lumens/lamp = −1 the file is absolute
+//! photometry; with rated lumens/lamp the values are for the rated lamps, which is what Haiko
+//! uses (it has no other lamp flux to scale to). From LM-63-1995 on that field is "future use",
+//! and the LM-63-2019 file-generation-type (1.00001, 1.10000, …) is a code, not a factor
+//! (FORMATS §2, pitfall 10): both are ignored.
 
 use std::path::Path;
 
@@ -78,7 +80,8 @@ pub(crate) fn parse_ies(path: &Path, text: &str) -> Result<LidFile> {
     if tilt_included {
         skip_tilt_table(&mut numbers)?;
     }
-    let planes = read_photometry(&mut numbers)?;
+    let pre_1995 = version == VERSION_1986 || upper.starts_with("IESNA91");
+    let planes = read_photometry(&mut numbers, pre_1995)?;
     numbers.expect_end()?;
     let format = LidFormat::Ies { version };
     planes.into_lid_file(path, format, header.luminaire())
@@ -148,7 +151,8 @@ fn skip_tilt_table(numbers: &mut Numbers) -> Result<()> {
 }
 
 /// Reads everything after the tilt data: the two header lines, the angles and the candela table.
-fn read_photometry(numbers: &mut Numbers) -> Result<StoredPlanes> {
+/// `pre_1995` is true for LM-63-1986 and -1991 files.
+fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes> {
     numbers.number(&|| "number of lamps".into(), |_| None)?;
     numbers.number(&|| "lumens per lamp".into(), |v| {
         (v != -1.0 && v <= 0.0)
@@ -172,7 +176,14 @@ fn read_photometry(numbers: &mut Numbers) -> Result<StoredPlanes> {
         numbers.number(&|| what.into(), |_| None)?;
     }
     let ballast_factor = numbers.number(&|| "ballast factor".into(), positive)?;
-    numbers.number(&|| "file generation type / ballast-lamp factor".into(), |_| None)?;
+    // Before LM-63-1995 this field was the ballast-lamp photometric factor, a multiplier; since
+    // then it is "future use" or (2019) the file-generation-type code, which must not scale.
+    let ballast_lamp_factor = if pre_1995 {
+        numbers.number(&|| "ballast-lamp photometric factor".into(), positive)?
+    } else {
+        numbers.number(&|| "file generation type".into(), |_| None)?;
+        1.0
+    };
     numbers.number(&|| "input watts".into(), |_| None)?;
 
     let (gamma_deg, gamma_lines) = numbers.list(n_vertical, |k| format!("vertical angle {k}"))?;
@@ -184,7 +195,7 @@ fn read_photometry(numbers: &mut Numbers) -> Result<StoredPlanes> {
     check_c_angles(numbers.path, &c_deg, c_place)?;
     let symmetry = classify_c_range(numbers.path, &c_deg, c_place)?;
 
-    let scale = multiplier * ballast_factor;
+    let scale = multiplier * ballast_factor * ballast_lamp_factor;
     let candela_start = numbers.count_read;
     let mut planes = Vec::with_capacity(n_horizontal);
     for &c in &c_deg {

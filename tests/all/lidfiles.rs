@@ -181,6 +181,14 @@ fn lm63_1986_file_without_a_version_line() {
 }
 
 #[test]
+fn lm63_1991_ballast_lamp_factor_scales() {
+    // IESNA91: the field after the ballast factor (0.9) is the ballast-lamp photometric factor.
+    let lid = load("ies/lm63_1991_factor.ies");
+    assert_curve(&lid, &[0.0, 90.0, 180.0], &[90.0; 3]);
+    assert_eq!(ies_version(&lid), "IESNA91");
+}
+
+#[test]
 fn ies_falls_back_to_latin1_text() {
     // 0xE9 alone is not UTF-8: the header is read as Latin-1 (é).
     let dir = tempfile::tempdir().unwrap();
