@@ -36,19 +36,29 @@ pub fn basis_direct(mesh: &PatchMesh, emitter: &Emitter, occluders: Option<&dyn 
     out.par_chunks_mut(k).zip(&mesh.patches).for_each_init(
         || vec![0.0; k],
         |y, (row, patch)| {
-            let polygon: Vec<DVec3> = patch.vertex_ids().iter().map(|&v| mesh.positions[v as usize]).collect();
-            polygon_quadrature(emitter.position, emitter.radius_m, &polygon, patch.normal, |dir, weight, point| {
-                if emitter.mask.is_some_and(|n| dir.dot(n) <= 0.0) {
-                    return;
-                }
-                if occluders.is_some_and(|v| !v.visible(emitter.position, point)) {
-                    return;
-                }
-                basis.eval(dir, y);
-                for (r, &yk) in row.iter_mut().zip(y.iter()) {
-                    *r += weight * yk;
-                }
-            });
+            let polygon: Vec<DVec3> = patch
+                .vertex_ids()
+                .iter()
+                .map(|&v| mesh.positions[v as usize])
+                .collect();
+            polygon_quadrature(
+                emitter.position,
+                emitter.radius_m,
+                &polygon,
+                patch.normal,
+                |dir, weight, point| {
+                    if emitter.mask.is_some_and(|n| dir.dot(n) <= 0.0) {
+                        return;
+                    }
+                    if occluders.is_some_and(|v| !v.visible(emitter.position, point)) {
+                        return;
+                    }
+                    basis.eval(dir, y);
+                    for (r, &yk) in row.iter_mut().zip(y.iter()) {
+                        *r += weight * yk;
+                    }
+                },
+            );
             let inv_area = 1.0 / patch.area;
             row.iter_mut().for_each(|r| *r *= inv_area);
         },

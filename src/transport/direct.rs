@@ -87,13 +87,21 @@ impl DirectCache {
     /// aimed along the unit vector `aim` and scaled by `scale` (dimmer). Receivers that cannot be
     /// lit get 0.
     pub fn illuminance_into(&self, curve: &Curve, aim: DVec3, scale: f64, out: &mut [f64]) {
-        self.illuminance_with(|dir| curve.eval_rad(aim.dot(dir).clamp(-1.0, 1.0).acos()), scale, out);
+        self.illuminance_with(
+            |dir| curve.eval_rad(aim.dot(dir).clamp(-1.0, 1.0).acos()),
+            scale,
+            out,
+        );
     }
 
     /// Like [`Self::illuminance_into`] for any intensity `I(dir)` (cd) of the unit world direction
     /// from the light, e.g. a truncated SH series in paper mode.
     pub fn illuminance_with(&self, intensity: impl Fn(DVec3) -> f64 + Sync, scale: f64, out: &mut [f64]) {
-        assert_eq!(out.len(), self.n_receivers, "output length must match the receivers");
+        assert_eq!(
+            out.len(),
+            self.n_receivers,
+            "output length must match the receivers"
+        );
         out.fill(0.0);
         let values: Vec<f64> = self
             .dirs

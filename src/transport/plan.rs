@@ -113,11 +113,21 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
             ),
         }
     } else if options.force_visibility {
-        Decision { on: true, reason: "forced on (nothing can occlude in this convex room)".into() }
+        Decision {
+            on: true,
+            reason: "forced on (nothing can occlude in this convex room)".into(),
+        }
     } else {
-        Decision { on: false, reason: "the room is an empty convex box: every point sees every other".into() }
+        Decision {
+            on: false,
+            reason: "the room is an empty convex box: every point sees every other".into(),
+        }
     };
-    let rho_max = scene.surfaces.iter().map(|s| s.reflectance.max()).fold(0.0, f64::max);
+    let rho_max = scene
+        .surfaces
+        .iter()
+        .map(|s| s.reflectance.max())
+        .fold(0.0, f64::max);
     let interreflection = if rho_max > 0.0 {
         Decision {
             on: true,
@@ -127,7 +137,10 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
             ),
         }
     } else {
-        Decision { on: false, reason: "every reflectance is 0: no light is reflected".into() }
+        Decision {
+            on: false,
+            reason: "every reflectance is 0: no light is reflected".into(),
+        }
     };
     let coloured = scene.surfaces.iter().filter(|s| !s.reflectance.is_grey()).count();
     let (channels, channels_reason) = if coloured > 0 {
@@ -135,17 +148,31 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
     } else if options.force_rgb {
         (3, "forced to RGB (the room is grey)".into())
     } else if scene.lights.iter().any(|l| l.is_coloured()) {
-        (1, "grey room: light colours scale each light's result, one channel suffices".into())
+        (
+            1,
+            "grey room: light colours scale each light's result, one channel suffices".into(),
+        )
     } else {
         (1, "grey room and white lights".into())
     };
     let paper = scene.settings.direct == DirectMode::Basis;
     let direct_basis = if paper {
-        Decision { on: true, reason: "direct = \"basis\" (paper mode): direct light comes from the SH series".into() }
+        Decision {
+            on: true,
+            reason: "direct = \"basis\" (paper mode): direct light comes from the SH series".into(),
+        }
     } else {
-        Decision { on: false, reason: "hybrid mode: direct light is exact at every edit, the basis carries only indirect light".into() }
+        Decision {
+            on: false,
+            reason: "hybrid mode: direct light is exact at every edit, the basis carries only indirect light"
+                .into(),
+        }
     };
-    let lights: Vec<LightPlan> = scene.lights.iter().map(|l| plan_light(scene, l, paper, options)).collect();
+    let lights: Vec<LightPlan> = scene
+        .lights
+        .iter()
+        .map(|l| plan_light(scene, l, paper, options))
+        .collect();
     let n_coarse = scene.coarse.patches.len();
     let per_channel: usize = lights.iter().map(|l| l.columns).sum();
     let columns = per_channel * channels;
@@ -156,7 +183,11 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
         columns,
         basis_bytes: if solve { 2 * columns * n_coarse * 4 } else { 0 },
         form_factor_bytes: if solve { n_coarse * n_coarse * 4 } else { 0 },
-        form_factor_rays: if solve && visibility.on { n_coarse * n_coarse * FORM_FACTOR_RAYS } else { 0 },
+        form_factor_rays: if solve && visibility.on {
+            n_coarse * n_coarse * FORM_FACTOR_RAYS
+        } else {
+            0
+        },
         visibility,
         interreflection,
         channels,
@@ -167,7 +198,11 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
 }
 
 fn plan_light(scene: &Scene, light: &crate::scene::Light, paper: bool, options: PlanOptions) -> LightPlan {
-    let (target, cap) = if paper { (BASIS_TARGET_REL_L2, BASIS_MAX_ORDER) } else { (HYBRID_TARGET_REL_L2, HYBRID_MAX_ORDER) };
+    let (target, cap) = if paper {
+        (BASIS_TARGET_REL_L2, BASIS_MAX_ORDER)
+    } else {
+        (HYBRID_TARGET_REL_L2, HYBRID_MAX_ORDER)
+    };
     let (base, order_reason) = match light.order {
         Some(n) => (n, format!("fixed by the room file ({n})")),
         None => {
@@ -176,8 +211,11 @@ fn plan_light(scene: &Scene, light: &crate::scene::Light, paper: bool, options: 
         }
     };
     let order = base + options.order_boost;
-    let order_reason =
-        if options.order_boost > 0 { format!("{order_reason}; raised by {} (forced)", options.order_boost) } else { order_reason };
+    let order_reason = if options.order_boost > 0 {
+        format!("{order_reason}; raised by {} (forced)", options.order_boost)
+    } else {
+        order_reason
+    };
     let weights = ZonalWeights::exact(&light.curve, order);
     let window = auto_window(&light.curve, &weights, order);
     let window_reason = match window {
@@ -201,9 +239,17 @@ fn order_reason(curve: &Curve, n: usize, target: f64, cap: usize) -> String {
     let w = ZonalWeights::exact(curve, n);
     let err = crate::photometry::truncation_stats(curve, &w, n, Window::None).rel_l2_error;
     if err <= target {
-        format!("lowest order with relative L2 error ≤ {:.0} % ({:.1} %)", target * 100.0, err * 100.0)
+        format!(
+            "lowest order with relative L2 error ≤ {:.0} % ({:.1} %)",
+            target * 100.0,
+            err * 100.0
+        )
     } else {
-        format!("capped at {cap}: the curve needs more for {:.0} % (error {:.1} %; sharp cut-off?)", target * 100.0, err * 100.0)
+        format!(
+            "capped at {cap}: the curve needs more for {:.0} % (error {:.1} %; sharp cut-off?)",
+            target * 100.0,
+            err * 100.0
+        )
     }
 }
 
@@ -227,11 +273,24 @@ fn mounting_mask(scene: &Scene, light: &crate::scene::Light) -> (Option<DVec3>, 
         return (None, format!("free-standing ({d:.2} m from the nearest surface)"));
     }
     // Largest γ at which the curve is non-zero; the mask is exact when that cone stays in front.
-    let reach_deg = light.curve.points().filter(|p| p.1 > 0.0).map(|p| p.0).fold(0.0, f64::max);
+    let reach_deg = light
+        .curve
+        .points()
+        .filter(|p| p.1 > 0.0)
+        .map(|p| p.0)
+        .fold(0.0, f64::max);
     let tilt_deg = light.aim.dot(n).clamp(-1.0, 1.0).acos().to_degrees();
     if reach_deg + tilt_deg <= 90.0 + 1e-9 {
-        (Some(n), format!("mounted {d:.2} m from the {name}: emitters masked to the room side"))
+        (
+            Some(n),
+            format!("mounted {d:.2} m from the {name}: emitters masked to the room side"),
+        )
     } else {
-        (None, format!("{d:.2} m from the {name}, but the curve reaches {reach_deg:.0}° at a {tilt_deg:.0}° tilt: no mask"))
+        (
+            None,
+            format!(
+                "{d:.2} m from the {name}, but the curve reaches {reach_deg:.0}° at a {tilt_deg:.0}° tilt: no mask"
+            ),
+        )
     }
 }
