@@ -6,6 +6,11 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::error::{Error, Result};
+use crate::photometry::Window;
+
+pub mod grid;
+pub mod lid;
+pub mod probe;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -108,8 +113,21 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Edit { .. } => Err(Error::internal(
             "`haiko edit` is not built yet (issue: the terminal editor); use `haiko lid` meanwhile",
         )),
-        Command::Lid { .. } | Command::Probe { .. } | Command::Grid { .. } => {
-            Err(Error::internal("this command is not built yet"))
+        Command::Lid { source, order, window, json } => lid::run(&source, order, window.map(Window::from), json),
+        Command::Probe { room, points, direct_only } => probe::run(&room, &points, direct_only),
+        Command::Grid { room, height, spacing, margin, json, direct_only } => {
+            grid::run(&room, height, spacing, margin, json, direct_only)
+        }
+    }
+}
+
+impl From<WindowArg> for Window {
+    fn from(w: WindowArg) -> Self {
+        match w {
+            WindowArg::None => Window::None,
+            WindowArg::Hann => Window::Hann,
+            WindowArg::Lanczos => Window::Lanczos,
+            WindowArg::Cesaro2 => Window::Cesaro2,
         }
     }
 }

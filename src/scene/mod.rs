@@ -1,5 +1,10 @@
 //! The scene: room file (TOML, version 1), OBJ meshes, meshing into fine and coarse patches.
 
+pub mod load;
+pub mod mesher;
 pub mod model;
+pub mod obj;
+pub mod room_file;
 
+pub use load::load;
 pub use model::*;
