@@ -438,14 +438,14 @@ fn set_gamma_equals_fresh_weights_of_the_moved_curve() {
     let order = 40;
     let mut editor = IncrementalWeights::new(realistic_curve(), order);
     let last = editor.curve().len() - 1;
-    // Interior moves, both ends, and a move onto a neighbour (making a step).
+    // Interior moves, both ends, and moves onto a neighbour from either side (making steps).
     for (k, gamma) in [
         (6, 31.5),
         (1, 0.2),
         (0, 0.1),
         (last, 120.0),
         (10, 45.0),
-        (12, 60.0),
+        (12, 65.0),
     ] {
         editor.set_gamma(k, gamma).unwrap();
         assert_eq!(editor.curve().gammas_deg()[k], gamma);
