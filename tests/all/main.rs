@@ -3,3 +3,6 @@
 mod direct;
 mod lidfiles;
 mod scene;
+mod photometry;
+
+fn main() {}
