@@ -58,7 +58,8 @@ impl PatchColumns {
         (0..self.n_patches).map(|i| self.get(i, k)).collect()
     }
 
-    /// Builds the block from columns (each of length `n_patches`).
+    /// Builds the block from columns, each of length `n_patches` (entries a shorter column lacks
+    /// are zero; extra entries are ignored).
     pub fn from_columns(n_patches: usize, columns: &[Vec<f64>]) -> Self {
         let k = columns.len();
         let mut block = PatchColumns::zeros(n_patches, k);
@@ -249,24 +250,43 @@ fn irradiance_from_radiosity(
     irradiance
 }
 
-/// `F·X` for a patch-major block `X` of `width` columns: one pass over `F`, rows in parallel.
+/// Rows of `F` (receivers) handled together, so each row of the block is loaded once per tile.
+const ROW_TILE: usize = 16;
+/// Columns of the block handled together, so a tile's accumulators stay in L1 and the block's
+/// slice of these columns in L2.
+const COLUMN_CHUNK: usize = 64;
+
+/// `F·X` for a patch-major block `X` of `width` columns: tiles of rows in parallel (rayon),
+/// each streaming the block once per column chunk.
 fn multiply_block(form_factors: &FormFactors, block: &[f64], width: usize) -> Vec<f64> {
     let n = form_factors.n_patches();
     let mut out = vec![0.0; n * width];
     if width == 0 {
         return out;
     }
-    out.par_chunks_mut(width).enumerate().for_each(|(i, acc)| {
-        for (j, &f) in form_factors.row(i).iter().enumerate() {
-            if f == 0.0 {
-                continue;
+    out.par_chunks_mut(width * ROW_TILE)
+        .enumerate()
+        .for_each(|(tile, out_tile)| {
+            let rows: Vec<&[f32]> = (0..out_tile.len() / width)
+                .map(|r| form_factors.row(tile * ROW_TILE + r))
+                .collect();
+            for c0 in (0..width).step_by(COLUMN_CHUNK) {
+                let c1 = (c0 + COLUMN_CHUNK).min(width);
+                for j in 0..n {
+                    let x = &block[j * width + c0..j * width + c1];
+                    for (r, row) in rows.iter().enumerate() {
+                        let f = row[j];
+                        if f == 0.0 {
+                            continue;
+                        }
+                        let f = f64::from(f);
+                        for (a, &xv) in out_tile[r * width + c0..r * width + c1].iter_mut().zip(x) {
+                            *a += f * xv;
+                        }
+                    }
+                }
             }
-            let f = f64::from(f);
-            for (a, &x) in acc.iter_mut().zip(&block[j * width..(j + 1) * width]) {
-                *a += f * x;
-            }
-        }
-    });
+        });
     out
 }
 

@@ -641,23 +641,59 @@ fn solve_is_linear_in_the_emission() {
 
 // ---------------------------------------------------------------- interpolation
 
+/// Moves every vertex that is interior to its (planar, axis-aligned) surface by up to ±`amount`
+/// within the surface's plane, making the quads general (non-parallelogram), and recomputes
+/// each patch's area and area centroid.
+fn jitter_interior_vertices(mut mesh: PatchMesh, size: DVec3, amount: f64, rng: &mut Rng) -> PatchMesh {
+    for v in 0..mesh.n_vertices() {
+        let q = mesh.positions[v];
+        let normal = mesh.normals[v];
+        let interior = (0..3).all(|a| normal[a] != 0.0 || (q[a] > 1e-9 && q[a] < size[a] - 1e-9));
+        if interior {
+            let shift = DVec3::new(
+                rng.between(-amount, amount),
+                rng.between(-amount, amount),
+                rng.between(-amount, amount),
+            );
+            mesh.positions[v] = q + shift - normal * normal.dot(shift);
+        }
+    }
+    for patch in &mut mesh.patches {
+        let c = patch.vertices.map(|i| mesh.positions[i as usize]);
+        let triangles = [(c[0], c[1], c[2]), (c[0], c[2], c[3])];
+        let areas = triangles.map(|(a, b, d)| (b - a).cross(d - a).length() / 2.0);
+        patch.area = areas[0] + areas[1];
+        patch.centroid = triangles
+            .iter()
+            .zip(areas)
+            .map(|(&(a, b, d), area)| (a + b + d) / 3.0 * area)
+            .sum::<DVec3>()
+            / patch.area;
+    }
+    mesh
+}
+
 #[test]
 fn linear_fields_are_reproduced_at_every_fine_vertex() {
     let size = DVec3::new(3.0, 2.0, 2.5);
-    // Non-uniform coarse grid, fine grid whose lines do not align with it.
-    let coarse = box_room(size, [5, 4, 3], 1.4);
-    let fine = box_room(size, [13, 9, 11], 1.0);
     let field = |p: DVec3| 2.0 + 0.7 * p.x - 1.3 * p.y + 0.4 * p.z;
-    let values: Vec<f64> = coarse.patches.iter().map(|p| field(p.centroid)).collect();
-    let result = interpolate(&coarse, &fine, &values);
-    assert_eq!(result.len(), fine.n_vertices());
-    for (v, &value) in result.iter().enumerate() {
-        let expected = field(fine.positions[v]);
-        assert!(
-            (value - expected).abs() < 1e-10,
-            "vertex {v} at {}: {value} vs {expected}",
-            fine.positions[v]
-        );
+    let fine = box_room(size, [13, 9, 11], 1.0);
+    // A non-uniform coarse grid whose lines do not align with the fine one, and the same grid
+    // with its interior vertices jittered (general quads: inverse-bilinear location).
+    let stretched = box_room(size, [5, 4, 3], 1.4);
+    let jittered = jitter_interior_vertices(stretched.clone(), size, 0.1, &mut Rng(9));
+    for coarse in [stretched, jittered] {
+        let values: Vec<f64> = coarse.patches.iter().map(|p| field(p.centroid)).collect();
+        let result = interpolate(&coarse, &fine, &values);
+        assert_eq!(result.len(), fine.n_vertices());
+        for (v, &value) in result.iter().enumerate() {
+            let expected = field(fine.positions[v]);
+            assert!(
+                (value - expected).abs() < 1e-10,
+                "vertex {v} at {}: {value} vs {expected}",
+                fine.positions[v]
+            );
+        }
     }
 }
 
