@@ -5,4 +5,7 @@ pub mod cache;
 pub mod direct;
 pub mod occlusion;
 pub mod plan;
+pub mod formfactor;
+pub mod interpolate;
+pub mod radiosity;
 pub mod visibility;

@@ -6,3 +6,4 @@ mod scene;
 mod photometry;
 
 fn main() {}
+mod radiosity;

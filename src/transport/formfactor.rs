@@ -1,0 +1,369 @@
+//! Form factors: from a differential area (a point with a unit normal) to a planar polygon, and
+//! the dense coarse-patch matrix `F` the interreflection solve iterates with (DESIGN §3,
+//! NUMERICS §4 "Form-factor facts").
+//!
+//! `F_ij` is the fraction of the light leaving patch `j` (Lambertian, uniform exitance) that
+//! arrives at the centroid of patch `i`, per unit exitance: irradiance at `i` is `Σ_j F_ij B_j`.
+//! It is evaluated from `i`'s centroid (collocation), so in a closed convex room every row sums to
+//! 1 when the exact contour formula is used everywhere. All positions are world metres, z up.
+
+use std::any::TypeId;
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::scene::{Patch, PatchMesh};
+use crate::transport::visibility::{Unoccluded, Visibility};
+
+/// How far (m) a receiving point is lifted off its patch along the normal, and a ray end point
+/// off its target patch, so that coplanar geometry is unambiguously behind or in front.
+const SURFACE_OFFSET_M: f64 = 1e-6;
+
+/// `|R_i × R_{i+1}|` (unit vectors) below which an edge is degenerate and contributes 0.
+const DEGENERATE_EDGE: f64 = 1e-12;
+
+/// Differential area at `p` (unit normal `n`, world frame) to a planar polygon (world metres,
+/// any winding): the exact Lambert/Nusselt contour formula
+/// `F = (1/2π) Σ β_i n·(R_i×R_{i+1})/|R_i×R_{i+1}|`, `β_i = atan2(|R_i×R_{i+1}|, R_i·R_{i+1})`,
+/// `R_i` the unit vectors from `p` to the vertices (NUMERICS §4).
+///
+/// The polygon is first clipped to the half-space in front of `p` (`n·(x − p) ≥ 0`); degenerate
+/// edges (coincident or collinear with `p`) contribute 0. Dimensionless, in `[0, 1]`.
+pub fn point_to_polygon(p: DVec3, n: DVec3, polygon: &[DVec3]) -> f64 {
+    let mut clipped = Vec::with_capacity(polygon.len() + 1);
+    contour_form_factor(p, n, polygon, &mut clipped)
+}
+
+/// Far-field (differential-to-differential) form factor `cosθ_p cosθ_j A_j / (π r²)` from a point
+/// `p` with unit normal `n` to a small patch with centroid `centroid`, unit normal `normal` and
+/// area `area` (m²). Zero when either side faces away. Its relative error against the exact
+/// contour formula is O((size/r)²).
+pub fn differential(p: DVec3, n: DVec3, centroid: DVec3, normal: DVec3, area: f64) -> f64 {
+    let d = centroid - p;
+    let r2 = d.length_squared();
+    if r2 == 0.0 {
+        return 0.0;
+    }
+    let r = r2.sqrt();
+    let cos_p = n.dot(d) / r;
+    let cos_j = -normal.dot(d) / r;
+    if cos_p <= 0.0 || cos_j <= 0.0 {
+        return 0.0;
+    }
+    cos_p * cos_j * area / (PI * r2)
+}
+
+/// [`point_to_polygon`] with a caller-owned scratch buffer for the clipped polygon.
+fn contour_form_factor(p: DVec3, n: DVec3, polygon: &[DVec3], clipped: &mut Vec<DVec3>) -> f64 {
+    clip_to_front(p, n, polygon, clipped);
+    if clipped.len() < 3 {
+        return 0.0;
+    }
+    let mut sum = 0.0;
+    for (i, &a) in clipped.iter().enumerate() {
+        let b = clipped[(i + 1) % clipped.len()];
+        let (Some(ra), Some(rb)) = ((a - p).try_normalize(), (b - p).try_normalize()) else {
+            continue;
+        };
+        let cross = ra.cross(rb);
+        let sin = cross.length();
+        if sin < DEGENERATE_EDGE {
+            continue;
+        }
+        let beta = sin.atan2(ra.dot(rb));
+        sum += beta * n.dot(cross) / sin;
+    }
+    // The sign only reflects the winding as seen from p.
+    (sum / (2.0 * PI)).abs()
+}
+
+/// Sutherland–Hodgman against the single plane `n·(x − p) = 0`, keeping the front side.
+fn clip_to_front(p: DVec3, n: DVec3, polygon: &[DVec3], out: &mut Vec<DVec3>) {
+    out.clear();
+    let height = |q: DVec3| n.dot(q - p);
+    for (i, &a) in polygon.iter().enumerate() {
+        let b = polygon[(i + 1) % polygon.len()];
+        let (ha, hb) = (height(a), height(b));
+        if ha >= 0.0 {
+            out.push(a);
+        }
+        if (ha >= 0.0) != (hb >= 0.0) {
+            let t = ha / (ha - hb);
+            out.push(a + (b - a) * t);
+        }
+    }
+}
+
+/// A patch as the target of form factors: its polygon and what the far-field rule needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TargetPatch {
+    corners: [DVec3; 4],
+    n_corners: usize,
+    /// Centroid (world, m).
+    pub centroid: DVec3,
+    /// Unit normal (world), towards the side light leaves from.
+    pub normal: DVec3,
+    /// Area, m².
+    pub area: f64,
+    /// Size: the largest distance between two corners (m).
+    pub size: f64,
+}
+
+impl TargetPatch {
+    /// The target geometry of `patch` in `mesh`.
+    pub fn new(mesh: &PatchMesh, patch: &Patch) -> Self {
+        let mut corners = [DVec3::ZERO; 4];
+        let ids = patch.vertex_ids();
+        for (corner, &v) in corners.iter_mut().zip(ids) {
+            *corner = mesh.positions[v as usize];
+        }
+        let used = &corners[..ids.len()];
+        let size = used
+            .iter()
+            .flat_map(|a| used.iter().map(move |b| a.distance(*b)))
+            .fold(0.0, f64::max);
+        TargetPatch {
+            corners,
+            n_corners: ids.len(),
+            centroid: patch.centroid,
+            normal: patch.normal,
+            area: patch.area,
+            size,
+        }
+    }
+
+    /// The polygon's corners (world, m).
+    pub fn corners(&self) -> &[DVec3] {
+        &self.corners[..self.n_corners]
+    }
+
+    /// Form factor from a point `p` with unit normal `n` to this patch with the near/far rule:
+    /// the exact contour formula when the distance to the centroid is below
+    /// `near_field_ratio × size`, the differential formula beyond (pass `f64::INFINITY` for exact
+    /// everywhere). Zero when `p` is behind the patch (it only emits towards its normal).
+    pub fn form_factor_from(&self, p: DVec3, n: DVec3, near_field_ratio: f64) -> f64 {
+        let mut scratch = Vec::with_capacity(self.n_corners + 1);
+        self.form_factor_with(p, n, near_field_ratio, &mut scratch)
+    }
+
+    fn form_factor_with(&self, p: DVec3, n: DVec3, near_field_ratio: f64, scratch: &mut Vec<DVec3>) -> f64 {
+        if self.normal.dot(p - self.centroid) <= 0.0 {
+            return 0.0;
+        }
+        let r = p.distance(self.centroid);
+        if r < near_field_ratio * self.size {
+            contour_form_factor(p, n, self.corners(), scratch)
+        } else {
+            differential(p, n, self.centroid, self.normal, self.area)
+        }
+    }
+
+    /// `samples_per_edge²` points spread evenly over the patch (cell centres of a bilinear grid
+    /// on a quad, centroids of the `samples_per_edge²` similar sub-triangles of a triangle),
+    /// lifted a hair along the normal; targets of visibility rays.
+    pub fn sample_points(&self, samples_per_edge: usize) -> Vec<DVec3> {
+        let s = samples_per_edge.max(1);
+        let c = &self.corners;
+        let lift = self.normal * SURFACE_OFFSET_M;
+        let mut points = Vec::with_capacity(s * s);
+        if self.n_corners == 4 {
+            for a in 0..s {
+                for b in 0..s {
+                    let u = (a as f64 + 0.5) / s as f64;
+                    let v = (b as f64 + 0.5) / s as f64;
+                    let q = c[0] * ((1.0 - u) * (1.0 - v))
+                        + c[1] * (u * (1.0 - v))
+                        + c[2] * (u * v)
+                        + c[3] * ((1.0 - u) * v);
+                    points.push(q + lift);
+                }
+            }
+        } else {
+            // Sub-triangle centroids in barycentric steps of 1/s: upright (i, j) and inverted ones.
+            let e1 = (c[1] - c[0]) / s as f64;
+            let e2 = (c[2] - c[0]) / s as f64;
+            for i in 0..s {
+                for j in 0..s - i {
+                    let (fi, fj) = (i as f64, j as f64);
+                    points.push(c[0] + e1 * (fi + 1.0 / 3.0) + e2 * (fj + 1.0 / 3.0) + lift);
+                    if i + j + 1 < s {
+                        points.push(c[0] + e1 * (fi + 2.0 / 3.0) + e2 * (fj + 2.0 / 3.0) + lift);
+                    }
+                }
+            }
+        }
+        points
+    }
+}
+
+/// Knobs of the form-factor build.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FormFactorOptions {
+    /// Exact contour formula when the centroid distance is below this many patch sizes, the
+    /// differential formula beyond. Default 3 (NUMERICS §4); `f64::INFINITY` = exact everywhere.
+    pub near_field_ratio: f64,
+    /// Visibility rays per patch pair are `visibility_samples_per_edge²` (to sample points spread
+    /// over the target patch). Default 3. Ignored (no rays) when the visibility is [`Unoccluded`].
+    pub visibility_samples_per_edge: usize,
+}
+
+impl Default for FormFactorOptions {
+    fn default() -> Self {
+        FormFactorOptions {
+            near_field_ratio: 3.0,
+            visibility_samples_per_edge: 3,
+        }
+    }
+}
+
+/// Builds form-factor rows of a patch mesh: geometry from the contour/differential rule, times
+/// the visible fraction of rays from the receiving centroid to sample points on the target.
+pub struct FormFactorBuilder<'a, V: ?Sized> {
+    mesh: &'a PatchMesh,
+    targets: Vec<TargetPatch>,
+    /// `samples_per_pair` points per target patch, patch-major; empty when no rays are cast.
+    samples: Vec<DVec3>,
+    samples_per_pair: usize,
+    visibility: &'a V,
+    options: FormFactorOptions,
+    rays: AtomicU64,
+}
+
+impl<'a, V: Visibility + ?Sized + 'static> FormFactorBuilder<'a, V> {
+    /// Prepares the targets (and, unless `V` is [`Unoccluded`], the visibility sample points).
+    /// Pass `Unoccluded` by type (not boxed as `dyn Visibility`) to skip every ray.
+    pub fn new(mesh: &'a PatchMesh, visibility: &'a V, options: FormFactorOptions) -> Self {
+        let targets: Vec<TargetPatch> = mesh.patches.iter().map(|p| TargetPatch::new(mesh, p)).collect();
+        let casts_rays = TypeId::of::<V>() != TypeId::of::<Unoccluded>();
+        let (samples, samples_per_pair) = if casts_rays {
+            let per_edge = options.visibility_samples_per_edge.max(1);
+            let samples: Vec<DVec3> = targets.iter().flat_map(|t| t.sample_points(per_edge)).collect();
+            (samples, per_edge * per_edge)
+        } else {
+            (Vec::new(), 0)
+        };
+        FormFactorBuilder {
+            mesh,
+            targets,
+            samples,
+            samples_per_pair,
+            visibility,
+            options,
+            rays: AtomicU64::new(0),
+        }
+    }
+
+    /// Row `i` in f64: `F_ij` for every target `j` (0 for `j = i` and for patches in `i`'s plane
+    /// facing the same way).
+    pub fn row(&self, i: usize) -> Vec<f64> {
+        let receiver = &self.mesh.patches[i];
+        let p = receiver.centroid + receiver.normal * SURFACE_OFFSET_M;
+        let n = receiver.normal;
+        let mut scratch = Vec::with_capacity(5);
+        let mut rays = 0u64;
+        let row = self
+            .targets
+            .iter()
+            .enumerate()
+            .map(|(j, target)| {
+                if j == i || coplanar_same_facing(receiver, target) {
+                    return 0.0;
+                }
+                let geometric = target.form_factor_with(p, n, self.options.near_field_ratio, &mut scratch);
+                if geometric == 0.0 || self.samples_per_pair == 0 {
+                    return geometric;
+                }
+                let points = &self.samples[j * self.samples_per_pair..(j + 1) * self.samples_per_pair];
+                rays += points.len() as u64;
+                let visible = points.iter().filter(|&&q| self.visibility.visible(p, q)).count();
+                geometric * visible as f64 / points.len() as f64
+            })
+            .collect();
+        self.rays.fetch_add(rays, Ordering::Relaxed);
+        row
+    }
+
+    /// Number of visibility rays cast so far by this builder.
+    pub fn rays_cast(&self) -> u64 {
+        self.rays.load(Ordering::Relaxed)
+    }
+
+    /// The dense matrix, rows built in parallel (rayon), stored as f32.
+    pub fn build(&self) -> FormFactors {
+        let n = self.targets.len();
+        let mut values = vec![0f32; n * n];
+        if n > 0 {
+            values.par_chunks_mut(n).enumerate().for_each(|(i, out)| {
+                for (o, f) in out.iter_mut().zip(self.row(i)) {
+                    *o = f as f32;
+                }
+            });
+        }
+        FormFactors {
+            n,
+            values,
+            rays_cast: self.rays_cast(),
+        }
+    }
+}
+
+/// True when `target` lies in the receiver's plane and faces the same way (it cannot be seen).
+fn coplanar_same_facing(receiver: &Patch, target: &TargetPatch) -> bool {
+    const PLANE_TOLERANCE_M: f64 = 1e-9;
+    receiver.normal.dot(target.normal) > 1.0 - 1e-12
+        && receiver.normal.dot(target.centroid - receiver.centroid).abs() < PLANE_TOLERANCE_M
+}
+
+/// Dense form factors between the `n` patches of a (coarse) mesh: f32, row-major, `F_ij` at
+/// `i·n + j` (receiver `i`, source `j`). Memory `4n²` bytes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FormFactors {
+    n: usize,
+    values: Vec<f32>,
+    rays_cast: u64,
+}
+
+impl FormFactors {
+    /// Builds all rows of `mesh` (see [`FormFactorBuilder`]).
+    pub fn build<V: Visibility + ?Sized + 'static>(
+        mesh: &PatchMesh,
+        visibility: &V,
+        options: FormFactorOptions,
+    ) -> Self {
+        FormFactorBuilder::new(mesh, visibility, options).build()
+    }
+
+    /// Number of patches `n`.
+    pub fn n_patches(&self) -> usize {
+        self.n
+    }
+
+    /// `F_ij`.
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        f64::from(self.values[i * self.n + j])
+    }
+
+    /// Row `i` (the receiver), length `n`.
+    pub fn row(&self, i: usize) -> &[f32] {
+        &self.values[i * self.n..(i + 1) * self.n]
+    }
+
+    /// `Σ_j F_ij` per row, accumulated in f64 (1 for every row of a closed convex room).
+    pub fn row_sums(&self) -> Vec<f64> {
+        (0..self.n)
+            .map(|i| self.row(i).iter().map(|&f| f64::from(f)).sum())
+            .collect()
+    }
+
+    /// Bytes held by the matrix.
+    pub fn bytes(&self) -> usize {
+        self.values.len() * std::mem::size_of::<f32>()
+    }
+
+    /// Visibility rays cast while building (0 when built with [`Unoccluded`]).
+    pub fn rays_cast(&self) -> u64 {
+        self.rays_cast
+    }
+}
