@@ -7,6 +7,7 @@
 pub mod cli;
 pub mod error;
 pub mod photometry;
+pub mod render;
 pub mod scene;
 pub mod transport;
 
