@@ -59,7 +59,11 @@ impl View {
             ));
         }
         if !(near_m > 0.0 && near_m.is_finite()) {
-            return Err(Error::input("", "near plane", format!("{near_m} m is not a positive distance")));
+            return Err(Error::input(
+                "",
+                "near plane",
+                format!("{near_m} m is not a positive distance"),
+            ));
         }
         if !camera.eye.is_finite() || !camera.target.is_finite() {
             return Err(Error::input("", "camera", "eye and target must be finite points"));
@@ -148,7 +152,11 @@ impl View {
 /// World → camera transform for an eye looking along the unit vector `forward`, z up (y up
 /// instead when looking straight up or down).
 fn look_at(eye: DVec3, forward: DVec3) -> DMat4 {
-    let up_hint = if forward.z.abs() > 0.999_999 { DVec3::Y } else { DVec3::Z };
+    let up_hint = if forward.z.abs() > 0.999_999 {
+        DVec3::Y
+    } else {
+        DVec3::Z
+    };
     let right = forward.cross(up_hint).normalize();
     let up = right.cross(forward);
     DMat4::from_cols(

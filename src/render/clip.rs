@@ -28,7 +28,10 @@ struct ClipVertex {
 
 impl ClipVertex {
     fn lerp(self, other: ClipVertex, t: f64) -> ClipVertex {
-        ClipVertex { clip: self.clip.lerp(other.clip, t), attr: self.attr.lerp(other.attr, t) }
+        ClipVertex {
+            clip: self.clip.lerp(other.clip, t),
+            attr: self.attr.lerp(other.attr, t),
+        }
     }
 }
 
@@ -46,7 +49,11 @@ fn plane_distance(plane: usize, c: DVec4, near: f64) -> f64 {
 /// The screen triangles of every patch of `mesh` seen by `view`, with per-vertex `attrs`, in
 /// patch order. The caller guarantees `attrs.len() == mesh.n_vertices()` and valid indices.
 pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View) -> Vec<ScreenTriangle> {
-    let clip: Vec<DVec4> = mesh.positions.par_iter().map(|&p| view.clip_from_world(p)).collect();
+    let clip: Vec<DVec4> = mesh
+        .positions
+        .par_iter()
+        .map(|&p| view.clip_from_world(p))
+        .collect();
     let triangles: Vec<([u32; 3], u32)> = mesh.triangles().collect();
     let eye = view.camera().eye;
     triangles
@@ -58,10 +65,17 @@ pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View
                 clip: clip[i as usize],
                 attr: DVec3::from(attrs[i as usize].map(f64::from)),
             });
-            let polygon = if view.culls_back_faces() && !facing { Vec::new() } else { clip_triangle(vertices, view.near_m()) };
+            let polygon = if view.culls_back_faces() && !facing {
+                Vec::new()
+            } else {
+                clip_triangle(vertices, view.near_m())
+            };
             let screen: Vec<ScreenVertex> = polygon.iter().map(|v| to_screen(v, view)).collect();
             (1..screen.len().saturating_sub(1))
-                .map(move |k| ScreenTriangle { vertices: [screen[0], screen[k], screen[k + 1]], id: patch_id })
+                .map(move |k| ScreenTriangle {
+                    vertices: [screen[0], screen[k], screen[k + 1]],
+                    id: patch_id,
+                })
                 .collect::<Vec<_>>()
         })
         .collect()
@@ -87,8 +101,11 @@ fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Vec<ClipVertex> {
                 clipped.push(current);
             }
             if (d_current >= 0.0) != (d_next >= 0.0) {
-                let (inside, d_in, outside, d_out) =
-                    if d_current >= 0.0 { (current, d_current, next, d_next) } else { (next, d_next, current, d_current) };
+                let (inside, d_in, outside, d_out) = if d_current >= 0.0 {
+                    (current, d_current, next, d_next)
+                } else {
+                    (next, d_next, current, d_current)
+                };
                 clipped.push(inside.lerp(outside, d_in / (d_in - d_out)));
             }
         }

@@ -90,7 +90,12 @@ impl Golden {
             return Ok(());
         }
         let differing = if (expected.width(), expected.height()) == (actual.width(), actual.height()) {
-            expected.as_slice().iter().zip(actual.as_slice()).filter(|(a, b)| a != b).count()
+            expected
+                .as_slice()
+                .iter()
+                .zip(actual.as_slice())
+                .filter(|(a, b)| a != b)
+                .count()
         } else {
             expected.as_slice().len().max(actual.as_slice().len())
         };
@@ -103,7 +108,10 @@ impl Golden {
 pub fn count_differing(a: &Pixmap, b: &Pixmap, channel: u8) -> usize {
     let pairs = a.data().chunks_exact(4).zip(b.data().chunks_exact(4));
     let extra = a.data().len().abs_diff(b.data().len()) / 4;
-    extra + pairs.filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > channel)).count()
+    extra
+        + pairs
+            .filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > channel))
+            .count()
 }
 
 /// `expected | mask | actual` side by side; the mask is red where pixels differ, else a dimmed
@@ -117,11 +125,16 @@ fn triptych(expected: &Pixmap, actual: &Pixmap, channel: u8) -> Result<Pixmap> {
         data.extend_from_slice(e);
         for (p, q) in e.chunks_exact(4).zip(a.chunks_exact(4)) {
             let differs = p.iter().zip(q).any(|(x, y)| x.abs_diff(*y) > channel);
-            data.extend_from_slice(&if differs { [255, 0, 0, 255] } else { [p[0] / 3, p[1] / 3, p[2] / 3, 255] });
+            data.extend_from_slice(&if differs {
+                [255, 0, 0, 255]
+            } else {
+                [p[0] / 3, p[1] / 3, p[2] / 3, 255]
+            });
         }
         data.extend_from_slice(a);
     }
-    let size = IntSize::from_wh(3 * w as u32, h as u32).ok_or_else(|| Error::internal("golden: empty image"))?;
+    let size =
+        IntSize::from_wh(3 * w as u32, h as u32).ok_or_else(|| Error::internal("golden: empty image"))?;
     Pixmap::from_vec(data, size).ok_or_else(|| Error::internal("golden: bad triptych size"))
 }
 
@@ -133,11 +146,16 @@ pub fn ids_to_pixmap(ids: &IdBuffer) -> Result<Pixmap> {
         let code = match id {
             BACKGROUND_ID => 0xFF_FFFF,
             id if id <= MAX_PNG_ID => id,
-            id => return Err(Error::internal(format!("golden: patch id {id} does not fit a PNG id image"))),
+            id => {
+                return Err(Error::internal(format!(
+                    "golden: patch id {id} does not fit a PNG id image"
+                )));
+            }
         };
         data.extend_from_slice(&[(code >> 16) as u8, (code >> 8) as u8, code as u8, 255]);
     }
-    let size = IntSize::from_wh(ids.width(), ids.height()).ok_or_else(|| Error::internal("golden: empty ids"))?;
+    let size =
+        IntSize::from_wh(ids.width(), ids.height()).ok_or_else(|| Error::internal("golden: empty ids"))?;
     Pixmap::from_vec(data, size).ok_or_else(|| Error::internal("golden: bad id image size"))
 }
 
@@ -146,10 +164,12 @@ pub fn ids_from_pixmap(image: &Pixmap) -> Result<IdBuffer> {
     let ids = image
         .data()
         .chunks_exact(4)
-        .map(|p| match u32::from(p[0]) << 16 | u32::from(p[1]) << 8 | u32::from(p[2]) {
-            0xFF_FFFF => BACKGROUND_ID,
-            id => id,
-        })
+        .map(
+            |p| match u32::from(p[0]) << 16 | u32::from(p[1]) << 8 | u32::from(p[2]) {
+                0xFF_FFFF => BACKGROUND_ID,
+                id => id,
+            },
+        )
         .collect();
     IdBuffer::new(image.width(), image.height(), ids)
 }
@@ -164,7 +184,8 @@ fn load_pixmap(path: &Path) -> Result<Pixmap> {
 }
 
 fn save_pixmap(pixmap: &Pixmap, path: &Path) -> Result<()> {
-    let fail = |e: &dyn std::fmt::Display| Error::internal(format!("golden: cannot write {}: {e}", path.display()));
+    let fail =
+        |e: &dyn std::fmt::Display| Error::internal(format!("golden: cannot write {}: {e}", path.display()));
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|e| fail(&e))?;
     }

@@ -43,7 +43,10 @@ impl IdBuffer {
     /// Wraps `ids` (`width × height` values). Errors (internal) when the length is wrong.
     pub fn new(width: u32, height: u32, ids: Vec<u32>) -> Result<IdBuffer> {
         if ids.len() != width as usize * height as usize {
-            return Err(Error::internal(format!("id buffer: {} ids for {width}×{height}", ids.len())));
+            return Err(Error::internal(format!(
+                "id buffer: {} ids for {width}×{height}",
+                ids.len()
+            )));
         }
         Ok(IdBuffer { width, height, ids })
     }
@@ -61,7 +64,9 @@ impl IdBuffer {
     }
     /// The patch at pixel (x, y); `None` for background or outside the image.
     pub fn get(&self, x: u32, y: u32) -> Option<u32> {
-        self.index(x, y).map(|i| self.ids[i]).filter(|&id| id != BACKGROUND_ID)
+        self.index(x, y)
+            .map(|i| self.ids[i])
+            .filter(|&id| id != BACKGROUND_ID)
     }
     fn index(&self, x: u32, y: u32) -> Option<usize> {
         (x < self.width && y < self.height).then(|| y as usize * self.width as usize + x as usize)
@@ -93,15 +98,25 @@ impl Frame {
 ///
 /// Errors (internal): `attrs` not one per vertex, or a patch indexing a missing vertex.
 pub fn render(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View, shader: &impl Shader) -> Result<Frame> {
-    let raster = render_with(mesh, attrs, view, [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255], |a| {
-        let [r, g, b] = shader.shade(a);
-        [r, g, b, 255]
-    })?;
+    let raster = render_with(
+        mesh,
+        attrs,
+        view,
+        [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255],
+        |a| {
+            let [r, g, b] = shader.shade(a);
+            [r, g, b, 255]
+        },
+    )?;
     let size = IntSize::from_wh(raster.width, raster.height)
         .ok_or_else(|| Error::internal("render: empty image"))?;
     let pixmap = Pixmap::from_vec(raster.pixels.into_flattened(), size)
         .ok_or_else(|| Error::internal("render: pixmap size mismatch"))?;
-    Ok(Frame { pixmap, depth: raster.depth, ids: IdBuffer::new(raster.width, raster.height, raster.ids)? })
+    Ok(Frame {
+        pixmap,
+        depth: raster.depth,
+        ids: IdBuffer::new(raster.width, raster.height, raster.ids)?,
+    })
 }
 
 /// Renders the interpolated attribute itself per pixel (`[0; 3]` on background): the value a
@@ -110,21 +125,37 @@ pub fn render_attributes(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View) -> R
     render_with(mesh, attrs, view, [0.0; 3], |a| a)
 }
 
-fn render_with<P, F>(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View, background: P, shade: F) -> Result<Raster<P>>
+fn render_with<P, F>(
+    mesh: &PatchMesh,
+    attrs: &[[f32; 3]],
+    view: &View,
+    background: P,
+    shade: F,
+) -> Result<Raster<P>>
 where
     P: Copy + Send + Sync,
     F: Fn([f32; 3]) -> P + Sync,
 {
     let n = mesh.n_vertices();
     if attrs.len() != n {
-        return Err(Error::internal(format!("render: {} attributes for {n} vertices", attrs.len())));
+        return Err(Error::internal(format!(
+            "render: {} attributes for {n} vertices",
+            attrs.len()
+        )));
     }
-    let bad_patch = |p: &Patch| {
-        !(3..=4).contains(&p.n_vertices) || p.vertex_ids().iter().any(|&v| v as usize >= n)
-    };
+    let bad_patch =
+        |p: &Patch| !(3..=4).contains(&p.n_vertices) || p.vertex_ids().iter().any(|&v| v as usize >= n);
     if let Some(pid) = mesh.patches.iter().position(bad_patch) {
-        return Err(Error::internal(format!("render: patch {pid} is not 3 or 4 vertices of {n}")));
+        return Err(Error::internal(format!(
+            "render: patch {pid} is not 3 or 4 vertices of {n}"
+        )));
     }
     let triangles = clip::screen_triangles(mesh, attrs, view);
-    Ok(rasterize(&triangles, view.width(), view.height(), background, shade))
+    Ok(rasterize(
+        &triangles,
+        view.width(),
+        view.height(),
+        background,
+        shade,
+    ))
 }

@@ -41,12 +41,24 @@ pub fn draw_lights(frame: &mut Frame, view: &View, lights: &[LightMarker]) {
         draw_aim(&mut frame.pixmap, view, light);
     }
     for light in lights {
-        let Some(pixel) = view.project(light.position) else { continue };
+        let Some(pixel) = view.project(light.position) else {
+            continue;
+        };
         let hidden = is_occluded(frame, pixel);
         let alpha = if hidden { OCCLUDED_ALPHA } else { 255 };
-        let radius = if light.selected { 1.5 * LIGHT_RADIUS_PX } else { LIGHT_RADIUS_PX };
+        let radius = if light.selected {
+            1.5 * LIGHT_RADIUS_PX
+        } else {
+            LIGHT_RADIUS_PX
+        };
         if let Some(dot) = PathBuilder::from_circle(pixel.x as f32, pixel.y as f32, radius) {
-            frame.pixmap.fill_path(&dot, &paint(LIGHT_RGB, alpha), FillRule::Winding, Transform::identity(), None);
+            frame.pixmap.fill_path(
+                &dot,
+                &paint(LIGHT_RGB, alpha),
+                FillRule::Winding,
+                Transform::identity(),
+                None,
+            );
             stroke(&mut frame.pixmap, &dot, [0, 0, 0], alpha, 1.0);
         }
     }
@@ -59,11 +71,15 @@ fn is_occluded(frame: &Frame, pixel: DVec3) -> bool {
         return false;
     }
     // Reversed depth: larger is nearer; 0.1 % slack keeps lights mounted on a surface visible.
-    frame.depth_at(x as u32, y as u32).is_some_and(|d| f64::from(d) > pixel.z * 1.001)
+    frame
+        .depth_at(x as u32, y as u32)
+        .is_some_and(|d| f64::from(d) > pixel.z * 1.001)
 }
 
 fn draw_aim(pixmap: &mut Pixmap, view: &View, light: &LightMarker) {
-    let Some((from, to)) = clip_segment(view, light.position, light.aim_target) else { return };
+    let Some((from, to)) = clip_segment(view, light.position, light.aim_target) else {
+        return;
+    };
     let mut builder = PathBuilder::new();
     builder.move_to(from.x as f32, from.y as f32);
     builder.line_to(to.x as f32, to.y as f32);
@@ -82,7 +98,8 @@ fn draw_aim(pixmap: &mut Pixmap, view: &View, light: &LightMarker) {
 fn clip_segment(view: &View, a: DVec3, b: DVec3) -> Option<(DVec3, DVec3)> {
     let (ca, cb) = (view.clip_from_world(a), view.clip_from_world(b));
     let (da, db) = (ca.w - view.near_m(), cb.w - view.near_m());
-    let cut = |inside: DVec4, d_in: f64, outside: DVec4, d_out: f64| inside.lerp(outside, d_in / (d_in - d_out));
+    let cut =
+        |inside: DVec4, d_in: f64, outside: DVec4, d_out: f64| inside.lerp(outside, d_in / (d_in - d_out));
     let (ca, cb) = match (da >= 0.0, db >= 0.0) {
         (true, true) => (ca, cb),
         (true, false) => (ca, cut(ca, da, cb, db)),
@@ -108,12 +125,19 @@ pub fn draw_crosshair(pixmap: &mut Pixmap, x: u32, y: u32) {
 }
 
 fn paint(rgb: [u8; 3], alpha: u8) -> Paint<'static> {
-    let mut paint = Paint { anti_alias: true, force_hq_pipeline: true, ..Paint::default() };
+    let mut paint = Paint {
+        anti_alias: true,
+        force_hq_pipeline: true,
+        ..Paint::default()
+    };
     paint.set_color_rgba8(rgb[0], rgb[1], rgb[2], alpha);
     paint
 }
 
 fn stroke(pixmap: &mut Pixmap, path: &Path, rgb: [u8; 3], alpha: u8, width: f32) {
-    let stroke = Stroke { width, ..Stroke::default() };
+    let stroke = Stroke {
+        width,
+        ..Stroke::default()
+    };
     pixmap.stroke_path(path, &paint(rgb, alpha), &stroke, Transform::identity(), None);
 }

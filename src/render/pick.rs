@@ -34,7 +34,12 @@ pub fn pick(frame: &Frame, view: &View, mesh: &PatchMesh, x: u32, y: u32) -> Opt
     let depth = frame.depth_at(x, y)?;
     let patch = mesh.patches.get(patch_id as usize)?;
     let point = view.unproject(f64::from(x) + 0.5, f64::from(y) + 0.5, f64::from(depth));
-    Some(Pick { point, patch: patch_id, surface: patch.surface, normal: patch.normal })
+    Some(Pick {
+        point,
+        patch: patch_id,
+        surface: patch.surface,
+        normal: patch.normal,
+    })
 }
 
 /// The unit aim direction (world) from a light at `light_position` towards `target` (both in

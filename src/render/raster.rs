@@ -60,12 +60,21 @@ pub struct Raster<P> {
 
 /// Rasterizes `triangles` into a `width × height` image: for each covered pixel the nearest
 /// triangle's interpolated attribute goes through `shade`; uncovered pixels keep `background`.
-pub fn rasterize<P, F>(triangles: &[ScreenTriangle], width: u32, height: u32, background: P, shade: F) -> Raster<P>
+pub fn rasterize<P, F>(
+    triangles: &[ScreenTriangle],
+    width: u32,
+    height: u32,
+    background: P,
+    shade: F,
+) -> Raster<P>
 where
     P: Copy + Send + Sync,
     F: Fn([f32; 3]) -> P + Sync,
 {
-    let setups: Vec<Setup> = triangles.par_iter().filter_map(|t| Setup::new(t, width, height)).collect();
+    let setups: Vec<Setup> = triangles
+        .par_iter()
+        .filter_map(|t| Setup::new(t, width, height))
+        .collect();
     let n_bands = height.div_ceil(BAND_ROWS) as usize;
     let mut bins: Vec<Vec<u32>> = vec![Vec::new(); n_bands];
     for (index, setup) in setups.iter().enumerate() {
@@ -93,7 +102,13 @@ where
         .zip(bins.par_iter())
         .enumerate()
         .for_each(|(band, (((pixels, depth), ids), bin))| {
-            let mut target = Band { width, first_row: band as u32 * BAND_ROWS, pixels, depth, ids };
+            let mut target = Band {
+                width,
+                first_row: band as u32 * BAND_ROWS,
+                pixels,
+                depth,
+                ids,
+            };
             for &index in bin {
                 target.draw(&setups[index as usize], &shade);
             }
@@ -126,7 +141,12 @@ impl Setup {
         if v.iter().any(|p| !(p.x.abs() < limit && p.y.abs() < limit)) {
             return None;
         }
-        let snap = |p: &ScreenVertex| [(p.x * SUBPIXEL as f64).round() as i64, (p.y * SUBPIXEL as f64).round() as i64];
+        let snap = |p: &ScreenVertex| {
+            [
+                (p.x * SUBPIXEL as f64).round() as i64,
+                (p.y * SUBPIXEL as f64).round() as i64,
+            ]
+        };
         let mut pos = [snap(&v[0]), snap(&v[1]), snap(&v[2])];
         let mut area = edge_function(pos[0], pos[1], pos[2]);
         if area == 0 {
@@ -219,8 +239,8 @@ impl<P: Copy> Band<'_, P> {
                     if z > self.depth[index] {
                         let inv_w = b[0] * t.inv_w[0] + b[1] * t.inv_w[1] + b[2] * t.inv_w[2];
                         let a = &t.attr_over_w;
-                        let attr = [0, 1, 2]
-                            .map(|k| (b[0] * a[0][k] + b[1] * a[1][k] + b[2] * a[2][k]) / inv_w);
+                        let attr =
+                            [0, 1, 2].map(|k| (b[0] * a[0][k] + b[1] * a[1][k] + b[2] * a[2][k]) / inv_w);
                         self.depth[index] = z;
                         self.ids[index] = t.id;
                         self.pixels[index] = shade(attr);

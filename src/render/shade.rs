@@ -68,7 +68,10 @@ pub fn vertex_attributes(
                 DisplayMode::FalseColor => [1.0; 3],
                 DisplayMode::Photo => {
                     let surface = surfaces.get(s as usize).ok_or_else(|| {
-                        Error::internal(format!("render: vertex surface {s} of {} surfaces", surfaces.len()))
+                        Error::internal(format!(
+                            "render: vertex surface {s} of {} surfaces",
+                            surfaces.len()
+                        ))
                     })?;
                     surface.reflectance.0.map(|rho| rho / PI)
                 }
@@ -101,7 +104,9 @@ pub struct Photo {
 impl Photo {
     /// A photo shader multiplying luminance (cd/m²) by `exposure` (m²/cd) before the tone curve.
     pub fn with_exposure(exposure: f64) -> Photo {
-        Photo { exposure: exposure as f32 }
+        Photo {
+            exposure: exposure as f32,
+        }
     }
 
     /// Auto-exposure by the module's rule from per-vertex luminance `luminance_cd_m2` (as made
@@ -173,7 +178,11 @@ impl FalseColor {
                 format!("[{min_lx}, {max_lx}] lx is not an increasing {scale:?} range"),
             ));
         }
-        Ok(FalseColor { min_lx, max_lx, scale })
+        Ok(FalseColor {
+            min_lx,
+            max_lx,
+            scale,
+        })
     }
 
     /// The range fitted to per-vertex illuminance `illuminance_lx` (luma, lx): from the lowest
@@ -184,17 +193,27 @@ impl FalseColor {
             .iter()
             .map(|e| luma(e.map(f64::from)))
             .filter(|y| y.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
+                (lo.min(y), hi.max(y))
+            });
         let (min_lx, max_lx) = match scale {
             LuxScale::Linear if lo < hi => (lo, hi),
             LuxScale::Linear => (0.0, hi.max(1.0)),
             LuxScale::Log => {
                 let top = if hi > 0.0 { hi } else { 1.0 };
                 let bottom = lo.max(top * LOG_RANGE_FLOOR);
-                if bottom < top { (bottom, top) } else { (top / 10.0, top) }
+                if bottom < top {
+                    (bottom, top)
+                } else {
+                    (top / 10.0, top)
+                }
             }
         };
-        FalseColor { min_lx, max_lx, scale }
+        FalseColor {
+            min_lx,
+            max_lx,
+            scale,
+        }
     }
 
     /// The lux range `(min, max)` that the scale's two ends stand for.
@@ -211,7 +230,9 @@ impl FalseColor {
     pub fn position(&self, illuminance_lx: f64) -> f64 {
         let t = match self.scale {
             LuxScale::Linear => (illuminance_lx - self.min_lx) / (self.max_lx - self.min_lx),
-            LuxScale::Log => (illuminance_lx.max(self.min_lx) / self.min_lx).ln() / (self.max_lx / self.min_lx).ln(),
+            LuxScale::Log => {
+                (illuminance_lx.max(self.min_lx) / self.min_lx).ln() / (self.max_lx / self.min_lx).ln()
+            }
         };
         if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) }
     }
@@ -287,7 +308,11 @@ static SRGB_TABLE: LazyLock<Vec<u8>> = LazyLock::new(|| {
 
 /// The sRGB transfer function (IEC 61966-2-1) of a linear display value in [0, 1].
 pub fn srgb_encode(linear: f64) -> f64 {
-    if linear <= 0.003_130_8 { 12.92 * linear } else { 1.055 * linear.powf(1.0 / 2.4) - 0.055 }
+    if linear <= 0.003_130_8 {
+        12.92 * linear
+    } else {
+        1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 /// sRGB8 of a linear display value (clamped to [0, 1]; NaN → 0), by a 4096-entry table.

@@ -1,1 +1,2 @@
 //! One integration-test binary for the whole crate (fast to build): each area is a module.
+mod render;
