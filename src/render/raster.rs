@@ -230,21 +230,24 @@ impl<P: Copy> Band<'_, P> {
                 e[i] = dx * (y - ay) - dy * (x0 - ax);
             }
             let step = t.delta.map(|d| -d[1] * SUBPIXEL);
+            let Some((first, last)) = covered_span(e, step, t.threshold, t.cols.1 - t.cols.0) else {
+                continue;
+            };
+            for i in 0..3 {
+                e[i] += step[i] * i64::from(first);
+            }
             let row_start = (row - self.first_row) as usize * self.width as usize;
-            for col in t.cols.0..=t.cols.1 {
-                if e[0] >= t.threshold[0] && e[1] >= t.threshold[1] && e[2] >= t.threshold[2] {
-                    let b = e.map(|ei| ei as f32 * t.inv_area);
-                    let z = b[0] * t.depth[0] + b[1] * t.depth[1] + b[2] * t.depth[2];
-                    let index = row_start + col as usize;
-                    if z > self.depth[index] {
-                        let inv_w = b[0] * t.inv_w[0] + b[1] * t.inv_w[1] + b[2] * t.inv_w[2];
-                        let a = &t.attr_over_w;
-                        let attr =
-                            [0, 1, 2].map(|k| (b[0] * a[0][k] + b[1] * a[1][k] + b[2] * a[2][k]) / inv_w);
-                        self.depth[index] = z;
-                        self.ids[index] = t.id;
-                        self.pixels[index] = shade(attr);
-                    }
+            for col in t.cols.0 + first..=t.cols.0 + last {
+                let b = e.map(|ei| ei as f32 * t.inv_area);
+                let z = b[0] * t.depth[0] + b[1] * t.depth[1] + b[2] * t.depth[2];
+                let index = row_start + col as usize;
+                if z > self.depth[index] {
+                    let inv_w = b[0] * t.inv_w[0] + b[1] * t.inv_w[1] + b[2] * t.inv_w[2];
+                    let a = &t.attr_over_w;
+                    let attr = [0, 1, 2].map(|k| (b[0] * a[0][k] + b[1] * a[1][k] + b[2] * a[2][k]) / inv_w);
+                    self.depth[index] = z;
+                    self.ids[index] = t.id;
+                    self.pixels[index] = shade(attr);
                 }
                 for i in 0..3 {
                     e[i] += step[i];
@@ -252,4 +255,20 @@ impl<P: Copy> Band<'_, P> {
             }
         }
     }
+}
+
+/// The pixel offsets `k ∈ [0, max_k]` along a row where every edge function `e_i + k·step_i`
+/// reaches its threshold, exactly (integer arithmetic; the same set a per-pixel test gives).
+fn covered_span(e: [i64; 3], step: [i64; 3], threshold: [i64; 3], max_k: u32) -> Option<(u32, u32)> {
+    let (mut lo, mut hi) = (0i64, i64::from(max_k));
+    for i in 0..3 {
+        let need = threshold[i] - e[i]; // k·step ≥ need
+        match step[i].signum() {
+            1 => lo = lo.max(-(-need).div_euclid(step[i])),
+            -1 => hi = hi.min((-need).div_euclid(-step[i])),
+            _ if need > 0 => return None,
+            _ => {}
+        }
+    }
+    (lo <= hi).then_some((lo as u32, hi as u32))
 }
