@@ -922,6 +922,7 @@ fn box_room_matches_its_goldens() {
             max_pixels: 8,
         };
         golden().check_image(name, &frame.pixmap, tolerance).unwrap();
+        // Both modes draw the same patches: one exact ID golden.
         golden().check_ids("box_room", &frame.ids).unwrap();
     }
 }
@@ -1058,4 +1059,72 @@ fn write_look_images() {
     )
     .unwrap();
     frame.pixmap.save_png(dir.join("near_wall.png")).unwrap();
+}
+
+#[test]
+fn bad_views_are_input_errors_not_panics() {
+    let camera = room_camera();
+    let bad = [
+        View::new(camera, 0, 10),
+        View::new(camera, 10, 20_000),
+        View::new(
+            Camera {
+                fov_deg: 0.0,
+                ..camera
+            },
+            10,
+            10,
+        ),
+        View::new(
+            Camera {
+                fov_deg: 180.0,
+                ..camera
+            },
+            10,
+            10,
+        ),
+        View::new(
+            Camera {
+                fov_deg: f64::NAN,
+                ..camera
+            },
+            10,
+            10,
+        ),
+        View::new(
+            Camera {
+                target: camera.eye,
+                ..camera
+            },
+            10,
+            10,
+        ),
+        View::new(
+            Camera {
+                eye: DVec3::new(f64::INFINITY, 0.0, 0.0),
+                ..camera
+            },
+            10,
+            10,
+        ),
+        View::with_near(camera, 10, 10, 0.0),
+    ];
+    for (k, view) in bad.into_iter().enumerate() {
+        let err = view.expect_err(&format!("case {k} must be rejected"));
+        assert_eq!(err.exit_code(), 2, "case {k}: {err}");
+    }
+    // Looking straight down (forward parallel to z) is valid.
+    let down = Camera {
+        eye: DVec3::new(3.0, 2.0, 2.9),
+        target: DVec3::new(3.0, 2.0, 0.0),
+        fov_deg: 90.0,
+    };
+    let view = View::new(down, 40, 30).unwrap();
+    let room = box_room();
+    let raster = render_attributes(&room.mesh, &vec![[1.0; 3]; room.mesh.n_vertices()], &view).unwrap();
+    assert!(raster.ids.iter().all(|&id| id != BACKGROUND_ID));
+    assert!(
+        render_attributes(&room.mesh, &[[1.0; 3]], &view).is_err(),
+        "attributes must be one per vertex"
+    );
 }
