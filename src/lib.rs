@@ -8,6 +8,7 @@ pub mod cli;
 pub mod error;
 pub mod photometry;
 pub mod relight;
+pub mod render;
 pub mod scene;
 pub mod transport;
 

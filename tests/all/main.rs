@@ -7,3 +7,4 @@ mod photometry;
 
 fn main() {}
 mod radiosity;
+mod render;

@@ -1,0 +1,127 @@
+//! Mesh → screen triangles: back-face culling, clipping in homogeneous clip space and the
+//! perspective divide.
+//!
+//! Triangles are clipped (Sutherland–Hodgman) against the near plane `w = near` and a guard
+//! band `|x|, |y| ≤ GUARD_BAND · w` that keeps snapped pixel coordinates small; the guard band
+//! lies outside the image, so its cuts are never seen. An edge crossing a plane is always cut
+//! from its inside end towards its outside end, so two triangles sharing that edge get
+//! bit-identical new vertices and stay crack-free.
+
+use glam::{DVec3, DVec4};
+use rayon::prelude::*;
+
+use super::camera::View;
+use super::raster::{ScreenTriangle, ScreenVertex};
+use crate::scene::model::PatchMesh;
+
+/// Half-width of the guard band in NDC units (the image spans ±1).
+const GUARD_BAND: f64 = 8.0;
+/// Number of clip planes: near, then ±x and ±y guard band.
+const N_PLANES: usize = 5;
+
+/// A vertex in clip space with its attribute.
+#[derive(Debug, Clone, Copy)]
+struct ClipVertex {
+    clip: DVec4,
+    attr: DVec3,
+}
+
+impl ClipVertex {
+    fn lerp(self, other: ClipVertex, t: f64) -> ClipVertex {
+        ClipVertex {
+            clip: self.clip.lerp(other.clip, t),
+            attr: self.attr.lerp(other.attr, t),
+        }
+    }
+}
+
+/// Signed distance of a clip-space point to plane `plane` (inside when ≥ 0).
+fn plane_distance(plane: usize, c: DVec4, near: f64) -> f64 {
+    match plane {
+        0 => c.w - near,
+        1 => GUARD_BAND * c.w - c.x,
+        2 => GUARD_BAND * c.w + c.x,
+        3 => GUARD_BAND * c.w - c.y,
+        _ => GUARD_BAND * c.w + c.y,
+    }
+}
+
+/// The screen triangles of every patch of `mesh` seen by `view`, with per-vertex `attrs`, in
+/// patch order. The caller guarantees `attrs.len() == mesh.n_vertices()` and valid indices.
+pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View) -> Vec<ScreenTriangle> {
+    let clip: Vec<DVec4> = mesh
+        .positions
+        .par_iter()
+        .map(|&p| view.clip_from_world(p))
+        .collect();
+    let triangles: Vec<([u32; 3], u32)> = mesh.triangles().collect();
+    let eye = view.camera().eye;
+    triangles
+        .par_iter()
+        .flat_map_iter(|&(ids, patch_id)| {
+            let patch = &mesh.patches[patch_id as usize];
+            let facing = patch.normal.dot(eye - patch.centroid) > 0.0;
+            let vertices = ids.map(|i| ClipVertex {
+                clip: clip[i as usize],
+                attr: DVec3::from(attrs[i as usize].map(f64::from)),
+            });
+            let polygon = if view.culls_back_faces() && !facing {
+                Vec::new()
+            } else {
+                clip_triangle(vertices, view.near_m())
+            };
+            let screen: Vec<ScreenVertex> = polygon.iter().map(|v| to_screen(v, view)).collect();
+            (1..screen.len().saturating_sub(1))
+                .map(move |k| ScreenTriangle {
+                    vertices: [screen[0], screen[k], screen[k + 1]],
+                    id: patch_id,
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// The convex polygon (0 or 3..=8 vertices) of `triangle` inside all clip planes.
+fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Vec<ClipVertex> {
+    let inside_all = |v: &ClipVertex| (0..N_PLANES).all(|k| plane_distance(k, v.clip, near) >= 0.0);
+    if triangle.iter().all(inside_all) {
+        return triangle.to_vec();
+    }
+    let mut polygon = triangle.to_vec();
+    for plane in 0..N_PLANES {
+        if polygon.is_empty() {
+            break;
+        }
+        let mut clipped = Vec::with_capacity(polygon.len() + 1);
+        for (k, &current) in polygon.iter().enumerate() {
+            let next = polygon[(k + 1) % polygon.len()];
+            let d_current = plane_distance(plane, current.clip, near);
+            let d_next = plane_distance(plane, next.clip, near);
+            if d_current >= 0.0 {
+                clipped.push(current);
+            }
+            if (d_current >= 0.0) != (d_next >= 0.0) {
+                let (inside, d_in, outside, d_out) = if d_current >= 0.0 {
+                    (current, d_current, next, d_next)
+                } else {
+                    (next, d_next, current, d_current)
+                };
+                clipped.push(inside.lerp(outside, d_in / (d_in - d_out)));
+            }
+        }
+        polygon = clipped;
+    }
+    polygon
+}
+
+/// Perspective divide and viewport transform of a clipped vertex (`w ≥ near > 0`).
+fn to_screen(v: &ClipVertex, view: &View) -> ScreenVertex {
+    let pixel = view.pixel_from_clip(v.clip);
+    ScreenVertex {
+        x: pixel.x,
+        y: pixel.y,
+        depth: pixel.z as f32,
+        inv_w: (1.0 / v.clip.w) as f32,
+        attr: v.attr.to_array().map(|a| a as f32),
+    }
+}

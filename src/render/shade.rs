@@ -1,0 +1,322 @@
+//! Display modes: per-vertex attributes from illuminance, and per-pixel shaders that turn an
+//! interpolated linear RGB triple into sRGB8.
+//!
+//! * [`DisplayMode::Photo`]: the attribute is luminance `L = ρ E / π` per channel (cd/m²).
+//!   Exposure rule (fixed): the **area-weighted geometric mean** of the positive vertex
+//!   luminances (Rec. 709 luma) is the key `L_key`; a pixel shows `x / (1 + x)` per channel
+//!   (Reinhard) with `x = L · k`, `k = (0.18 / 0.82) / L_key`, then the sRGB transfer. So a
+//!   surface at the key luminance is shown at display value 0.18 (mid-grey, sRGB8 118), and
+//!   scaling every light by any factor leaves the picture unchanged.
+//! * [`DisplayMode::FalseColor`]: the attribute is illuminance `E` (lx); its luma is placed on
+//!   a logarithmic or linear lux range and coloured with the viridis scale (dark violet at the
+//!   bottom of the range, yellow at the top). The range is returned for the UI's legend.
+
+use std::f64::consts::PI;
+use std::sync::LazyLock;
+
+use crate::error::{Error, Result};
+use crate::scene::model::{PatchMesh, Surface};
+
+/// Turns an interpolated per-pixel attribute (linear RGB triple) into an sRGB8 colour.
+pub trait Shader: Sync {
+    /// The displayed colour for `value`.
+    fn shade(&self, value: [f32; 3]) -> [u8; 3];
+}
+
+/// What the preview shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DisplayMode {
+    /// The lit room as a photograph: luminance, auto-exposed, tone-mapped.
+    #[default]
+    Photo,
+    /// Illuminance on a false-colour scale.
+    FalseColor,
+}
+
+/// Display value (after the tone curve) of a surface at the key luminance.
+pub const MID_GREY: f64 = 0.18;
+
+/// Rec. 709 / sRGB luma of a linear RGB triple.
+pub fn luma(rgb: [f64; 3]) -> f64 {
+    0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
+}
+
+/// Per-vertex attributes for `mode` from per-vertex illuminance (lx, RGB): luminance
+/// `ρ E / π` (cd/m², reflectance of the vertex's surface) for photo, `E` for false colour.
+///
+/// Errors (internal): lengths that do not match the mesh, or a vertex surface index outside
+/// `surfaces`.
+pub fn vertex_attributes(
+    mode: DisplayMode,
+    mesh: &PatchMesh,
+    surfaces: &[Surface],
+    illuminance_lx: &[[f64; 3]],
+) -> Result<Vec<[f32; 3]>> {
+    let n = mesh.n_vertices();
+    if illuminance_lx.len() != n || mesh.vertex_surface.len() != n {
+        return Err(Error::internal(format!(
+            "render: {} illuminance values and {} vertex surfaces for {n} vertices",
+            illuminance_lx.len(),
+            mesh.vertex_surface.len()
+        )));
+    }
+    illuminance_lx
+        .iter()
+        .zip(&mesh.vertex_surface)
+        .map(|(e, &s)| {
+            let factor = match mode {
+                DisplayMode::FalseColor => [1.0; 3],
+                DisplayMode::Photo => {
+                    let surface = surfaces.get(s as usize).ok_or_else(|| {
+                        Error::internal(format!(
+                            "render: vertex surface {s} of {} surfaces",
+                            surfaces.len()
+                        ))
+                    })?;
+                    surface.reflectance.0.map(|rho| rho / PI)
+                }
+            };
+            Ok([0, 1, 2].map(|c| (factor[c] * e[c]) as f32))
+        })
+        .collect()
+}
+
+/// The area each vertex stands for (m²): a third or a quarter of each patch it belongs to.
+pub fn vertex_areas(mesh: &PatchMesh) -> Vec<f64> {
+    let mut areas = vec![0.0; mesh.n_vertices()];
+    for patch in &mesh.patches {
+        let share = patch.area / f64::from(patch.n_vertices);
+        for &v in patch.vertex_ids() {
+            if let Some(a) = areas.get_mut(v as usize) {
+                *a += share;
+            }
+        }
+    }
+    areas
+}
+
+/// The photo shader: exposure, Reinhard tone curve per channel, sRGB encoding.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Photo {
+    exposure: f32,
+}
+
+impl Photo {
+    /// A photo shader multiplying luminance (cd/m²) by `exposure` (m²/cd) before the tone curve.
+    pub fn with_exposure(exposure: f64) -> Photo {
+        Photo {
+            exposure: exposure as f32,
+        }
+    }
+
+    /// Auto-exposure by the module's rule from per-vertex luminance `luminance_cd_m2` (as made
+    /// by [`vertex_attributes`] in photo mode). A scene with no lit vertex gets exposure 1.
+    pub fn auto(mesh: &PatchMesh, luminance_cd_m2: &[[f32; 3]]) -> Photo {
+        let areas = vertex_areas(mesh);
+        let (mut weight, mut log_sum) = (0.0, 0.0);
+        for (area, l) in areas.iter().zip(luminance_cd_m2) {
+            let y = luma(l.map(f64::from));
+            if *area > 0.0 && y > 0.0 && y.is_finite() {
+                weight += area;
+                log_sum += area * y.ln();
+            }
+        }
+        if weight == 0.0 {
+            return Photo::with_exposure(1.0);
+        }
+        let key = (log_sum / weight).exp();
+        Photo::with_exposure(MID_GREY / (1.0 - MID_GREY) / key)
+    }
+
+    /// The exposure factor (m²/cd).
+    pub fn exposure(&self) -> f64 {
+        f64::from(self.exposure)
+    }
+}
+
+impl Shader for Photo {
+    fn shade(&self, luminance: [f32; 3]) -> [u8; 3] {
+        luminance.map(|l| {
+            let x = (l * self.exposure).max(0.0);
+            srgb8_from_linear(x / (1.0 + x))
+        })
+    }
+}
+
+/// How lux values are placed on the false-colour scale.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LuxScale {
+    /// Proportional to `ln E`.
+    #[default]
+    Log,
+    /// Proportional to `E`.
+    Linear,
+}
+
+/// Lowest lux value of a fitted logarithmic range, relative to its top.
+pub const LOG_RANGE_FLOOR: f64 = 1e-3;
+
+/// The false-colour shader (viridis) over a lux range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FalseColor {
+    min_lx: f64,
+    max_lx: f64,
+    scale: LuxScale,
+}
+
+impl FalseColor {
+    /// A scale from `min_lx` (bottom colour) to `max_lx` (top colour).
+    ///
+    /// Errors (bad input): a range that is not increasing and finite, or a log range that does
+    /// not start above 0.
+    pub fn new(min_lx: f64, max_lx: f64, scale: LuxScale) -> Result<FalseColor> {
+        let ok = min_lx.is_finite() && max_lx.is_finite() && min_lx < max_lx;
+        if !ok || (scale == LuxScale::Log && min_lx <= 0.0) {
+            return Err(Error::input(
+                "",
+                "false-colour range",
+                format!("[{min_lx}, {max_lx}] lx is not an increasing {scale:?} range"),
+            ));
+        }
+        Ok(FalseColor {
+            min_lx,
+            max_lx,
+            scale,
+        })
+    }
+
+    /// The range fitted to per-vertex illuminance `illuminance_lx` (luma, lx): from the lowest
+    /// to the highest value; a log range starts no lower than [`LOG_RANGE_FLOOR`] × the top.
+    /// A flat or dark scene gets `[0, max(top, 1)]` (linear) or `[top/10, top]` (log).
+    pub fn fit(illuminance_lx: &[[f32; 3]], scale: LuxScale) -> FalseColor {
+        let (lo, hi) = illuminance_lx
+            .iter()
+            .map(|e| luma(e.map(f64::from)))
+            .filter(|y| y.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| {
+                (lo.min(y), hi.max(y))
+            });
+        let (min_lx, max_lx) = match scale {
+            LuxScale::Linear if lo < hi => (lo, hi),
+            LuxScale::Linear => (0.0, hi.max(1.0)),
+            LuxScale::Log => {
+                let top = if hi > 0.0 { hi } else { 1.0 };
+                let bottom = lo.max(top * LOG_RANGE_FLOOR);
+                if bottom < top {
+                    (bottom, top)
+                } else {
+                    (top / 10.0, top)
+                }
+            }
+        };
+        FalseColor {
+            min_lx,
+            max_lx,
+            scale,
+        }
+    }
+
+    /// The lux range `(min, max)` that the scale's two ends stand for.
+    pub fn range(&self) -> (f64, f64) {
+        (self.min_lx, self.max_lx)
+    }
+
+    /// The scale.
+    pub fn scale(&self) -> LuxScale {
+        self.scale
+    }
+
+    /// Position of `illuminance_lx` on the scale, clamped to [0, 1].
+    pub fn position(&self, illuminance_lx: f64) -> f64 {
+        let t = match self.scale {
+            LuxScale::Linear => (illuminance_lx - self.min_lx) / (self.max_lx - self.min_lx),
+            LuxScale::Log => {
+                (illuminance_lx.max(self.min_lx) / self.min_lx).ln() / (self.max_lx / self.min_lx).ln()
+            }
+        };
+        if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) }
+    }
+}
+
+impl Shader for FalseColor {
+    fn shade(&self, illuminance_lx: [f32; 3]) -> [u8; 3] {
+        viridis(self.position(luma(illuminance_lx.map(f64::from))))
+    }
+}
+
+/// Either display shader, chosen at run time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DisplayShader {
+    /// Photo mode.
+    Photo(Photo),
+    /// False-colour mode.
+    FalseColor(FalseColor),
+}
+
+impl DisplayShader {
+    /// The shader for `mode` fitted to the scene: auto-exposure for photo, the log lux range
+    /// of the vertices for false colour. `attrs` come from [`vertex_attributes`] for `mode`.
+    pub fn fit(mode: DisplayMode, mesh: &PatchMesh, attrs: &[[f32; 3]]) -> DisplayShader {
+        match mode {
+            DisplayMode::Photo => DisplayShader::Photo(Photo::auto(mesh, attrs)),
+            DisplayMode::FalseColor => DisplayShader::FalseColor(FalseColor::fit(attrs, LuxScale::Log)),
+        }
+    }
+}
+
+impl Shader for DisplayShader {
+    fn shade(&self, value: [f32; 3]) -> [u8; 3] {
+        match self {
+            DisplayShader::Photo(s) => s.shade(value),
+            DisplayShader::FalseColor(s) => s.shade(value),
+        }
+    }
+}
+
+/// Viridis (matplotlib's perceptually uniform scale) at 9 evenly spaced stops, sRGB8.
+pub const VIRIDIS: [[u8; 3]; 9] = [
+    [0x44, 0x01, 0x54],
+    [0x47, 0x2D, 0x7B],
+    [0x3B, 0x52, 0x8B],
+    [0x2C, 0x72, 0x8E],
+    [0x21, 0x90, 0x8C],
+    [0x27, 0xAD, 0x81],
+    [0x5D, 0xC8, 0x63],
+    [0xAA, 0xDC, 0x32],
+    [0xFD, 0xE7, 0x25],
+];
+
+/// The viridis colour at `t ∈ [0, 1]` (linear between stops).
+pub fn viridis(t: f64) -> [u8; 3] {
+    let s = t.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;
+    let i = (s.floor() as usize).min(VIRIDIS.len() - 2);
+    let f = s - i as f64;
+    [0, 1, 2].map(|c| {
+        let (a, b) = (f64::from(VIRIDIS[i][c]), f64::from(VIRIDIS[i + 1][c]));
+        (a + (b - a) * f).round() as u8
+    })
+}
+
+/// Entries of the sRGB encoding table over display values [0, 1].
+const SRGB_TABLE_SIZE: usize = 4096;
+
+static SRGB_TABLE: LazyLock<Vec<u8>> = LazyLock::new(|| {
+    (0..SRGB_TABLE_SIZE)
+        .map(|i| (srgb_encode(i as f64 / (SRGB_TABLE_SIZE - 1) as f64) * 255.0).round() as u8)
+        .collect()
+});
+
+/// The sRGB transfer function (IEC 61966-2-1) of a linear display value in [0, 1].
+pub fn srgb_encode(linear: f64) -> f64 {
+    if linear <= 0.003_130_8 {
+        12.92 * linear
+    } else {
+        1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// sRGB8 of a linear display value (clamped to [0, 1]; NaN → 0), by a 4096-entry table.
+pub fn srgb8_from_linear(linear: f32) -> u8 {
+    let index = (linear.clamp(0.0, 1.0) * (SRGB_TABLE_SIZE - 1) as f32 + 0.5) as usize;
+    SRGB_TABLE[index.min(SRGB_TABLE_SIZE - 1)]
+}
