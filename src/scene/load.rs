@@ -35,12 +35,15 @@ pub const DEFAULT_FOV_DEG: f64 = 60.0;
 /// Loads and meshes the room file at `path` (DESIGN §5).
 ///
 /// Relative `file` / `lid_file` paths are resolved against the room file's directory. Without a
-/// `[camera]`, the eye stands near the (0, 0) corner at 1.6 m (60 % of the height in rooms
-/// lower than 2.67 m) and looks at the centre of the room.
+/// `[camera]`, the eye stands near the (0, 0) corner at 1.6 m (80 % of the height in rooms
+/// lower than 2 m) and looks at the centre of the room.
 pub fn load(path: &Path) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::unreadable(path, &e))?;
     let file: RoomFile = toml::from_str(&text).map_err(|e| {
-        let place = e.span().map(|s| room_file::line_column(&text, s.start)).unwrap_or_default();
+        let place = e
+            .span()
+            .map(|s| room_file::line_column(&text, s.start))
+            .unwrap_or_default();
         Error::input(path, place, e.message().trim_end())
     })?;
     Loader { path, text: &text }.scene(file)
@@ -68,12 +71,19 @@ impl Loader<'_> {
             return Err(self.error(
                 &file.version.span(),
                 "version",
-                format!("room-file version {} is not supported (this Haiko reads version 1)", file.version.get_ref()),
+                format!(
+                    "room-file version {} is not supported (this Haiko reads version 1)",
+                    file.version.get_ref()
+                ),
             ));
         }
         let room_size = self.vector(&file.room.size, "room.size")?;
         if room_size.min_element() <= 0.0 {
-            return Err(self.error(&file.room.size.span(), "room.size", "every room dimension must be > 0 m"));
+            return Err(self.error(
+                &file.room.size.span(),
+                "room.size",
+                "every room dimension must be > 0 m",
+            ));
         }
         let room = &file.room.reflectance;
         let floor = self.reflectance(&room.floor, "room.reflectance.floor")?;
@@ -88,7 +98,11 @@ impl Loader<'_> {
             let min = self.vector(&spec.min, &format!("{field}.min"))?;
             let max = self.vector(&spec.max, &format!("{field}.max"))?;
             if !min.cmplt(max).all() {
-                return Err(self.error(&spec.max.span(), &format!("{field}.max"), "max must exceed min on every axis"));
+                return Err(self.error(
+                    &spec.max.span(),
+                    &format!("{field}.max"),
+                    "max must exceed min on every axis",
+                ));
             }
             if min.min_element() < 0.0 || !max.cmple(room_size).all() {
                 return Err(self.error(&spec.min.span(), &field, "the box must lie inside the room"));
@@ -160,12 +174,19 @@ impl Loader<'_> {
             })
         };
         let fine = mesh_at(settings.patch_size, &file.settings.patch_size, "patch_size")?;
-        let coarse = mesh_at(settings.solver_patch_size, &file.settings.solver_patch_size, "solver_patch_size")?;
+        let coarse = mesh_at(
+            settings.solver_patch_size,
+            &file.settings.solver_patch_size,
+            "solver_patch_size",
+        )?;
 
         Ok(Scene {
             path: self.path.to_path_buf(),
             name: file.name.unwrap_or_else(|| {
-                self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+                self.path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default()
             }),
             room_size,
             surfaces,
@@ -194,7 +215,11 @@ impl Loader<'_> {
         let ok = x.is_finite() && if strict { x > min } else { x >= min };
         if !ok {
             let relation = if strict { ">" } else { "≥" };
-            return Err(self.error(&spec.span(), field, format!("{x} must be a finite number {relation} {min}")));
+            return Err(self.error(
+                &spec.span(),
+                field,
+                format!("{x} must be a finite number {relation} {min}"),
+            ));
         }
         Ok(x)
     }
@@ -243,11 +268,16 @@ impl Loader<'_> {
         };
         let surfaces = obj::read_obj(&resolved, index, &placement)
             .map_err(|message| file_error(format!("OBJ `{written}`: {message}")))?;
-        let mut points = surfaces.iter().flat_map(|s| s.geometry.positions.iter().copied()).peekable();
+        let mut points = surfaces
+            .iter()
+            .flat_map(|s| s.geometry.positions.iter().copied())
+            .peekable();
         if points.peek().is_none() {
             return Err(file_error(format!("OBJ `{written}` has no faces")));
         }
-        let (min, max) = points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+        let (min, max) = points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
         let slack = 1e-9 * (1.0 + room_size.max_element());
         if !(min.cmpge(DVec3::splat(-slack)).all() && max.cmple(room_size + slack).all()) {
             return Err(file_error(format!(
@@ -285,17 +315,27 @@ impl Loader<'_> {
             return Err(position_error(format!("the light is inside box[{b}]")));
         }
         if let Some(m) = mesh_bounds.iter().position(|b| b.contains_strictly(position)) {
-            return Err(position_error(format!("the light is inside the bounds of mesh[{m}]")));
+            return Err(position_error(format!(
+                "the light is inside the bounds of mesh[{m}]"
+            )));
         }
 
         let (aim, aim_spec) = match (&spec.aim, &spec.aim_dir) {
             (Some(_), Some(dir)) => {
-                return Err(self.error(&dir.span(), &at("aim_dir"), "give either `aim` or `aim_dir`, not both"));
+                return Err(self.error(
+                    &dir.span(),
+                    &at("aim_dir"),
+                    "give either `aim` or `aim_dir`, not both",
+                ));
             }
             (Some(target), None) => {
                 let point = self.vector(target, &at("aim"))?;
                 if point == position {
-                    return Err(self.error(&target.span(), &at("aim"), "the aim target is the light's own position"));
+                    return Err(self.error(
+                        &target.span(),
+                        &at("aim"),
+                        "the aim target is the light's own position",
+                    ));
                 }
                 ((point - position).normalize(), AimSpec::Target(point))
             }
@@ -311,14 +351,23 @@ impl Loader<'_> {
 
         let (curve, lid_source) = match (&spec.lid, &spec.lid_file) {
             (Some(_), Some(file)) => {
-                return Err(self.error(&file.span(), &at("lid_file"), "give either `lid` or `lid_file`, not both"));
+                return Err(self.error(
+                    &file.span(),
+                    &at("lid_file"),
+                    "give either `lid` or `lid_file`, not both",
+                ));
             }
             (None, None) => {
-                return Err(self.error(&table, &field, "the light needs a curve: `lid = [[γ°, cd], …]` or `lid_file`"));
+                return Err(self.error(
+                    &table,
+                    &field,
+                    "the light needs a curve: `lid = [[γ°, cd], …]` or `lid_file`",
+                ));
             }
             (Some(points), None) => {
                 let pairs: Vec<(f64, f64)> = points.get_ref().iter().map(|p| (p[0], p[1])).collect();
-                let curve = Curve::new(&pairs).map_err(|e| self.error(&points.span(), &at("lid"), e.to_string()))?;
+                let curve =
+                    Curve::new(&pairs).map_err(|e| self.error(&points.span(), &at("lid"), e.to_string()))?;
                 (curve, LidSource::Inline)
             }
             (None, Some(file)) => {
@@ -335,9 +384,10 @@ impl Loader<'_> {
                     Error::Input(inner) if inner.place.is_empty() => {
                         file_error(format!("photometric file `{written}`: {}", inner.message))
                     }
-                    Error::Input(inner) => {
-                        file_error(format!("photometric file `{written}`: {}: {}", inner.place, inner.message))
-                    }
+                    Error::Input(inner) => file_error(format!(
+                        "photometric file `{written}`: {}: {}",
+                        inner.place, inner.message
+                    )),
                     internal @ Error::Internal(_) => internal,
                 })?;
                 let source = LidSource::File {
@@ -399,7 +449,11 @@ impl Loader<'_> {
         }
         Ok(Settings {
             patch_size: positive(&spec.patch_size, "patch_size", defaults.patch_size)?,
-            solver_patch_size: positive(&spec.solver_patch_size, "solver_patch_size", defaults.solver_patch_size)?,
+            solver_patch_size: positive(
+                &spec.solver_patch_size,
+                "solver_patch_size",
+                defaults.solver_patch_size,
+            )?,
             direct: match spec.direct {
                 Some(DirectSpec::Exact) => DirectMode::Exact,
                 Some(DirectSpec::Basis) => DirectMode::Basis,
@@ -414,13 +468,21 @@ impl Loader<'_> {
         let eye = self.vector(&spec.eye, "camera.eye")?;
         let target = self.vector(&spec.target, "camera.target")?;
         if eye == target {
-            return Err(self.error(&spec.target.span(), "camera.target", "the camera target is the eye position"));
+            return Err(self.error(
+                &spec.target.span(),
+                "camera.target",
+                "the camera target is the eye position",
+            ));
         }
         let fov_deg = match &spec.fov_deg {
             Some(f) => {
                 let fov = *f.get_ref();
                 if !(fov > 0.0 && fov < 180.0) {
-                    return Err(self.error(&f.span(), "camera.fov_deg", format!("{fov}° must be between 0 and 180")));
+                    return Err(self.error(
+                        &f.span(),
+                        "camera.fov_deg",
+                        format!("{fov}° must be between 0 and 180"),
+                    ));
                 }
                 fov
             }
@@ -430,12 +492,12 @@ impl Loader<'_> {
     }
 }
 
-/// Eye near the (0, 0) corner at 1.6 m (or 60 % of the height in low rooms), looking at the
-/// centre of the room.
+/// Eye near the (0, 0) corner (10 % of the room in, at most 0.5 m) at 1.6 m (80 % of the
+/// height in rooms lower than 2 m), looking at the centre of the room.
 fn default_camera(room_size: DVec3) -> Camera {
     let corner = (room_size * 0.1).min(DVec3::splat(0.5));
     Camera {
-        eye: DVec3::new(corner.x, corner.y, (0.6 * room_size.z).min(1.6)),
+        eye: DVec3::new(corner.x, corner.y, (0.8 * room_size.z).min(1.6)),
         target: room_size * 0.5,
         fov_deg: DEFAULT_FOV_DEG,
     }
