@@ -10,13 +10,15 @@ use toml::Spanned;
 
 use crate::error::{Error, Result};
 use crate::photometry::{Curve, read_lid_file};
-use crate::scene::mesher::{self, Geometry, TriangleSurface};
+use crate::scene::mesher::{self, Geometry, Shape, SurfaceLayout, TriangleSurface};
 use crate::scene::model::{
-    Aabb, AimSpec, Camera, DirectMode, LidSource, Light, Reflectance, Scene, Settings, Surface, SurfaceKind,
+    Aabb, AimSpec, Camera, DirectMode, LidSource, Light, PatchMesh, Reflectance, Scene, Settings, Surface,
+    SurfaceKind,
 };
 use crate::scene::obj::{self, Placement};
 use crate::scene::room_file::{
-    self, CameraSpec, DirectSpec, LightSpec, MeshSpec, ReflectanceSpec, RoomFile, SettingsSpec, Vec3Spec,
+    self, BoxSpec, CameraSpec, DirectSpec, LightSpec, MeshSpec, ReflectanceSpec, RoomFile, SettingsSpec,
+    Vec3Spec,
 };
 
 /// The most fine (or coarse) vertices a room may have; more is refused with advice to raise
@@ -35,15 +37,25 @@ pub const DEFAULT_FOV_DEG: f64 = 60.0;
 /// Loads and meshes the room file at `path` (DESIGN §5).
 ///
 /// Relative `file` / `lid_file` paths are resolved against the room file's directory. Without a
-/// `[camera]`, the eye stands near the (0, 0) corner at 1.6 m (60 % of the height in rooms
-/// lower than 2.67 m) and looks at the centre of the room.
+/// `[camera]`, the eye stands near the (0, 0) corner at 1.6 m (80 % of the height in rooms
+/// lower than 2 m) and looks at the centre of the room.
 pub fn load(path: &Path) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::unreadable(path, &e))?;
     let file: RoomFile = toml::from_str(&text).map_err(|e| {
-        let place = e.span().map(|s| room_file::line_column(&text, s.start)).unwrap_or_default();
+        let place = e
+            .span()
+            .map(|s| room_file::line_column(&text, s.start))
+            .unwrap_or_default();
         Error::input(path, place, e.message().trim_end())
     })?;
     Loader { path, text: &text }.scene(file)
+}
+
+/// Reflectances of the room's own surfaces.
+struct RoomReflectances {
+    floor: Reflectance,
+    walls: Reflectance,
+    ceiling: Reflectance,
 }
 
 /// The room file being loaded, for error places.
@@ -65,38 +77,24 @@ impl Loader<'_> {
 
     fn scene(&self, file: RoomFile) -> Result<Scene> {
         if *file.version.get_ref() != 1 {
-            return Err(self.error(
-                &file.version.span(),
-                "version",
-                format!("room-file version {} is not supported (this Haiko reads version 1)", file.version.get_ref()),
-            ));
+            let message = format!(
+                "room-file version {} is not supported (this Haiko reads version 1)",
+                file.version.get_ref()
+            );
+            return Err(self.error(&file.version.span(), "version", message));
         }
         let room_size = self.vector(&file.room.size, "room.size")?;
         if room_size.min_element() <= 0.0 {
-            return Err(self.error(&file.room.size.span(), "room.size", "every room dimension must be > 0 m"));
+            let message = "every room dimension must be > 0 m";
+            return Err(self.error(&file.room.size.span(), "room.size", message));
         }
         let room = &file.room.reflectance;
-        let floor = self.reflectance(&room.floor, "room.reflectance.floor")?;
-        let walls = self.reflectance(&room.walls, "room.reflectance.walls")?;
-        let ceiling = self.reflectance(&room.ceiling, "room.reflectance.ceiling")?;
-
-        let mut boxes = Vec::with_capacity(file.boxes.len());
-        let mut box_reflectances = Vec::with_capacity(file.boxes.len());
-        for (i, spec) in file.boxes.iter().enumerate() {
-            let spec = spec.get_ref();
-            let field = format!("box[{i}]");
-            let min = self.vector(&spec.min, &format!("{field}.min"))?;
-            let max = self.vector(&spec.max, &format!("{field}.max"))?;
-            if !min.cmplt(max).all() {
-                return Err(self.error(&spec.max.span(), &format!("{field}.max"), "max must exceed min on every axis"));
-            }
-            if min.min_element() < 0.0 || !max.cmple(room_size).all() {
-                return Err(self.error(&spec.min.span(), &field, "the box must lie inside the room"));
-            }
-            boxes.push(Aabb { min, max });
-            box_reflectances.push(self.reflectance(&spec.reflectance, &format!("{field}.reflectance"))?);
-        }
-
+        let room_reflectances = RoomReflectances {
+            floor: self.reflectance(&room.floor, "room.reflectance.floor")?,
+            walls: self.reflectance(&room.walls, "room.reflectance.walls")?,
+            ceiling: self.reflectance(&room.ceiling, "room.reflectance.ceiling")?,
+        };
+        let (boxes, box_reflectances) = self.boxes(&file.boxes, room_size)?;
         let mut obj_surfaces = Vec::new();
         let mut mesh_bounds = Vec::with_capacity(file.meshes.len());
         for (i, spec) in file.meshes.iter().enumerate() {
@@ -104,32 +102,21 @@ impl Loader<'_> {
             obj_surfaces.extend(surfaces);
             mesh_bounds.push(bounds);
         }
-
-        let mut lights: Vec<Light> = Vec::with_capacity(file.lights.len());
-        for (i, spec) in file.lights.iter().enumerate() {
-            let light = self.light(spec, i, room_size, &boxes, &mesh_bounds)?;
-            if let Some(j) = lights.iter().position(|l| l.name == light.name) {
-                let name = &spec.get_ref().name;
-                return Err(self.error(
-                    &name.span(),
-                    &format!("light[{i}].name"),
-                    format!("the name `{}` is already used by light[{j}]", light.name),
-                ));
-            }
-            lights.push(light);
-        }
-
+        let lights = self.lights(&file.lights, room_size, &boxes, &mesh_bounds)?;
         let settings = self.settings(&file.settings)?;
         let camera = match &file.camera {
             Some(spec) => self.camera(spec)?,
             None => default_camera(room_size),
         };
 
-        let geometries: Vec<TriangleSurface> = obj_surfaces.iter().map(|s| s.geometry.clone()).collect();
+        let (meshes, obj_reflectances): (Vec<TriangleSurface>, Vec<Reflectance>) = obj_surfaces
+            .into_iter()
+            .map(|s| (s.geometry, s.reflectance))
+            .unzip();
         let geometry = Geometry {
             room_size,
             boxes: &boxes,
-            meshes: &geometries,
+            meshes: &meshes,
         };
         let layout = mesher::layout(&geometry);
         let surfaces = layout
@@ -138,35 +125,32 @@ impl Loader<'_> {
                 name: s.name.clone(),
                 kind: s.kind.clone(),
                 reflectance: match (&s.kind, s.shape) {
-                    (_, mesher::Shape::Triangles(k)) => obj_surfaces[k].reflectance,
-                    (SurfaceKind::Floor, _) => floor,
-                    (SurfaceKind::Ceiling, _) => ceiling,
+                    (_, Shape::Triangles(k)) => obj_reflectances[k],
+                    (SurfaceKind::Floor, _) => room_reflectances.floor,
+                    (SurfaceKind::Ceiling, _) => room_reflectances.ceiling,
                     (SurfaceKind::BoxFace { box_index }, _) => box_reflectances[*box_index],
-                    _ => walls,
+                    _ => room_reflectances.walls,
                 },
             })
             .collect();
-        let mesh_at = |size: f64, spec: &Option<Spanned<f64>>, field: &str| {
-            mesher::mesh(&geometry, &layout, size, MAX_VERTICES).map_err(|too_many| {
-                let message = format!(
-                    "{field} = {size} m would make about {:.0} vertices (the limit is {MAX_VERTICES}); \
-                     use a larger {field}",
-                    too_many.estimated
-                );
-                match spec {
-                    Some(s) => self.error(&s.span(), &format!("settings.{field}"), message),
-                    None => Error::input(self.path, format!("settings.{field} (default)"), message),
-                }
-            })
-        };
-        let fine = mesh_at(settings.patch_size, &file.settings.patch_size, "patch_size")?;
-        let coarse = mesh_at(settings.solver_patch_size, &file.settings.solver_patch_size, "solver_patch_size")?;
-
+        let fine = self.mesh(
+            &geometry,
+            &layout,
+            settings.patch_size,
+            &file.settings.patch_size,
+            "patch_size",
+        )?;
+        let coarse = self.mesh(
+            &geometry,
+            &layout,
+            settings.solver_patch_size,
+            &file.settings.solver_patch_size,
+            "solver_patch_size",
+        )?;
+        let stem = self.path.file_stem().map(|s| s.to_string_lossy().into_owned());
         Ok(Scene {
             path: self.path.to_path_buf(),
-            name: file.name.unwrap_or_else(|| {
-                self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
-            }),
+            name: file.name.or(stem).unwrap_or_default(),
             room_size,
             surfaces,
             fine,
@@ -176,6 +160,70 @@ impl Loader<'_> {
             lights,
             camera,
             settings,
+        })
+    }
+
+    /// The boxes and their reflectances.
+    fn boxes(&self, specs: &[Spanned<BoxSpec>], room_size: DVec3) -> Result<(Vec<Aabb>, Vec<Reflectance>)> {
+        let mut boxes = Vec::with_capacity(specs.len());
+        let mut reflectances = Vec::with_capacity(specs.len());
+        for (i, spec) in specs.iter().enumerate() {
+            let spec = spec.get_ref();
+            let field = format!("box[{i}]");
+            let min = self.vector(&spec.min, &format!("{field}.min"))?;
+            let max = self.vector(&spec.max, &format!("{field}.max"))?;
+            if !min.cmplt(max).all() {
+                let message = "max must exceed min on every axis";
+                return Err(self.error(&spec.max.span(), &format!("{field}.max"), message));
+            }
+            if min.min_element() < 0.0 || !max.cmple(room_size).all() {
+                return Err(self.error(&spec.min.span(), &field, "the box must lie inside the room"));
+            }
+            boxes.push(Aabb { min, max });
+            reflectances.push(self.reflectance(&spec.reflectance, &format!("{field}.reflectance"))?);
+        }
+        Ok((boxes, reflectances))
+    }
+
+    /// The lights, with unique names.
+    fn lights(
+        &self,
+        specs: &[Spanned<LightSpec>],
+        room_size: DVec3,
+        boxes: &[Aabb],
+        mesh_bounds: &[Aabb],
+    ) -> Result<Vec<Light>> {
+        let mut lights: Vec<Light> = Vec::with_capacity(specs.len());
+        for (i, spec) in specs.iter().enumerate() {
+            let light = self.light(spec, i, room_size, boxes, mesh_bounds)?;
+            if let Some(j) = lights.iter().position(|l| l.name == light.name) {
+                let message = format!("the name `{}` is already used by light[{j}]", light.name);
+                return Err(self.error(&spec.get_ref().name.span(), &format!("light[{i}].name"), message));
+            }
+            lights.push(light);
+        }
+        Ok(lights)
+    }
+
+    /// One patch mesh at `size` (`spec` and `field` locate the setting in errors).
+    fn mesh(
+        &self,
+        geometry: &Geometry,
+        layout: &[SurfaceLayout],
+        size: f64,
+        spec: &Option<Spanned<f64>>,
+        field: &str,
+    ) -> Result<PatchMesh> {
+        mesher::mesh(geometry, layout, size, MAX_VERTICES).map_err(|too_many| {
+            let message = format!(
+                "{field} = {size} m would make about {:.0} vertices (the limit is {MAX_VERTICES}); \
+                 use a larger {field}",
+                too_many.estimated
+            );
+            match spec {
+                Some(s) => self.error(&s.span(), &format!("settings.{field}"), message),
+                None => Error::input(self.path, format!("settings.{field} (default)"), message),
+            }
         })
     }
 
@@ -194,7 +242,11 @@ impl Loader<'_> {
         let ok = x.is_finite() && if strict { x > min } else { x >= min };
         if !ok {
             let relation = if strict { ">" } else { "≥" };
-            return Err(self.error(&spec.span(), field, format!("{x} must be a finite number {relation} {min}")));
+            return Err(self.error(
+                &spec.span(),
+                field,
+                format!("{x} must be a finite number {relation} {min}"),
+            ));
         }
         Ok(x)
     }
@@ -243,11 +295,16 @@ impl Loader<'_> {
         };
         let surfaces = obj::read_obj(&resolved, index, &placement)
             .map_err(|message| file_error(format!("OBJ `{written}`: {message}")))?;
-        let mut points = surfaces.iter().flat_map(|s| s.geometry.positions.iter().copied()).peekable();
+        let mut points = surfaces
+            .iter()
+            .flat_map(|s| s.geometry.positions.iter().copied())
+            .peekable();
         if points.peek().is_none() {
             return Err(file_error(format!("OBJ `{written}` has no faces")));
         }
-        let (min, max) = points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+        let (min, max) = points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
         let slack = 1e-9 * (1.0 + room_size.max_element());
         if !(min.cmpge(DVec3::splat(-slack)).all() && max.cmple(room_size + slack).all()) {
             return Err(file_error(format!(
@@ -272,82 +329,25 @@ impl Loader<'_> {
         let at = |name: &str| format!("{field}.{name}");
         let table = spec.span();
         let spec = spec.get_ref();
-        let position = self.vector(&spec.position, &at("position"))?;
-        let position_error = |message: String| self.error(&spec.position.span(), &at("position"), message);
-        if !(position.cmpgt(DVec3::ZERO).all() && position.cmplt(room_size).all()) {
-            return Err(position_error(format!(
-                "the light at {:?} must be strictly inside the room (0, 0, 0) to {:?}",
-                position.to_array(),
-                room_size.to_array()
-            )));
-        }
-        if let Some(b) = boxes.iter().position(|b| b.contains_strictly(position)) {
-            return Err(position_error(format!("the light is inside box[{b}]")));
-        }
-        if let Some(m) = mesh_bounds.iter().position(|b| b.contains_strictly(position)) {
-            return Err(position_error(format!("the light is inside the bounds of mesh[{m}]")));
-        }
-
-        let (aim, aim_spec) = match (&spec.aim, &spec.aim_dir) {
-            (Some(_), Some(dir)) => {
-                return Err(self.error(&dir.span(), &at("aim_dir"), "give either `aim` or `aim_dir`, not both"));
-            }
-            (Some(target), None) => {
-                let point = self.vector(target, &at("aim"))?;
-                if point == position {
-                    return Err(self.error(&target.span(), &at("aim"), "the aim target is the light's own position"));
-                }
-                ((point - position).normalize(), AimSpec::Target(point))
-            }
-            (None, Some(dir)) => {
-                let d = self.vector(dir, &at("aim_dir"))?;
-                if d.length_squared() == 0.0 {
-                    return Err(self.error(&dir.span(), &at("aim_dir"), "the aim direction is zero"));
-                }
-                (d.normalize(), AimSpec::Direction(d.normalize()))
-            }
-            (None, None) => (DVec3::NEG_Z, AimSpec::Direction(DVec3::NEG_Z)),
-        };
-
+        let position = self.light_position(&spec.position, &at("position"), room_size, boxes, mesh_bounds)?;
+        let (aim, aim_spec) = self.aim(spec, position, &field)?;
         let (curve, lid_source) = match (&spec.lid, &spec.lid_file) {
             (Some(_), Some(file)) => {
-                return Err(self.error(&file.span(), &at("lid_file"), "give either `lid` or `lid_file`, not both"));
+                let message = "give either `lid` or `lid_file`, not both";
+                return Err(self.error(&file.span(), &at("lid_file"), message));
             }
             (None, None) => {
-                return Err(self.error(&table, &field, "the light needs a curve: `lid = [[γ°, cd], …]` or `lid_file`"));
+                let message = "the light needs a curve: `lid = [[γ°, cd], …]` or `lid_file`";
+                return Err(self.error(&table, &field, message));
             }
             (Some(points), None) => {
                 let pairs: Vec<(f64, f64)> = points.get_ref().iter().map(|p| (p[0], p[1])).collect();
-                let curve = Curve::new(&pairs).map_err(|e| self.error(&points.span(), &at("lid"), e.to_string()))?;
+                let curve =
+                    Curve::new(&pairs).map_err(|e| self.error(&points.span(), &at("lid"), e.to_string()))?;
                 (curve, LidSource::Inline)
             }
-            (None, Some(file)) => {
-                let written = file.get_ref();
-                let resolved = self.resolve(written);
-                let file_error = |message: String| self.error(&file.span(), &at("lid_file"), message);
-                if !resolved.is_file() {
-                    return Err(file_error(format!(
-                        "photometric file `{written}` not found (resolved to `{}`)",
-                        resolved.display()
-                    )));
-                }
-                let lid = read_lid_file(&resolved).map_err(|e| match e {
-                    Error::Input(inner) if inner.place.is_empty() => {
-                        file_error(format!("photometric file `{written}`: {}", inner.message))
-                    }
-                    Error::Input(inner) => {
-                        file_error(format!("photometric file `{written}`: {}: {}", inner.place, inner.message))
-                    }
-                    internal @ Error::Internal(_) => internal,
-                })?;
-                let source = LidSource::File {
-                    path: resolved,
-                    asymmetry: lid.asymmetry,
-                };
-                (lid.curve, source)
-            }
+            (None, Some(file)) => self.lid_file(file, &at("lid_file"))?,
         };
-
         let order = match &spec.order {
             Some(o) if !(0..=MAX_ORDER).contains(o.get_ref()) => {
                 let message = format!("order {} must be between 0 and {MAX_ORDER}", o.get_ref());
@@ -386,6 +386,87 @@ impl Loader<'_> {
         })
     }
 
+    /// A light position: strictly inside the room, in no box and no OBJ's bounds.
+    fn light_position(
+        &self,
+        spec: &Spanned<Vec3Spec>,
+        field: &str,
+        room_size: DVec3,
+        boxes: &[Aabb],
+        mesh_bounds: &[Aabb],
+    ) -> Result<DVec3> {
+        let position = self.vector(spec, field)?;
+        let message = if !(position.cmpgt(DVec3::ZERO).all() && position.cmplt(room_size).all()) {
+            format!(
+                "the light at {:?} must be strictly inside the room (0, 0, 0) to {:?}",
+                position.to_array(),
+                room_size.to_array()
+            )
+        } else if let Some(b) = boxes.iter().position(|b| b.contains_strictly(position)) {
+            format!("the light is inside box[{b}]")
+        } else if let Some(m) = mesh_bounds.iter().position(|b| b.contains_strictly(position)) {
+            format!("the light is inside the bounds of mesh[{m}]")
+        } else {
+            return Ok(position);
+        };
+        Err(self.error(&spec.span(), field, message))
+    }
+
+    /// The unit aim axis from `aim` (a target) or `aim_dir`; straight down when neither is given.
+    fn aim(&self, spec: &LightSpec, position: DVec3, field: &str) -> Result<(DVec3, AimSpec)> {
+        match (&spec.aim, &spec.aim_dir) {
+            (Some(_), Some(dir)) => {
+                let message = "give either `aim` or `aim_dir`, not both";
+                Err(self.error(&dir.span(), &format!("{field}.aim_dir"), message))
+            }
+            (Some(target), None) => {
+                let point = self.vector(target, &format!("{field}.aim"))?;
+                if point == position {
+                    let message = "the aim target is the light's own position";
+                    return Err(self.error(&target.span(), &format!("{field}.aim"), message));
+                }
+                Ok(((point - position).normalize(), AimSpec::Target(point)))
+            }
+            (None, Some(dir)) => {
+                let d = self.vector(dir, &format!("{field}.aim_dir"))?;
+                if d.length_squared() == 0.0 {
+                    let message = "the aim direction is zero";
+                    return Err(self.error(&dir.span(), &format!("{field}.aim_dir"), message));
+                }
+                Ok((d.normalize(), AimSpec::Direction(d.normalize())))
+            }
+            (None, None) => Ok((DVec3::NEG_Z, AimSpec::Direction(DVec3::NEG_Z))),
+        }
+    }
+
+    /// A curve from a photometric file, resolved against the room file's directory.
+    fn lid_file(&self, file: &Spanned<String>, field: &str) -> Result<(Curve, LidSource)> {
+        let written = file.get_ref();
+        let resolved = self.resolve(written);
+        let file_error = |message: String| self.error(&file.span(), field, message);
+        if !resolved.is_file() {
+            return Err(file_error(format!(
+                "photometric file `{written}` not found (resolved to `{}`)",
+                resolved.display()
+            )));
+        }
+        let lid = read_lid_file(&resolved).map_err(|e| match e {
+            Error::Input(inner) if inner.place.is_empty() => {
+                file_error(format!("photometric file `{written}`: {}", inner.message))
+            }
+            Error::Input(inner) => file_error(format!(
+                "photometric file `{written}`: {}: {}",
+                inner.place, inner.message
+            )),
+            internal @ Error::Internal(_) => internal,
+        })?;
+        let source = LidSource::File {
+            path: resolved,
+            asymmetry: lid.asymmetry,
+        };
+        Ok((lid.curve, source))
+    }
+
     fn settings(&self, spec: &SettingsSpec) -> Result<Settings> {
         let defaults = Settings::default();
         let positive = |value: &Option<Spanned<f64>>, name: &str, default: f64| match value {
@@ -399,7 +480,11 @@ impl Loader<'_> {
         }
         Ok(Settings {
             patch_size: positive(&spec.patch_size, "patch_size", defaults.patch_size)?,
-            solver_patch_size: positive(&spec.solver_patch_size, "solver_patch_size", defaults.solver_patch_size)?,
+            solver_patch_size: positive(
+                &spec.solver_patch_size,
+                "solver_patch_size",
+                defaults.solver_patch_size,
+            )?,
             direct: match spec.direct {
                 Some(DirectSpec::Exact) => DirectMode::Exact,
                 Some(DirectSpec::Basis) => DirectMode::Basis,
@@ -414,13 +499,21 @@ impl Loader<'_> {
         let eye = self.vector(&spec.eye, "camera.eye")?;
         let target = self.vector(&spec.target, "camera.target")?;
         if eye == target {
-            return Err(self.error(&spec.target.span(), "camera.target", "the camera target is the eye position"));
+            return Err(self.error(
+                &spec.target.span(),
+                "camera.target",
+                "the camera target is the eye position",
+            ));
         }
         let fov_deg = match &spec.fov_deg {
             Some(f) => {
                 let fov = *f.get_ref();
                 if !(fov > 0.0 && fov < 180.0) {
-                    return Err(self.error(&f.span(), "camera.fov_deg", format!("{fov}° must be between 0 and 180")));
+                    return Err(self.error(
+                        &f.span(),
+                        "camera.fov_deg",
+                        format!("{fov}° must be between 0 and 180"),
+                    ));
                 }
                 fov
             }
@@ -430,12 +523,12 @@ impl Loader<'_> {
     }
 }
 
-/// Eye near the (0, 0) corner at 1.6 m (or 60 % of the height in low rooms), looking at the
-/// centre of the room.
+/// Eye near the (0, 0) corner (10 % of the room in, at most 0.5 m) at 1.6 m (80 % of the
+/// height in rooms lower than 2 m), looking at the centre of the room.
 fn default_camera(room_size: DVec3) -> Camera {
     let corner = (room_size * 0.1).min(DVec3::splat(0.5));
     Camera {
-        eye: DVec3::new(corner.x, corner.y, (0.6 * room_size.z).min(1.6)),
+        eye: DVec3::new(corner.x, corner.y, (0.8 * room_size.z).min(1.6)),
         target: room_size * 0.5,
         fov_deg: DEFAULT_FOV_DEG,
     }

@@ -143,8 +143,15 @@ pub fn layout(geometry: &Geometry) -> Vec<SurfaceLayout> {
             shape: Shape::Rect(rect),
         });
     }
-    let box_faces = [("x0", 0, false), ("x1", 0, true), ("y0", 1, false), ("y1", 1, true)];
-    let box_faces = box_faces.into_iter().chain([("bottom", 2, false), ("top", 2, true)]);
+    let box_faces = [
+        ("x0", 0, false),
+        ("x1", 0, true),
+        ("y0", 1, false),
+        ("y1", 1, true),
+    ];
+    let box_faces = box_faces
+        .into_iter()
+        .chain([("bottom", 2, false), ("top", 2, true)]);
     for (box_index, b) in geometry.boxes.iter().enumerate() {
         for (suffix, axis, facing_positive) in box_faces.clone() {
             let offset = if facing_positive { b.max[axis] } else { b.min[axis] };
@@ -189,7 +196,7 @@ pub fn mesh(
             Shape::Triangles(index) => triangle_vertex_bound(&geometry.meshes[index], size),
         })
         .sum();
-    if !(estimated <= max_vertices as f64) {
+    if estimated > max_vertices as f64 {
         return Err(TooManyVertices { estimated });
     }
     let mut out = PatchMesh::default();
@@ -223,7 +230,11 @@ fn breakpoints(geometry: &Geometry, rect: &AxisRect) -> [Vec<f64>; 2] {
         let (lo, hi) = (rect.min[k], rect.max[k]);
         let mut breaks = vec![lo, hi];
         for b in &near {
-            breaks.extend([b.min[world_axis], b.max[world_axis]].into_iter().filter(|&x| lo < x && x < hi));
+            breaks.extend(
+                [b.min[world_axis], b.max[world_axis]]
+                    .into_iter()
+                    .filter(|&x| lo < x && x < hi),
+            );
         }
         breaks.sort_by(f64::total_cmp);
         breaks.dedup_by(|a, b| (*a - *b).abs() <= eps);
@@ -240,7 +251,10 @@ fn cells_between(a: f64, b: f64, size: f64) -> f64 {
 /// Number of grid lines along u and v (without building them).
 fn line_counts(geometry: &Geometry, rect: &AxisRect, size: f64) -> [f64; 2] {
     breakpoints(geometry, rect).map(|breaks| {
-        1.0 + breaks.windows(2).map(|w| cells_between(w[0], w[1], size)).sum::<f64>()
+        1.0 + breaks
+            .windows(2)
+            .map(|w| cells_between(w[0], w[1], size))
+            .sum::<f64>()
     })
 }
 
@@ -268,13 +282,15 @@ fn kept_cells<'a>(
     let eps = epsilon(geometry);
     let offset = rect.normal() * eps;
     let (nu, nv) = (lines[0].len() - 1, lines[1].len() - 1);
-    (0..nv).flat_map(move |j| (0..nu).map(move |i| (i, j))).filter(move |&(i, j)| {
-        let u = 0.5 * (lines[0][i] + lines[0][i + 1]);
-        let v = 0.5 * (lines[1][j] + lines[1][j + 1]);
-        let p = rect.point(u, v) + offset;
-        let in_room = p.cmpgt(DVec3::ZERO).all() && p.cmplt(geometry.room_size).all();
-        in_room && !geometry.boxes.iter().any(|b| b.contains_strictly(p))
-    })
+    (0..nv)
+        .flat_map(move |j| (0..nu).map(move |i| (i, j)))
+        .filter(move |&(i, j)| {
+            let u = 0.5 * (lines[0][i] + lines[0][i + 1]);
+            let v = 0.5 * (lines[1][j] + lines[1][j + 1]);
+            let p = rect.point(u, v) + offset;
+            let in_room = p.cmpgt(DVec3::ZERO).all() && p.cmplt(geometry.room_size).all();
+            in_room && !geometry.boxes.iter().any(|b| b.contains_strictly(p))
+        })
 }
 
 fn mesh_rect(geometry: &Geometry, rect: &AxisRect, size: f64, surface: u32, out: &mut PatchMesh) {
@@ -333,17 +349,20 @@ fn triangle_vertex_bound(surface: &TriangleSurface, size: f64) -> f64 {
         .sum()
 }
 
-/// Identity of a vertex within one surface: an OBJ corner in one plane orientation, or a point
-/// at the reduced fraction `num / den` along the edge between two such corners (lower id first).
+/// Identity of a vertex within one surface: an OBJ corner in one plane orientation, a point at
+/// the reduced fraction `num / den` along the edge between two such corners (lower id first), or
+/// a point inside one OBJ triangle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 enum VertexKey {
     Corner { normal: [i64; 3], position: [u64; 3] },
     Edge { from: u32, to: u32, num: u64, den: u64 },
+    Interior { triangle: usize, i: u64, j: u64 },
 }
 
 /// Adds a subdivided OBJ surface. Vertices are shared between triangles of the same plane
 /// orientation (normals equal to 1e-6); a crease splits them, as a floor/wall edge does, so each
-/// vertex normal is exactly the normal of the faces using it.
+/// vertex normal is exactly the normal of the faces using it. Neighbouring triangles split to
+/// different levels share the coarser one's edge vertices (a T-junction, no gap).
 fn mesh_triangles(surface: &TriangleSurface, size: f64, surface_id: u32, out: &mut PatchMesh) {
     let mut ids: HashMap<VertexKey, u32> = HashMap::new();
     let mut vertex = |key: VertexKey, position: DVec3, normal: DVec3, out: &mut PatchMesh| {
@@ -354,72 +373,65 @@ fn mesh_triangles(surface: &TriangleSurface, size: f64, surface_id: u32, out: &m
             out.positions.len() as u32 - 1
         })
     };
-    for tri in &surface.triangles {
+    for (triangle, tri) in surface.triangles.iter().enumerate() {
         let p = tri.map(|i| surface.positions[i as usize]);
         let cross = (p[1] - p[0]).cross(p[2] - p[0]);
         let normal = cross.normalize();
         let normal_key = (normal * 1e6).round().as_i64vec3().to_array();
         let corner = p.map(|q| {
-            let key = VertexKey::Corner {
-                normal: normal_key,
-                position: q.to_array().map(f64::to_bits),
-            };
-            vertex(key, q, normal, out)
+            let position = q.to_array().map(f64::to_bits);
+            vertex(
+                VertexKey::Corner {
+                    normal: normal_key,
+                    position,
+                },
+                q,
+                normal,
+                out,
+            )
         });
         let n = subdivisions(p, size);
         // Grid point (i, j) is p0 + (i/n)(p1 − p0) + (j/n)(p2 − p0).
         let mut grid = |i: u64, j: u64, out: &mut PatchMesh| -> u32 {
-            let edge = match (i, j) {
+            let (a, b, steps) = match (i, j) {
                 (0, 0) => return corner[0],
                 (_, 0) if i == n => return corner[1],
                 (0, _) if j == n => return corner[2],
-                (_, 0) => Some((0, 1, i)),
-                (0, _) => Some((0, 2, j)),
-                _ if i + j == n => Some((1, 2, j)),
-                _ => None,
+                (_, 0) => (0, 1, i),
+                (0, _) => (0, 2, j),
+                _ if i + j == n => (1, 2, j),
+                _ => {
+                    let (s, t) = (i as f64 / n as f64, j as f64 / n as f64);
+                    let q = p[0] + s * (p[1] - p[0]) + t * (p[2] - p[0]);
+                    return vertex(VertexKey::Interior { triangle, i, j }, q, normal, out);
+                }
             };
-            match edge {
-                Some((a, b, steps)) => {
-                    let (from, to, steps) = if corner[a] < corner[b] {
-                        (a, b, steps)
-                    } else {
-                        (b, a, n - steps)
-                    };
-                    let shift = steps.trailing_zeros().min(n.trailing_zeros());
-                    let (num, den) = (steps >> shift, n >> shift);
-                    let t = num as f64 / den as f64;
-                    let key = VertexKey::Edge {
-                        from: corner[from],
-                        to: corner[to],
-                        num,
-                        den,
-                    };
-                    vertex(key, p[from] + t * (p[to] - p[from]), normal, out)
-                }
-                None => {
-                    let q = p[0] + (i as f64 / n as f64) * (p[1] - p[0]) + (j as f64 / n as f64) * (p[2] - p[0]);
-                    out.positions.push(q);
-                    out.normals.push(normal);
-                    out.vertex_surface.push(surface_id);
-                    out.positions.len() as u32 - 1
-                }
-            }
+            // On an edge: computed from its lower-id end so both triangles get the same point.
+            let (from, to, steps) = if corner[a] < corner[b] {
+                (a, b, steps)
+            } else {
+                (b, a, n - steps)
+            };
+            let shift = steps.trailing_zeros().min(n.trailing_zeros());
+            let (num, den) = (steps >> shift, n >> shift);
+            let q = p[from] + (num as f64 / den as f64) * (p[to] - p[from]);
+            let key = VertexKey::Edge {
+                from: corner[from],
+                to: corner[to],
+                num,
+                den,
+            };
+            vertex(key, q, normal, out)
         };
         let area = 0.5 * cross.length() / (n * n) as f64;
-        let mut row_ids: HashMap<(u64, u64), u32> = HashMap::new();
-        let mut at = |i: u64, j: u64, out: &mut PatchMesh| *row_ids.entry((i, j)).or_insert_with(|| grid(i, j, out));
         for i in 0..n {
             for j in 0..n - i {
-                let mut small = vec![[(i, j), (i + 1, j), (i, j + 1)]];
-                if i + j + 1 < n {
-                    small.push([(i + 1, j), (i + 1, j + 1), (i, j + 1)]);
-                }
-                for corners in small {
-                    let v = corners.map(|(a, b)| at(a, b, out));
-                    let centroid = (out.positions[v[0] as usize]
-                        + out.positions[v[1] as usize]
-                        + out.positions[v[2] as usize])
-                        / 3.0;
+                let up = [(i, j), (i + 1, j), (i, j + 1)];
+                let down = [(i + 1, j), (i + 1, j + 1), (i, j + 1)];
+                let has_down = i + j + 1 < n;
+                for small in std::iter::once(up).chain(has_down.then_some(down)) {
+                    let v = small.map(|(a, b)| grid(a, b, out));
+                    let centroid = v.iter().map(|&k| out.positions[k as usize]).sum::<DVec3>() / 3.0;
                     out.patches.push(Patch {
                         vertices: [v[0], v[1], v[2], v[2]],
                         n_vertices: 3,

@@ -59,9 +59,9 @@ pub fn read_obj(path: &Path, mesh_index: usize, placement: &Placement) -> Result
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
-    let (models, materials) = tobj::load_obj(path, &options).map_err(|e| format!("cannot read the OBJ: {e}"))?;
+    let (models, materials) =
+        tobj::load_obj(path, &options).map_err(|e| format!("cannot read the OBJ: {e}"))?;
     let materials = materials.map_err(|e| format!("cannot read its material library (mtllib): {e}"))?;
     let mut surfaces = Vec::with_capacity(models.len());
     let mut faces_before = 0;
@@ -121,9 +121,17 @@ fn material_reflectance(material: Option<&tobj::Material>) -> Result<Reflectance
     Ok(Reflectance(kd))
 }
 
-/// Fan-triangulates the faces of `mesh`, each triangle tagged with its 1-based face number in
-/// the file; returns the triangles and the number of faces.
-fn triangulate(mesh: &tobj::Mesh, faces_before: usize) -> Result<(Vec<([u32; 3], usize)>, usize), String> {
+/// A triangle of a face's fan.
+struct FanTriangle {
+    /// Vertex indices into the model's positions.
+    vertices: [u32; 3],
+    /// The face's 1-based number in the file.
+    face: usize,
+}
+
+/// Fan-triangulates the faces of `mesh` (numbered from `faces_before + 1`); returns the
+/// triangles and the number of faces.
+fn triangulate(mesh: &tobj::Mesh, faces_before: usize) -> Result<(Vec<FanTriangle>, usize), String> {
     let arities: Vec<usize> = if mesh.face_arities.is_empty() {
         vec![3; mesh.indices.len() / 3]
     } else {
@@ -136,37 +144,41 @@ fn triangulate(mesh: &tobj::Mesh, faces_before: usize) -> Result<(Vec<([u32; 3],
         let Some(ids) = mesh.indices.get(start..start + arity) else {
             return Err(format!("face {face}: refers to missing vertices"));
         };
-        triangles.extend((2..arity).map(|c| ([ids[0], ids[c - 1], ids[c]], face)));
+        triangles.extend((2..arity).map(|c| FanTriangle {
+            vertices: [ids[0], ids[c - 1], ids[c]],
+            face,
+        }));
         start += arity;
     }
     Ok((triangles, arities.len()))
 }
 
-/// Drops zero-area triangles of a polygon fan, but rejects a face whose total area is below
-/// [`MIN_FACE_AREA`].
+/// Drops zero-area triangles of a polygon fan, but rejects a face whose total area is not a
+/// finite number of at least [`MIN_FACE_AREA`].
 fn reject_degenerate(
     positions: &[DVec3],
-    triangles: Vec<([u32; 3], usize)>,
+    triangles: Vec<FanTriangle>,
     object: &str,
 ) -> Result<Vec<[u32; 3]>, String> {
-    let area = |t: &[u32; 3]| {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
+    let area = |t: &FanTriangle| {
+        let [a, b, c] = t.vertices.map(|i| positions[i as usize]);
         0.5 * (b - a).cross(c - a).length()
     };
     let mut kept = Vec::with_capacity(triangles.len());
-    let mut k = 0;
-    while k < triangles.len() {
-        let face = triangles[k].1;
-        let end = k + triangles[k..].iter().take_while(|t| t.1 == face).count();
-        let face_area: f64 = triangles[k..end].iter().map(|t| area(&t.0)).sum();
-        if !(face_area >= MIN_FACE_AREA) {
+    for face in triangles.chunk_by(|a, b| a.face == b.face) {
+        let face_area: f64 = face.iter().map(area).sum();
+        if !face_area.is_finite() || face_area < MIN_FACE_AREA {
             return Err(format!(
-                "face {face} (object `{object}`) is degenerate: area {face_area:.3e} m² after \
-                 placement (below {MIN_FACE_AREA:e} m²)"
+                "face {} (object `{object}`) is degenerate: area {face_area:.3e} m² after placement \
+                 (it must be finite and at least {MIN_FACE_AREA:e} m²)",
+                face[0].face
             ));
         }
-        kept.extend(triangles[k..end].iter().filter(|t| area(&t.0) >= MIN_FACE_AREA).map(|t| t.0));
-        k = end;
+        kept.extend(
+            face.iter()
+                .filter(|t| area(t) >= MIN_FACE_AREA)
+                .map(|t| t.vertices),
+        );
     }
     Ok(kept)
 }

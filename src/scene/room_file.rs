@@ -61,7 +61,10 @@ pub struct RoomReflectanceSpec {
 
 /// A reflectance: a number (grey) or `[r, g, b]`, each in 0..0.98.
 #[derive(Debug, Clone, Copy, Deserialize)]
-#[serde(untagged, expecting = "a reflectance: a number or [r, g, b]")]
+#[serde(
+    untagged,
+    expecting = "expected a reflectance: a number or [r, g, b], each in 0..0.98"
+)]
 pub enum ReflectanceSpec {
     /// One value for all channels.
     Grey(f64),

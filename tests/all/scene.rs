@@ -24,7 +24,12 @@ fn aabb(min: [f64; 3], max: [f64; 3]) -> Aabb {
 }
 
 /// Lays out and meshes a room with `boxes` at `size`, returning surface names and the mesh.
-fn mesh_room(room: [f64; 3], boxes: &[Aabb], meshes: &[TriangleSurface], size: f64) -> (Vec<String>, PatchMesh) {
+fn mesh_room(
+    room: [f64; 3],
+    boxes: &[Aabb],
+    meshes: &[TriangleSurface],
+    size: f64,
+) -> (Vec<String>, PatchMesh) {
     let geometry = Geometry {
         room_size: DVec3::from_array(room),
         boxes,
@@ -49,11 +54,18 @@ fn area_by_surface(names: &[String], mesh: &PatchMesh) -> HashMap<String, f64> {
 fn check_bundled(file: &str, n_lights: usize) -> Scene {
     let scene = load(&rooms_dir().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
     assert_eq!(scene.lights.len(), n_lights, "{file}");
-    assert!(scene.fine.n_vertices() < 20_000, "{file}: {} fine vertices", scene.fine.n_vertices());
+    assert!(
+        scene.fine.n_vertices() < 20_000,
+        "{file}: {} fine vertices",
+        scene.fine.n_vertices()
+    );
     assert!(scene.coarse.patches.len() < scene.fine.patches.len(), "{file}");
     // Fine and coarse meshes cover the same surfaces with the same total area.
     let total = |m: &PatchMesh| m.patches.iter().map(|p| p.area).sum::<f64>();
-    assert!((total(&scene.fine) - total(&scene.coarse)).abs() < 1e-9 * total(&scene.fine), "{file}");
+    assert!(
+        (total(&scene.fine) - total(&scene.coarse)).abs() < 1e-9 * total(&scene.fine),
+        "{file}"
+    );
     scene
 }
 
@@ -72,16 +84,35 @@ fn paper_room_loads_as_in_the_paper() {
 #[test]
 fn gallery_white_box_and_sculpture_rooms_load() {
     let gallery = check_bundled("gallery.toml", 4);
-    assert!(gallery.surfaces.iter().any(|s| s.name == "floor" && s.reflectance == Reflectance::grey(0.08)));
+    assert!(
+        gallery
+            .surfaces
+            .iter()
+            .any(|s| s.name == "floor" && s.reflectance == Reflectance::grey(0.08))
+    );
     let white = check_bundled("white-box.toml", 1);
-    assert!(white.surfaces.iter().all(|s| s.reflectance == Reflectance::grey(0.95)));
+    assert!(
+        white
+            .surfaces
+            .iter()
+            .all(|s| s.reflectance == Reflectance::grey(0.95))
+    );
     let sculpture = check_bundled("sculpture.toml", 2);
     let names: Vec<&str> = sculpture.surfaces.iter().map(|s| s.name.as_str()).collect();
-    assert!(names.contains(&"mesh0:plinth") && names.contains(&"mesh0:sculpture"), "{names:?}");
+    assert!(
+        names.contains(&"mesh0:plinth") && names.contains(&"mesh0:sculpture"),
+        "{names:?}"
+    );
     // The plinth is 0.6 × 0.6 × 1.0 m, centred at (2.5, 2.5) on the floor.
     let bounds = sculpture.mesh_bounds[0];
-    assert!((bounds.min - DVec3::new(2.2, 2.2, 0.0)).length() < 1e-6, "{bounds:?}");
-    assert!((bounds.max - DVec3::new(2.8, 2.8, 1.6)).length() < 1e-6, "{bounds:?}");
+    assert!(
+        (bounds.min - DVec3::new(2.2, 2.2, 0.0)).length() < 1e-6,
+        "{bounds:?}"
+    );
+    assert!(
+        (bounds.max - DVec3::new(2.8, 2.8, 1.6)).length() < 1e-6,
+        "{bounds:?}"
+    );
 }
 
 /// Needs the EULUMDAT reader (lidfile work); fails until that is merged.
@@ -96,7 +127,12 @@ fn office_loads_with_its_eulumdat_downlights() {
     // No floor patch under the four desks or the cabinet.
     let floor = scene.surfaces.iter().position(|s| s.name == "floor").unwrap() as u32;
     for p in scene.fine.patches.iter().filter(|p| p.surface == floor) {
-        assert!(!scene.boxes.iter().any(|b| b.contains_strictly(p.centroid + DVec3::Z * 1e-6)));
+        assert!(
+            !scene
+                .boxes
+                .iter()
+                .any(|b| b.contains_strictly(p.centroid + DVec3::Z * 1e-6))
+        );
     }
 }
 
@@ -163,7 +199,11 @@ fn patch_areas_per_surface_equal_the_analytic_areas() {
         assert_eq!(got, expected.keys().copied().collect(), "size {size}");
         let areas = area_by_surface(&names, &mesh);
         for (name, area) in &expected {
-            assert!((areas[*name] - area).abs() < TOL, "size {size}: {name} {} ≠ {area}", areas[*name]);
+            assert!(
+                (areas[*name] - area).abs() < TOL,
+                "size {size}: {name} {} ≠ {area}",
+                areas[*name]
+            );
         }
     }
 }
@@ -173,16 +213,26 @@ fn no_floor_patch_overlaps_a_box_standing_on_the_floor() {
     let boxes = furnished();
     let (names, mesh) = mesh_room([6.0, 4.0, 2.7], &boxes, &[], 0.15);
     let mut floor_patches = 0;
-    for p in mesh.patches.iter().filter(|p| names[p.surface as usize] == "floor") {
+    for p in mesh
+        .patches
+        .iter()
+        .filter(|p| names[p.surface as usize] == "floor")
+    {
         floor_patches += 1;
-        let (lo, hi) = p.vertex_ids().iter().map(|&v| mesh.positions[v as usize]).fold(
-            (DVec3::INFINITY, DVec3::NEG_INFINITY),
-            |(lo, hi), q| (lo.min(q), hi.max(q)),
-        );
+        let (lo, hi) = p
+            .vertex_ids()
+            .iter()
+            .map(|&v| mesh.positions[v as usize])
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| {
+                (lo.min(q), hi.max(q))
+            });
         for b in &boxes[..2] {
             let overlap_x = lo.x < b.max.x - TOL && hi.x > b.min.x + TOL;
             let overlap_y = lo.y < b.max.y - TOL && hi.y > b.min.y + TOL;
-            assert!(!(overlap_x && overlap_y), "floor patch {lo} – {hi} under box {b:?}");
+            assert!(
+                !(overlap_x && overlap_y),
+                "floor patch {lo} – {hi} under box {b:?}"
+            );
         }
     }
     assert!(floor_patches > 0);
@@ -210,7 +260,10 @@ fn normals_face_into_the_room_and_out_of_boxes() {
             assert_eq!(p.normal, *n, "{name}");
         } else {
             let index: usize = name[3..name.find('-').unwrap()].parse().unwrap();
-            assert!(boxes[index].contains_strictly(behind), "{name}: {behind} not inside its box");
+            assert!(
+                boxes[index].contains_strictly(behind),
+                "{name}: {behind} not inside its box"
+            );
             assert!(!boxes[index].contains_strictly(ahead), "{name}");
         }
     }
@@ -230,7 +283,11 @@ fn patches_are_planar_counter_clockwise_and_consistent() {
     };
     let (_, mesh) = mesh_room([6.0, 4.0, 2.7], &furnished(), &[obj], 0.3);
     for p in &mesh.patches {
-        let v: Vec<DVec3> = p.vertex_ids().iter().map(|&i| mesh.positions[i as usize]).collect();
+        let v: Vec<DVec3> = p
+            .vertex_ids()
+            .iter()
+            .map(|&i| mesh.positions[i as usize])
+            .collect();
         // Signed area vector (shoelace / Newell): points along the normal, its length is the area.
         let mut twice_area = DVec3::ZERO;
         for k in 1..v.len() - 1 {
@@ -293,7 +350,11 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 #[test]
 fn obj_y_up_becomes_z_up_then_scale_then_translate() {
     let dir = tempfile::tempdir().unwrap();
-    let obj = write(dir.path(), "tri.obj", "v 0.1 0.2 -0.3\nv 0.5 0.2 -0.3\nv 0.1 0.6 -0.3\nf 1 2 3\n");
+    let obj = write(
+        dir.path(),
+        "tri.obj",
+        "v 0.1 0.2 -0.3\nv 0.5 0.2 -0.3\nv 0.1 0.6 -0.3\nf 1 2 3\n",
+    );
     let placement = Placement {
         up: UpAxis::Y,
         scale: 2.0,
@@ -323,7 +384,11 @@ fn obj_y_up_becomes_z_up_then_scale_then_translate() {
 #[test]
 fn mtl_kd_becomes_the_surface_reflectance() {
     let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "m.mtl", "newmtl stone\nKd 0.3 0.3 0.3\nnewmtl brass\nKd 0.6 0.4 0.2\n");
+    write(
+        dir.path(),
+        "m.mtl",
+        "newmtl stone\nKd 0.3 0.3 0.3\nnewmtl brass\nKd 0.6 0.4 0.2\n",
+    );
     let obj = "mtllib m.mtl\nv 1 0 -1\nv 2 0 -1\nv 1 1 -1\nv 1 0 -2\nv 2 0 -2\nv 1 1 -2\nv 1 0 -3\nv 2 0 -3\nv 1 1 -3\n\
                o c\nf 7 8 9\no a\nusemtl stone\nf 1 2 3\no b\nusemtl brass\nf 4 5 6\n";
     // `c` comes before any `usemtl` (a material stays active across `o` lines, as in OBJ).
@@ -335,8 +400,11 @@ fn mtl_kd_becomes_the_surface_reflectance() {
          [[mesh]]\nfile = \"m.obj\"\n",
     );
     let scene = load(&room).unwrap();
-    let by_name: HashMap<&str, Reflectance> =
-        scene.surfaces.iter().map(|s| (s.name.as_str(), s.reflectance)).collect();
+    let by_name: HashMap<&str, Reflectance> = scene
+        .surfaces
+        .iter()
+        .map(|s| (s.name.as_str(), s.reflectance))
+        .collect();
     assert_eq!(by_name["mesh0:a"], Reflectance::grey(0.3));
     assert!(by_name["mesh0:a"].is_grey());
     assert_eq!(by_name["mesh0:b"], Reflectance([0.6, 0.4, 0.2]));
@@ -353,21 +421,37 @@ fn subdivision_keeps_the_area_and_shares_edge_vertices() {
     let triangle = TriangleSurface {
         name: "mesh0:t".into(),
         mesh_index: 0,
-        positions: vec![DVec3::new(1.0, 1.0, 1.0), DVec3::new(3.0, 1.0, 1.0), DVec3::new(1.0, 3.0, 1.0)],
+        positions: vec![
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(3.0, 1.0, 1.0),
+            DVec3::new(1.0, 3.0, 1.0),
+        ],
         triangles: vec![[0, 1, 2]],
     };
     let (names, mesh) = mesh_room([4.0, 4.0, 3.0], &[], std::slice::from_ref(&triangle), 0.3);
-    let patches: Vec<_> = mesh.patches.iter().filter(|p| names[p.surface as usize] == "mesh0:t").collect();
+    let patches: Vec<_> = mesh
+        .patches
+        .iter()
+        .filter(|p| names[p.surface as usize] == "mesh0:t")
+        .collect();
     assert_eq!(patches.len(), 256);
     assert!((patches.iter().map(|p| p.area).sum::<f64>() - 2.0).abs() < 1e-12);
     for p in &patches {
-        let v: Vec<DVec3> = p.vertex_ids().iter().map(|&i| mesh.positions[i as usize]).collect();
+        let v: Vec<DVec3> = p
+            .vertex_ids()
+            .iter()
+            .map(|&i| mesh.positions[i as usize])
+            .collect();
         for k in 0..3 {
             assert!(v[k].distance(v[(k + 1) % 3]) <= 0.3);
         }
         assert_eq!(p.normal, DVec3::Z);
     }
-    let n_obj_vertices = mesh.vertex_surface.iter().filter(|&&s| names[s as usize] == "mesh0:t").count();
+    let n_obj_vertices = mesh
+        .vertex_surface
+        .iter()
+        .filter(|&&s| names[s as usize] == "mesh0:t")
+        .count();
     assert_eq!(n_obj_vertices, 153);
     // A 1 m square as two triangles: √2 / 0.3 → 8 segments; the two 45-vertex triangles share
     // the 9 vertices of their diagonal: a 9 × 9 grid.
@@ -383,7 +467,11 @@ fn subdivision_keeps_the_area_and_shares_edge_vertices() {
         triangles: vec![[0, 1, 2], [0, 2, 3]],
     };
     let (names, mesh) = mesh_room([4.0, 4.0, 3.0], &[], &[square], 0.3);
-    let n = mesh.vertex_surface.iter().filter(|&&s| names[s as usize] == "mesh0:sq").count();
+    let n = mesh
+        .vertex_surface
+        .iter()
+        .filter(|&&s| names[s as usize] == "mesh0:sq")
+        .count();
     assert_eq!(n, 81);
 }
 
@@ -428,6 +516,12 @@ fn the_good_room_used_by_the_bad_input_tests_loads() {
     let scene = load(&write(dir.path(), "good.toml", GOOD_ROOM)).unwrap();
     assert_eq!(scene.lights[0].aim, DVec3::NEG_Z); // default aim_dir
     assert_eq!(scene.name, "good");
+    // Default camera: 10 % into the room from the (0, 0) corner, eye height 1.6 m, looking at
+    // the room centre.
+    assert!((scene.camera.eye - DVec3::new(0.4, 0.3, 1.6)).length() < 1e-12);
+    assert!((scene.camera.target - DVec3::new(2.0, 1.5, 1.25)).length() < 1e-12);
+    assert_eq!(scene.camera.fov_deg, 60.0);
+    assert_eq!(scene.settings, haiko::scene::Settings::default());
 }
 
 #[test]
@@ -444,20 +538,32 @@ fn unknown_field_is_rejected() {
 
 #[test]
 fn wrong_type_is_rejected() {
-    let m = load_error(&GOOD_ROOM.replace("size = [4.0, 3.0, 2.5]", "size = \"big\""), &[]);
+    let m = load_error(
+        &GOOD_ROOM.replace("size = [4.0, 3.0, 2.5]", "size = \"big\""),
+        &[],
+    );
     assert!(m.contains("line 3"), "{m}");
 }
 
 #[test]
 fn reflectance_at_098_is_rejected_with_the_reason() {
     let m = load_error(&GOOD_ROOM.replace("walls = 0.5", "walls = 0.98"), &[]);
-    assert!(m.contains("line 6, column 9 (room.reflectance.walls)") && m.contains("singular"), "{m}");
+    assert!(
+        m.contains("line 6, column 9 (room.reflectance.walls)") && m.contains("singular"),
+        "{m}"
+    );
 }
 
 #[test]
 fn negative_reflectance_is_rejected() {
-    let m = load_error(&GOOD_ROOM.replace("ceiling = 0.7", "ceiling = [0.7, -0.1, 0.7]"), &[]);
-    assert!(m.contains("line 7") && m.contains("room.reflectance.ceiling"), "{m}");
+    let m = load_error(
+        &GOOD_ROOM.replace("ceiling = 0.7", "ceiling = [0.7, -0.1, 0.7]"),
+        &[],
+    );
+    assert!(
+        m.contains("line 7") && m.contains("room.reflectance.ceiling"),
+        "{m}"
+    );
 }
 
 #[test]
@@ -469,12 +575,16 @@ fn nan_is_rejected() {
 #[test]
 fn light_outside_the_room_is_rejected() {
     let m = load_error(&GOOD_ROOM.replace("[2.0, 1.5, 2.4]", "[2.0, 1.5, 2.6]"), &[]);
-    assert!(m.contains("light[0].position") && m.contains("inside the room"), "{m}");
+    assert!(
+        m.contains("light[0].position") && m.contains("inside the room"),
+        "{m}"
+    );
 }
 
 #[test]
 fn light_inside_a_box_is_rejected() {
-    let text = format!("{GOOD_ROOM}[[box]]\nmin = [1.5, 1.0, 2.0]\nmax = [2.5, 2.0, 2.5]\nreflectance = 0.3\n");
+    let text =
+        format!("{GOOD_ROOM}[[box]]\nmin = [1.5, 1.0, 2.0]\nmax = [2.5, 2.0, 2.5]\nreflectance = 0.3\n");
     let m = load_error(&text, &[]);
     assert!(m.contains("light[0].position") && m.contains("box[0]"), "{m}");
 }
@@ -482,14 +592,20 @@ fn light_inside_a_box_is_rejected() {
 #[test]
 fn missing_obj_names_the_path_written_and_resolved() {
     let m = load_error(&format!("{GOOD_ROOM}[[mesh]]\nfile = \"no/such.obj\"\n"), &[]);
-    assert!(m.contains("`no/such.obj`") && m.contains("resolved to") && m.contains("mesh[0].file"), "{m}");
+    assert!(
+        m.contains("`no/such.obj`") && m.contains("resolved to") && m.contains("mesh[0].file"),
+        "{m}"
+    );
 }
 
 #[test]
 fn missing_lid_file_names_the_path_written_and_resolved() {
     let text = GOOD_ROOM.replace("lid = [[0, 100], [90, 0]]", "lid_file = \"nowhere.ldt\"");
     let m = load_error(&text, &[]);
-    assert!(m.contains("`nowhere.ldt`") && m.contains("resolved to") && m.contains("light[0].lid_file"), "{m}");
+    assert!(
+        m.contains("`nowhere.ldt`") && m.contains("resolved to") && m.contains("light[0].lid_file"),
+        "{m}"
+    );
 }
 
 #[test]
@@ -497,14 +613,21 @@ fn degenerate_obj_face_names_the_obj_and_the_face() {
     let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
     let text = format!("{GOOD_ROOM}[[mesh]]\nfile = \"flat.obj\"\ntranslate = [0.5, 0.5, 0.0]\nup = \"z\"\n");
     let m = load_error(&text, &[("flat.obj", obj)]);
-    assert!(m.contains("flat.obj") && m.contains("face 2") && m.contains("degenerate"), "{m}");
+    assert!(
+        m.contains("flat.obj") && m.contains("face 2") && m.contains("degenerate"),
+        "{m}"
+    );
 }
 
 #[test]
 fn duplicate_light_name_is_rejected() {
-    let text = format!("{GOOD_ROOM}[[light]]\nname = \"a\"\nposition = [1.0, 1.0, 2.0]\nlid = [[0, 5], [90, 0]]\n");
+    let text =
+        format!("{GOOD_ROOM}[[light]]\nname = \"a\"\nposition = [1.0, 1.0, 2.0]\nlid = [[0, 5], [90, 0]]\n");
     let m = load_error(&text, &[]);
-    assert!(m.contains("line 14") && m.contains("light[1].name") && m.contains("light[0]"), "{m}");
+    assert!(
+        m.contains("line 14") && m.contains("light[1].name") && m.contains("light[0]"),
+        "{m}"
+    );
 }
 
 #[test]
@@ -517,5 +640,48 @@ fn decreasing_gamma_is_rejected_naming_the_point() {
 #[test]
 fn version_2_is_rejected() {
     let m = load_error(&GOOD_ROOM.replace("version = 1", "version = 2"), &[]);
-    assert!(m.contains("line 1, column 11 (version)") && m.contains("version 2"), "{m}");
+    assert!(
+        m.contains("line 1, column 11 (version)") && m.contains("version 2"),
+        "{m}"
+    );
+}
+
+#[test]
+fn light_without_a_curve_is_rejected() {
+    let m = load_error(&GOOD_ROOM.replace("lid = [[0, 100], [90, 0]]", ""), &[]);
+    assert!(m.contains("light[0]") && m.contains("needs a curve"), "{m}");
+}
+
+#[test]
+fn aim_and_aim_dir_together_or_a_zero_aim_dir_are_rejected() {
+    let both = GOOD_ROOM.replace("lid = ", "aim = [1, 1, 0]\naim_dir = [0, 0, -1]\nlid = ");
+    let m = load_error(&both, &[]);
+    assert!(
+        m.contains("line 13") && m.contains("light[0].aim_dir") && m.contains("not both"),
+        "{m}"
+    );
+    let m = load_error(&GOOD_ROOM.replace("lid = ", "aim_dir = [0, 0, 0]\nlid = "), &[]);
+    assert!(m.contains("light[0].aim_dir") && m.contains("zero"), "{m}");
+    let m = load_error(&GOOD_ROOM.replace("lid = ", "aim = [2.0, 1.5, 2.4]\nlid = "), &[]);
+    assert!(m.contains("light[0].aim") && m.contains("own position"), "{m}");
+}
+
+#[test]
+fn settings_out_of_range_are_rejected() {
+    let m = load_error(&format!("{GOOD_ROOM}[settings]\ntolerance = 0.6\n"), &[]);
+    assert!(m.contains("settings.tolerance"), "{m}");
+    let m = load_error(&format!("{GOOD_ROOM}[settings]\nsolver_patch_size = 0\n"), &[]);
+    assert!(m.contains("settings.solver_patch_size"), "{m}");
+    let m = load_error(&GOOD_ROOM.replace("lid = ", "order = 151\nlid = "), &[]);
+    assert!(m.contains("light[0].order") && m.contains("150"), "{m}");
+}
+
+#[test]
+fn too_fine_a_patch_size_is_refused_before_meshing() {
+    // 1 mm patches: the floor alone would have 4001 · 3001 ≈ 12 million vertices.
+    let m = load_error(&format!("{GOOD_ROOM}[settings]\npatch_size = 0.001\n"), &[]);
+    assert!(
+        m.contains("settings.patch_size") && m.contains("larger patch_size"),
+        "{m}"
+    );
 }
