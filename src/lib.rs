@@ -10,5 +10,6 @@ pub mod photometry;
 pub mod relight;
 pub mod scene;
 pub mod transport;
+pub mod tui;
 
 pub use error::{Error, Result};
