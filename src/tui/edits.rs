@@ -90,9 +90,9 @@ pub fn step_dimmer(light: &mut LightEdit, delta: f64) {
 /// Aims the light at `point` (world, m): the axis becomes `normalize(point − position)` and the
 /// file form an `aim = point` target.
 pub fn aim_at(light: &mut LightEdit, point: DVec3) -> Result<(), String> {
-    let axis = (point - light.position).try_normalize().ok_or_else(|| {
-        format!("cannot aim {} at its own position", light.name)
-    })?;
+    let axis = (point - light.position)
+        .try_normalize()
+        .ok_or_else(|| format!("cannot aim {} at its own position", light.name))?;
     light.aim = axis;
     light.aim_spec = AimSpec::Target(point);
     Ok(())

@@ -265,7 +265,7 @@ pub const BINDINGS: &[Binding] = &[
     bind(Normal, &[C('>')], A::Angle(1.0), "point angle +1°", None),
     bind(Normal, &[C(',')], A::Angle(-5.0), "point angle −5°", None),
     bind(Normal, &[C('.')], A::Angle(5.0), "point angle +5°", None),
-    bind(Normal, &[C('+')], A::InsertPoint, "insert a point after this one", None),
+    bind(Normal, &[C('+')], A::InsertPoint, "insert a point after it", None),
     bind(Normal, &[C('-')], A::DeletePoint, "delete the point", None),
     bind(Normal, &[C('=')], A::EnterValue, "type an exact value (cd)", Some("value")),
     bind(Normal, &[C('o')], A::Order(-1), "SH order −1", None),

@@ -207,7 +207,11 @@ pub fn write_atomically(path: &Path, text: &str) -> Result<()> {
         Some(parent) if !parent.as_os_str().is_empty() => parent,
         _ => Path::new("."),
     };
-    let temp = dir.join(format!(".{}.haiko-save-{}", name.to_string_lossy(), std::process::id()));
+    let temp = dir.join(format!(
+        ".{}.haiko-save-{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let write = || -> io::Result<()> {
         let mut file = File::create(&temp)?;
         file.write_all(text.as_bytes())?;

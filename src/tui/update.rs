@@ -135,7 +135,9 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         }
         Action::EnterValue => {
             if model.light().is_some() {
-                model.mode = Mode::ValueEntry { buffer: String::new() };
+                model.mode = Mode::ValueEntry {
+                    buffer: String::new(),
+                };
             }
             Vec::new()
         }
@@ -177,7 +179,10 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             let (w, h) = model.preview_px;
             let cursor = (w / 2, h / 2);
             model.mode = Mode::Aim { cursor };
-            vec![Effect::Pick { pixel: cursor, aim: false }]
+            vec![Effect::Pick {
+                pixel: cursor,
+                aim: false,
+            }]
         }
         Action::MoveMode => {
             if let Some(light) = model.light() {
@@ -199,7 +204,10 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         Action::AimHere => match model.mode {
             Mode::Aim { cursor } => {
                 model.mode = Mode::Normal;
-                vec![Effect::Pick { pixel: cursor, aim: true }]
+                vec![Effect::Pick {
+                    pixel: cursor,
+                    aim: true,
+                }]
             }
             _ => Vec::new(),
         },
@@ -265,7 +273,14 @@ fn undo_or_redo(model: &mut Model, undo: bool) -> Vec<Effect> {
         model.history.redo()
     };
     let Some(change) = change else {
-        model.message = Some(if undo { "nothing to undo" } else { "nothing to redo" }.into());
+        model.message = Some(
+            if undo {
+                "nothing to undo"
+            } else {
+                "nothing to redo"
+            }
+            .into(),
+        );
         return Vec::new();
     };
     let (from, to) = if undo {

@@ -71,12 +71,18 @@ pub fn preview_rect(area: Rect) -> Rect {
 }
 
 /// The preview pixel under terminal cell `cell`, for an image of `width × height` pixels
-/// covering `image_area` (ECOSYSTEM §1): the cell's centre scaled to pixels.
+/// covering `image_area` (ECOSYSTEM §1): the cell's centre scaled to pixels,
+/// `(col − x0 + ½) / cols · width`, in exact integer arithmetic.
 pub fn cell_to_pixel(cell: Position, image_area: Rect, width: u32, height: u32) -> Option<(u32, u32)> {
+    let scale = |offset: u16, cells: u16, pixels: u32| {
+        let twice = (2 * u64::from(offset) + 1) * u64::from(pixels) / (2 * u64::from(cells));
+        u32::try_from(twice).unwrap_or(u32::MAX)
+    };
     image_area.contains(cell).then(|| {
-        let u = (f64::from(cell.x - image_area.x) + 0.5) / f64::from(image_area.width);
-        let v = (f64::from(cell.y - image_area.y) + 0.5) / f64::from(image_area.height);
-        ((u * f64::from(width)) as u32, (v * f64::from(height)) as u32)
+        (
+            scale(cell.x - image_area.x, image_area.width, width),
+            scale(cell.y - image_area.y, image_area.height, height),
+        )
     })
 }
 
@@ -110,7 +116,10 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
     if let Some(light) = model.light() {
         draw_editor(model, light, frame, &areas);
     } else {
-        frame.render_widget(Paragraph::new("This room has no lights.").block(Block::bordered()), areas.polar);
+        frame.render_widget(
+            Paragraph::new("This room has no lights.").block(Block::bordered()),
+            areas.polar,
+        );
     }
     draw_preview(model, frame, areas.preview, preview);
     frame.render_widget(Paragraph::new(status_line(model)).reversed(), areas.status);
@@ -123,10 +132,7 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
 }
 
 fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &Areas) {
-    let series = model
-        .series
-        .get(model.selected_light)
-        .and_then(Option::as_ref);
+    let series = model.series.get(model.selected_light).and_then(Option::as_ref);
     let title = format!(" {} · I(γ) cd · C0–C180 ", light.name);
     let diagram = PolarDiagram {
         curve: &light.curve,
@@ -147,30 +153,36 @@ fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &
     let table = Table::new(rows, [Constraint::Length(7), Constraint::Length(10)])
         .header(Row::new(["   γ °", "     I cd"]).style(Style::new().bold()))
         .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
+        .highlight_symbol("▶")
         .block(Block::bordered().title(" points "));
     let mut state = TableState::default().with_selected(Some(model.selected_point));
     frame.render_stateful_widget(table, areas.table, &mut state);
 
-    let error = series.map_or("—".to_string(), |s| format!("{:.2} %", 100.0 * s.relative_error));
+    let error = series.map_or("—".to_string(), |s| {
+        format!("{:.2} %", 100.0 * s.relative_error)
+    });
     let numbers = [
         ("order", light.order.to_string()),
         ("window", light.window.label().to_string()),
-        ("trunc. error", error),
+        ("error", error),
         ("flux", format!("{:.0} lm", light.curve.flux_lm())),
         ("peak", format!("{:.0} cd", light.curve.peak_cd())),
         ("dimmer", format!("{:.0} %", 100.0 * light.dimmer)),
-        ("position m", format_vec(light.position.to_array())),
+        ("pos m", format_vec(light.position.to_array())),
         ("aim", format_vec(light.aim.to_array())),
     ];
     let lines: Vec<Line> = numbers
         .into_iter()
-        .map(|(name, value)| Line::from(vec![Span::from(format!("{name:<13}")).dim(), Span::from(value)]))
+        .map(|(name, value)| Line::from(vec![Span::from(format!("{name:<8}")).dim(), Span::from(value)]))
         .collect();
-    frame.render_widget(Paragraph::new(lines).block(Block::bordered().title(" light ")), areas.numbers);
+    frame.render_widget(
+        Paragraph::new(lines).block(Block::bordered().title(" light ")),
+        areas.numbers,
+    );
 }
 
 fn format_vec(v: [f64; 3]) -> String {
-    format!("{:.2}, {:.2}, {:.2}", v[0], v[1], v[2])
+    format!("{:.2} {:.2} {:.2}", v[0], v[1], v[2])
 }
 
 fn draw_preview(model: &Model, frame: &mut Frame<'_>, pane: Rect, preview: PreviewArea<'_>) {
@@ -275,7 +287,7 @@ fn help_lines() -> Vec<Line<'static>> {
         lines.push(Line::from(mode.title()).bold());
         for binding in keys::bindings_of(mode) {
             lines.push(Line::from(vec![
-                Span::from(format!(" {:<11}", binding.keys_label())).fg(Color::Cyan),
+                Span::from(format!(" {:<10}", binding.keys_label())).fg(Color::Cyan),
                 Span::from(binding.help),
             ]));
         }
@@ -284,7 +296,16 @@ fn help_lines() -> Vec<Line<'static>> {
 }
 
 fn draw_help(frame: &mut Frame<'_>, area: Rect) {
-    let popup = centred(area, area.width.saturating_sub(4), area.height.saturating_sub(2));
+    // Over the panes only: the status line and the hint bar stay visible.
+    let panes = Rect {
+        height: area.height.saturating_sub(2),
+        ..area
+    };
+    let popup = centred(
+        panes,
+        panes.width.saturating_sub(4),
+        panes.height.saturating_sub(2),
+    );
     frame.render_widget(Clear, popup);
     let block = Block::bordered().title(" keys · ? or Esc closes ");
     let inner = block.inner(popup);
@@ -292,14 +313,16 @@ fn draw_help(frame: &mut Frame<'_>, area: Rect) {
     let lines = help_lines();
     let per_column = usize::from(inner.height.max(1));
     let columns = lines.len().div_ceil(per_column).max(1);
-    let column_areas = Layout::horizontal(vec![Constraint::Fill(1); columns]).split(inner);
+    let column_areas = Layout::horizontal(vec![Constraint::Fill(1); columns])
+        .spacing(2)
+        .split(inner);
     for (chunk, column) in lines.chunks(per_column).zip(column_areas.iter()) {
         frame.render_widget(Paragraph::new(chunk.to_vec()), *column);
     }
 }
 
 fn draw_quit_prompt(frame: &mut Frame<'_>, area: Rect) {
-    let popup = centred(area, 50, 5);
+    let popup = centred(area, 51, 4);
     frame.render_widget(Clear, popup);
     let text = vec![
         Line::from("There are unsaved changes. Quit without saving?"),

@@ -1,3 +1,4 @@
 //! One integration-test binary for the whole crate (fast to build): each area is a module.
 
 mod direct;
+mod tui;
