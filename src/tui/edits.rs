@@ -46,10 +46,11 @@ pub fn move_angle(light: &mut LightEdit, k: usize, delta_deg: f64) -> Result<(),
 /// is the last), on the curve so its shape is unchanged. Returns the new point's index.
 pub fn insert_after(light: &mut LightEdit, k: usize) -> Result<usize, String> {
     let gammas = light.curve.gammas_deg();
-    let (a, b) = if k + 1 < gammas.len() {
+    let last = gammas.len() - 1;
+    let (a, b) = if k < last {
         (gammas[k], gammas[k + 1])
     } else {
-        (gammas[k.saturating_sub(1)], gammas[k.min(gammas.len() - 1)])
+        (gammas[last - 1], gammas[last])
     };
     if b - a <= 0.0 {
         return Err(format!("no room for a new point between {a}° and {b}°"));

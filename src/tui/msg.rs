@@ -75,12 +75,13 @@ pub enum Msg {
 /// Work the app carries out for the editor; its results come back as [`Msg`]s.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Effect {
-    /// Re-blend light `light` (its curve, aim, dimmer, order or window changed).
+    /// Re-blend light `light` (its curve, aim, dimmer or window changed).
     Relight {
         /// Index of the light.
         light: usize,
     },
-    /// Re-bake light `light` (its position changed; the basis depends on it).
+    /// Re-bake light `light` (its position or SH order changed: the basis columns depend on
+    /// both). The app re-blends and renders after the bake.
     Rebake {
         /// Index of the light.
         light: usize,

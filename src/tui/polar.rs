@@ -88,7 +88,9 @@ fn draw_polyline(ctx: &mut Context<'_>, samples: &[(f64, f64)], color: Color) {
         for pair in samples.windows(2) {
             let (x1, y1) = polar_xy(pair[0].0, pair[0].1.max(0.0), left);
             let (x2, y2) = polar_xy(pair[1].0, pair[1].1.max(0.0), left);
-            ctx.draw(&Line::new(x1, y1, x2, y2, color));
+            if [x1, y1, x2, y2].iter().all(|v| v.is_finite()) {
+                ctx.draw(&Line::new(x1, y1, x2, y2, color));
+            }
         }
     }
 }
@@ -98,7 +100,12 @@ impl PolarDiagram<'_> {
     fn max_cd(&self) -> f64 {
         let series_max = self
             .series
-            .map(|s| s.iter().map(|p| p.1).fold(0.0, f64::max))
+            .map(|s| {
+                s.iter()
+                    .map(|p| p.1)
+                    .filter(|cd| cd.is_finite())
+                    .fold(0.0, f64::max)
+            })
             .unwrap_or(0.0);
         self.curve.peak_cd().max(series_max)
     }

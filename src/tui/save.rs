@@ -190,7 +190,7 @@ fn place_of(error: &toml_edit::TomlError, text: &str) -> String {
     let Some(span) = error.span() else {
         return String::new();
     };
-    let before = &text[..span.start.min(text.len())];
+    let before = text.get(..span.start).unwrap_or(text);
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     format!("line {line}, column {column}")

@@ -1083,3 +1083,139 @@ fn snapshot_quit_prompt() {
 fn snapshot_too_small_terminal() {
     insta::assert_snapshot!(draw(&model(), 60, 20).backend());
 }
+
+// ---------------------------------------------------------------- polar diagram, camera, robustness
+
+#[test]
+fn ring_spacing_is_one_two_five() {
+    use haiko::tui::polar::ring_step_cd;
+    assert_eq!(ring_step_cd(1000.0), 500.0); // a third is 333 → 500
+    assert_eq!(ring_step_cd(90.0), 50.0); // 30 → 50
+    assert_eq!(ring_step_cd(2400.0), 1000.0); // 800 → 1000
+    assert_eq!(ring_step_cd(0.6), 0.2);
+    assert_eq!(ring_step_cd(0.0), 1.0);
+}
+
+#[test]
+fn polar_points_put_the_nadir_down_and_mirror_the_sides() {
+    use haiko::tui::polar::polar_xy;
+    assert_eq!(polar_xy(0.0, 100.0, false), (0.0, -100.0));
+    let (x, y) = polar_xy(std::f64::consts::FRAC_PI_2, 100.0, false);
+    assert_close(x, 100.0);
+    assert!(y.abs() < 1e-12);
+    let (xl, yl) = polar_xy(0.5, 80.0, true);
+    let (xr, yr) = polar_xy(0.5, 80.0, false);
+    assert_eq!((xl, yl), (-xr, yr));
+    let (_, y_up) = polar_xy(std::f64::consts::PI, 50.0, false);
+    assert_close(y_up, 50.0); // γ = 180° points up
+}
+
+#[test]
+fn curve_samples_follow_the_curve_in_one_degree_steps() {
+    use haiko::tui::polar::curve_samples;
+    let curve = Curve::new(&[(10.0, 500.0), (40.0, 200.0), (40.0, 100.0), (70.0, 100.0)]).unwrap();
+    let samples = curve_samples(&curve);
+    // Closed to the centre before 10° and after 70°.
+    assert_eq!(samples[0], (10f64.to_radians(), 0.0));
+    assert_eq!(samples[samples.len() - 1], (70f64.to_radians(), 0.0));
+    let inner = &samples[1..samples.len() - 1];
+    for pair in inner.windows(2) {
+        assert!(pair[1].0 - pair[0].0 <= 1f64.to_radians() + 1e-12);
+    }
+    // Both values of the step at 40° are drawn.
+    let at_40: Vec<f64> = inner
+        .iter()
+        .filter(|s| (s.0 - 40f64.to_radians()).abs() < 1e-12)
+        .map(|s| s.1)
+        .collect();
+    assert_eq!(at_40, vec![200.0, 100.0]);
+    // Off the step, every sample lies on the curve (linear in γ between points).
+    for &(g, i) in inner.iter().filter(|s| (s.0 - 40f64.to_radians()).abs() > 1e-9) {
+        assert_close(i, curve.eval_rad(g));
+    }
+}
+
+#[test]
+fn polar_diagram_marks_the_selected_point_once_and_labels_rings() {
+    use haiko::tui::polar::PolarDiagram;
+    use ratatui::buffer::Buffer;
+    use ratatui::widgets::{Block, Widget};
+    let curve = Curve::new(&CENTRE_LID).unwrap();
+    let area = Rect::new(0, 0, 46, 24);
+    let mut buf = Buffer::empty(area);
+    PolarDiagram {
+        curve: &curve,
+        series: None,
+        selected: 1,
+        block: Block::bordered(),
+    }
+    .render(area, &mut buf);
+    let text: String = buf.content().iter().map(|c| c.symbol()).collect();
+    assert_eq!(text.matches('◆').count(), 1);
+    assert_eq!(text.matches('•').count(), 3);
+    assert!(text.contains("500") && text.contains("1000"));
+    // The 0° point (1000 cd) is straight below the centre: in the lower half.
+    let row_of =
+        |symbol: &str| (0..area.height).find(|&y| (0..area.width).any(|x| buf[(x, y)].symbol() == symbol));
+    let mut selected_first = buf.clone();
+    PolarDiagram {
+        curve: &curve,
+        series: None,
+        selected: 0,
+        block: Block::bordered(),
+    }
+    .render(area, &mut selected_first);
+    let nadir_row = (0..area.height)
+        .find(|&y| (0..area.width).any(|x| selected_first[(x, y)].symbol() == "◆"))
+        .unwrap();
+    assert!(nadir_row > area.height / 2 + 6, "{nadir_row}");
+    assert!(row_of("◆").unwrap() < nadir_row);
+}
+
+#[test]
+fn orbit_up_stops_short_of_the_pole_and_keeps_the_distance() {
+    let mut m = model();
+    let distance = (m.camera.eye - m.camera.target).length();
+    send(&mut m, std::iter::repeat_n(ch('}'), 40));
+    let offset = m.camera.eye - m.camera.target;
+    assert_close(offset.length(), distance);
+    let elevation = offset.z.atan2(offset.truncate().length()).to_degrees();
+    assert_close(elevation, 85.0);
+}
+
+#[test]
+fn every_key_in_every_mode_is_safe_in_a_room_without_lights() {
+    let mut empty = scene();
+    empty.lights.clear();
+    let events: Vec<KeyEvent> = BINDINGS
+        .iter()
+        .flat_map(|b| b.keys.iter())
+        .flat_map(|k| example_events(*k))
+        .collect();
+    for mode in [
+        Mode::Normal,
+        Mode::Help,
+        Mode::ConfirmQuit,
+        Mode::ValueEntry { buffer: "1".into() },
+    ] {
+        for event in &events {
+            let mut m = Model::new(&empty, (120, 40), (8, 16));
+            m.mode = mode.clone();
+            update(&mut m, Msg::Key(*event));
+            update(
+                &mut m,
+                Msg::Picked {
+                    pixel: (1, 1),
+                    hit: Some((DVec3::ONE, 1.0)),
+                    aim: true,
+                },
+            );
+            update(&mut m, Msg::Click { column: 80, row: 10 });
+            assert!(m.lights.is_empty());
+            let terminal = draw(&m, 120, 40);
+            let screen = format!("{}", terminal.backend());
+            // The help overlay covers the panes; otherwise the editor says why it is empty.
+            assert!(m.mode == Mode::Help || screen.contains("no lights"), "{screen}");
+        }
+    }
+}
