@@ -11,5 +11,6 @@ pub mod relight;
 pub mod render;
 pub mod scene;
 pub mod transport;
+pub mod tui;
 
 pub use error::{Error, Result};

@@ -1,0 +1,21 @@
+//! The terminal editor, in the Elm architecture (STYLE): [`model::Model`] holds the state,
+//! [`msg::Msg`] the events and worker results, [`update::update`] the only state transition
+//! (pure, tested without a terminal), [`view::view`] draws the state. The app loop (part 2)
+//! carries out the [`msg::Effect`]s and feeds results back as messages.
+
+pub mod camera_nav;
+pub mod edits;
+pub mod history;
+pub mod keys;
+pub mod model;
+pub mod msg;
+pub mod polar;
+pub mod save;
+pub mod update;
+pub mod view;
+
+pub use model::{LightEdit, Mode, Model, Window};
+pub use msg::{Effect, Msg};
+pub use save::save_room;
+pub use update::update;
+pub use view::{PreviewArea, preview_rect, view};

@@ -1,0 +1,304 @@
+//! The editor's state (the Elm architecture's `Model`): every light's editable values, the
+//! selection, the mode, the camera, and what the workers last reported.
+//!
+//! Plain data; changed only by [`crate::tui::update::update`] (and by the app for the fields it
+//! documents as its own, such as [`Model::protocol`]). World frame: metres, z up (DESIGN §1).
+
+use glam::DVec3;
+
+use crate::photometry::Curve;
+use crate::scene::{AimSpec, Camera, LidSource, Light, Scene};
+use crate::tui::history::History;
+use crate::tui::keys::ModeKind;
+use crate::tui::view::preview_rect;
+
+/// SH order shown for a light whose room file fixes none (the app replaces it with the plan's
+/// choice through [`Model::set_planned_order`]).
+pub const DEFAULT_ORDER: usize = 16;
+/// Highest SH order the editor offers (NUMERICS §1 shows the recurrence accurate to l = 150).
+pub const MAX_ORDER: usize = 150;
+
+/// The ringing window applied to a light's truncated series (NUMERICS §3). Not stored in the
+/// room file: it is a session choice (the plan decides it when `Auto`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Window {
+    /// The plan decides: Hann only where the series dips below −0.5 % of the peak.
+    #[default]
+    Auto,
+    /// No window (σ_l = 1).
+    None,
+    /// Hann `½(1 + cos(π l / (N + 1)))`.
+    Hann,
+    /// Lanczos `sinc(l / (N + 1))`.
+    Lanczos,
+    /// Cesàro (C, 2): a positive kernel, never negative, but blurs edges.
+    Cesaro2,
+}
+
+impl Window {
+    /// The next window in the cycle the `w` key walks through.
+    pub fn next(self) -> Self {
+        match self {
+            Window::Auto => Window::None,
+            Window::None => Window::Hann,
+            Window::Hann => Window::Lanczos,
+            Window::Lanczos => Window::Cesaro2,
+            Window::Cesaro2 => Window::Auto,
+        }
+    }
+
+    /// The name shown in the UI.
+    pub fn label(self) -> &'static str {
+        match self {
+            Window::Auto => "auto",
+            Window::None => "none",
+            Window::Hann => "Hann",
+            Window::Lanczos => "Lanczos",
+            Window::Cesaro2 => "Cesàro-2",
+        }
+    }
+}
+
+/// The editable state of one light: everything an edit (and so undo) can change.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightEdit {
+    /// Name from the room file.
+    pub name: String,
+    /// Position (world, m).
+    pub position: DVec3,
+    /// Unit aim axis (world); γ = 0 points along it.
+    pub aim: DVec3,
+    /// The aim as it will be written to the room file.
+    pub aim_spec: AimSpec,
+    /// Intensity curve (cd), before the dimmer.
+    pub curve: Curve,
+    /// Where the curve came from (a file-backed curve is written inline once edited).
+    pub lid_source: LidSource,
+    /// Dimmer factor, ≥ 0.
+    pub dimmer: f64,
+    /// SH order of the light's series.
+    pub order: usize,
+    /// Ringing window of the light's series.
+    pub window: Window,
+}
+
+impl LightEdit {
+    /// The editable state of a scene light; `order` defaults to [`DEFAULT_ORDER`].
+    pub fn from_light(light: &Light) -> Self {
+        LightEdit {
+            name: light.name.clone(),
+            position: light.position,
+            aim: light.aim,
+            aim_spec: light.aim_spec,
+            curve: light.curve.clone(),
+            lid_source: light.lid_source.clone(),
+            dimmer: light.dimmer,
+            order: light.order.unwrap_or(DEFAULT_ORDER),
+            window: Window::Auto,
+        }
+    }
+
+    /// True when the values a save writes (curve, aim, position, dimmer, order) are equal; the
+    /// window is a session choice and not compared.
+    pub fn same_saved_values(&self, other: &LightEdit) -> bool {
+        self.curve == other.curve
+            && self.aim_spec == other.aim_spec
+            && self.position == other.position
+            && self.dimmer == other.dimmer
+            && self.order == other.order
+    }
+}
+
+/// What the editor is doing; decides which key table applies.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Mode {
+    /// Editing the selected light's curve.
+    Normal,
+    /// Moving a keyboard cursor over the preview to aim the selected light.
+    Aim {
+        /// Cursor position in preview pixels (0, 0 = top-left).
+        cursor: (u32, u32),
+    },
+    /// Moving the selected light's position with the arrow keys.
+    Move {
+        /// The light's state when the move started (for cancel and the undo record).
+        start: Box<LightEdit>,
+    },
+    /// The key help overlay.
+    Help,
+    /// Typing an exact intensity (cd) for the selected control point.
+    ValueEntry {
+        /// What was typed so far.
+        buffer: String,
+    },
+    /// "Unsaved changes: quit?" prompt.
+    ConfirmQuit,
+}
+
+impl Mode {
+    /// Which key table applies in this mode.
+    pub fn kind(&self) -> ModeKind {
+        match self {
+            Mode::Normal => ModeKind::Normal,
+            Mode::Aim { .. } => ModeKind::Aim,
+            Mode::Move { .. } => ModeKind::Move,
+            Mode::Help => ModeKind::Help,
+            Mode::ValueEntry { .. } => ModeKind::ValueEntry,
+            Mode::ConfirmQuit => ModeKind::ConfirmQuit,
+        }
+    }
+
+    /// The mode's name in the status line.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Mode::Normal => "EDIT",
+            Mode::Aim { .. } => "AIM",
+            Mode::Move { .. } => "MOVE",
+            Mode::Help => "HELP",
+            Mode::ValueEntry { .. } => "VALUE",
+            Mode::ConfirmQuit => "QUIT?",
+        }
+    }
+}
+
+/// Durations of the last frame's stages, in milliseconds (reported by the app).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Timings {
+    /// Relight (blend) time, ms.
+    pub relight_ms: f64,
+    /// Rasterisation time, ms.
+    pub render_ms: f64,
+    /// Image-protocol encoding time, ms.
+    pub encode_ms: f64,
+}
+
+/// The last pick under the cursor (reported by the app).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Picked {
+    /// The 3D point hit (world, m).
+    pub point: DVec3,
+    /// Illuminance at that point, lx.
+    pub lux: f64,
+}
+
+/// The truncated series of one light as the app last computed it, for the polar diagram.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeriesView {
+    /// Samples `(γ in radians, intensity in cd)`, γ increasing over 0..=π.
+    pub samples: Vec<(f64, f64)>,
+    /// Relative L2 truncation error of the series against the curve (0.01 = 1 %).
+    pub relative_error: f64,
+}
+
+/// The editor's whole state.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// Room name (from the room file).
+    pub room_name: String,
+    /// Room interior extent (m): positions are kept within (0, 0, 0)..room_size.
+    pub room_size: DVec3,
+    /// Every light's current editable state, in file order.
+    pub lights: Vec<LightEdit>,
+    /// The state as last loaded or saved: a save writes what differs from it.
+    pub saved: Vec<LightEdit>,
+    /// Index of the selected light.
+    pub selected_light: usize,
+    /// Index of the selected control point of the selected light's curve.
+    pub selected_point: usize,
+    /// Current mode.
+    pub mode: Mode,
+    /// The preview camera.
+    pub camera: Camera,
+    /// The room file's camera (`c` resets to it).
+    pub home_camera: Camera,
+    /// False-colour (illuminance scale) preview instead of the photographic one.
+    pub false_colour: bool,
+    /// Terminal size in cells (columns, rows).
+    pub terminal_size: (u16, u16),
+    /// One cell's size in pixels (width, height), from the terminal.
+    pub cell_px: (u16, u16),
+    /// The preview's size in pixels (width, height): the preview cells times `cell_px`.
+    pub preview_px: (u32, u32),
+    /// The latest pick under the cursor.
+    pub picked: Option<Picked>,
+    /// Stage timings of the latest frame.
+    pub timings: Option<Timings>,
+    /// Name of the image protocol in use (set by the app).
+    pub protocol: String,
+    /// Bake progress `(done, total)` while a bake runs.
+    pub bake: Option<(usize, usize)>,
+    /// True when some saved value differs from the file on disk.
+    pub dirty: bool,
+    /// A message for the user (an error or a confirmation), shown until the next key.
+    pub message: Option<String>,
+    /// Per light, the truncated series last computed by the app (None until then).
+    pub series: Vec<Option<SeriesView>>,
+    /// Undo and redo stacks.
+    pub history: History,
+}
+
+impl Model {
+    /// The editor state for a loaded scene, in a terminal of `terminal_size` cells of
+    /// `cell_px` pixels each.
+    pub fn new(scene: &Scene, terminal_size: (u16, u16), cell_px: (u16, u16)) -> Self {
+        let lights: Vec<LightEdit> = scene.lights.iter().map(LightEdit::from_light).collect();
+        let mut model = Model {
+            room_name: scene.name.clone(),
+            room_size: scene.room_size,
+            saved: lights.clone(),
+            series: vec![None; lights.len()],
+            lights,
+            selected_light: 0,
+            selected_point: 0,
+            mode: Mode::Normal,
+            camera: scene.camera,
+            home_camera: scene.camera,
+            false_colour: false,
+            terminal_size,
+            cell_px,
+            preview_px: (0, 0),
+            picked: None,
+            timings: None,
+            protocol: String::new(),
+            bake: None,
+            dirty: false,
+            message: None,
+            history: History::default(),
+        };
+        model.preview_px = model.compute_preview_px();
+        model
+    }
+
+    /// Replaces light `i`'s order by the plan's choice, as if the file had said so (not an
+    /// edit: nothing to undo or save). Out-of-range `i` is ignored.
+    pub fn set_planned_order(&mut self, i: usize, order: usize) {
+        if let (Some(light), Some(saved)) = (self.lights.get_mut(i), self.saved.get_mut(i)) {
+            light.order = order.min(MAX_ORDER);
+            saved.order = light.order;
+        }
+    }
+
+    /// The selected light's state, or None in a room without lights.
+    pub fn light(&self) -> Option<&LightEdit> {
+        self.lights.get(self.selected_light)
+    }
+
+    /// The preview's pixel size for the current terminal: preview cells × cell pixels.
+    pub fn compute_preview_px(&self) -> (u32, u32) {
+        let (w, h) = self.terminal_size;
+        let rect = preview_rect(ratatui::layout::Rect::new(0, 0, w, h));
+        (
+            u32::from(rect.width) * u32::from(self.cell_px.0),
+            u32::from(rect.height) * u32::from(self.cell_px.1),
+        )
+    }
+
+    /// Recomputes [`Model::dirty`]: whether any light's saved values differ from the file's.
+    pub fn refresh_dirty(&mut self) {
+        self.dirty = self
+            .lights
+            .iter()
+            .zip(&self.saved)
+            .any(|(now, saved)| !now.same_saved_values(saved));
+    }
+}

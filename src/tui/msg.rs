@@ -1,0 +1,103 @@
+//! What reaches the editor (`Msg`: input events and worker results) and what it asks the app
+//! to do (`Effect`).
+
+use glam::DVec3;
+use ratatui::crossterm::event::KeyEvent;
+
+/// An input event or a worker's result.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Msg {
+    /// A key press (or repeat; releases are ignored).
+    Key(KeyEvent),
+    /// A left mouse click at a terminal cell (column, row; 0-based from the top-left).
+    Click {
+        /// Column of the cell.
+        column: u16,
+        /// Row of the cell.
+        row: u16,
+    },
+    /// The terminal was resized to `width × height` cells.
+    Resize {
+        /// Columns.
+        width: u16,
+        /// Rows.
+        height: u16,
+    },
+    /// The bake worker's progress: `done` of `total` columns.
+    BakeProgress {
+        /// Columns baked.
+        done: usize,
+        /// Columns in all.
+        total: usize,
+    },
+    /// The bake finished.
+    BakeDone,
+    /// A new preview frame is on screen; its stage timings in milliseconds.
+    Frame {
+        /// Relight time, ms.
+        relight_ms: f64,
+        /// Render time, ms.
+        render_ms: f64,
+        /// Encode time, ms.
+        encode_ms: f64,
+    },
+    /// The answer to [`Effect::Pick`]: the 3D point under `pixel` and its illuminance, or None
+    /// when the pixel shows no surface.
+    Picked {
+        /// The picked preview pixel.
+        pixel: (u32, u32),
+        /// The hit point (world, m) and its illuminance (lx).
+        hit: Option<(DVec3, f64)>,
+        /// True when the pick was asked for to aim the selected light.
+        aim: bool,
+    },
+    /// The app recomputed light `light`'s truncated series (for the polar diagram).
+    Series {
+        /// Index of the light.
+        light: usize,
+        /// Samples `(γ rad, cd)` over 0..=π.
+        samples: Vec<(f64, f64)>,
+        /// Relative L2 truncation error (0.01 = 1 %).
+        relative_error: f64,
+    },
+    /// The app saved the room file; `message` says what was written.
+    Saved {
+        /// Status message from [`crate::tui::save::save_room`].
+        message: String,
+    },
+    /// A worker or the save failed; `message` is one line for the user.
+    Failed {
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// Work the app carries out for the editor; its results come back as [`Msg`]s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Effect {
+    /// Re-blend light `light` (its curve, aim, dimmer or window changed).
+    Relight {
+        /// Index of the light.
+        light: usize,
+    },
+    /// Re-bake light `light` (its position or SH order changed: the basis columns depend on
+    /// both). The app re-blends and renders after the bake.
+    Rebake {
+        /// Index of the light.
+        light: usize,
+    },
+    /// Render and show a new preview frame (camera or display mode changed).
+    Render,
+    /// Find the 3D point under preview `pixel`; answer with [`Msg::Picked`].
+    Pick {
+        /// Preview pixel (0, 0 = top-left).
+        pixel: (u32, u32),
+        /// True to aim the selected light at it.
+        aim: bool,
+    },
+    /// Save the room file ([`crate::tui::save::save_room`]); answer with [`Msg::Saved`] or
+    /// [`Msg::Failed`].
+    Save,
+    /// Leave the editor.
+    Quit,
+}

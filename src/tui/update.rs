@@ -1,0 +1,416 @@
+//! `update(&mut Model, Msg) -> Vec<Effect>`: the editor's only state transition. Pure: no I/O,
+//! no clock; the app carries out the returned effects and reports back with messages.
+
+use glam::DVec3;
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
+use ratatui::layout::{Position, Rect};
+
+use crate::scene::{Camera, LidSource};
+use crate::tui::camera_nav;
+use crate::tui::edits;
+use crate::tui::history::Change;
+use crate::tui::keys::{self, Action};
+use crate::tui::model::{LightEdit, Mode, Model, Picked, SeriesView, Timings};
+use crate::tui::msg::{Effect, Msg};
+use crate::tui::view::{cell_to_pixel, preview_rect};
+
+/// Longest typed value, characters.
+const MAX_TYPED_LEN: usize = 16;
+
+/// Applies one message to the model and returns the work the app must do.
+pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
+    match msg {
+        Msg::Key(event) => on_key(model, &event),
+        Msg::Click { column, row } => on_click(model, Position::new(column, row)),
+        Msg::Resize { width, height } => {
+            model.terminal_size = (width, height);
+            let before = model.preview_px;
+            model.preview_px = model.compute_preview_px();
+            if let Mode::Aim { cursor } = &mut model.mode {
+                *cursor = clamp_pixel(*cursor, model.preview_px);
+            }
+            if before == model.preview_px {
+                Vec::new()
+            } else {
+                vec![Effect::Render]
+            }
+        }
+        Msg::BakeProgress { done, total } => {
+            model.bake = Some((done, total));
+            Vec::new()
+        }
+        Msg::BakeDone => {
+            model.bake = None;
+            vec![Effect::Render]
+        }
+        Msg::Frame {
+            relight_ms,
+            render_ms,
+            encode_ms,
+        } => {
+            model.timings = Some(Timings {
+                relight_ms,
+                render_ms,
+                encode_ms,
+            });
+            Vec::new()
+        }
+        Msg::Picked { hit, aim, .. } => on_picked(model, hit, aim),
+        Msg::Series {
+            light,
+            samples,
+            relative_error,
+        } => {
+            if let Some(slot) = model.series.get_mut(light) {
+                *slot = Some(SeriesView {
+                    samples,
+                    relative_error,
+                });
+            }
+            Vec::new()
+        }
+        Msg::Saved { message } => {
+            // A save writes every edited curve inline (DESIGN §5): it no longer comes from a file.
+            for (light, saved) in model.lights.iter_mut().zip(&model.saved) {
+                if light.curve != saved.curve {
+                    light.lid_source = LidSource::Inline;
+                }
+            }
+            model.saved = model.lights.clone();
+            model.refresh_dirty();
+            model.message = Some(message);
+            Vec::new()
+        }
+        Msg::Failed { message } => {
+            model.message = Some(message);
+            Vec::new()
+        }
+    }
+}
+
+fn on_key(model: &mut Model, event: &KeyEvent) -> Vec<Effect> {
+    if event.kind == KeyEventKind::Release {
+        return Vec::new();
+    }
+    model.message = None;
+    match keys::lookup(model.mode.kind(), event) {
+        Some(action) => on_action(model, action, event),
+        None => Vec::new(),
+    }
+}
+
+fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect> {
+    let k = model.selected_point;
+    match action {
+        Action::ToggleHelp => {
+            model.mode = if model.mode == Mode::Help {
+                Mode::Normal
+            } else {
+                Mode::Help
+            };
+            Vec::new()
+        }
+        Action::Quit if model.dirty => {
+            model.mode = Mode::ConfirmQuit;
+            Vec::new()
+        }
+        Action::Quit | Action::ConfirmQuit => vec![Effect::Quit],
+        Action::Save => vec![Effect::Save],
+        Action::NextLight => select_light(model, 1),
+        Action::PreviousLight => select_light(model, -1),
+        Action::NextPoint => select_point(model, 1),
+        Action::PreviousPoint => select_point(model, -1),
+        Action::Intensity(fraction) => edit(model, |l| edits::nudge_intensity(l, k, fraction)),
+        Action::Angle(delta_deg) => edit(model, |l| edits::move_angle(l, k, delta_deg)),
+        Action::InsertPoint => {
+            let mut inserted = k;
+            let effects = edit(model, |l| edits::insert_after(l, k).map(|i| inserted = i));
+            model.selected_point = inserted;
+            effects
+        }
+        Action::DeletePoint => {
+            let effects = edit(model, |l| edits::delete_point(l, k));
+            clamp_selected_point(model);
+            effects
+        }
+        Action::EnterValue => {
+            if model.light().is_some() {
+                model.mode = Mode::ValueEntry {
+                    buffer: String::new(),
+                };
+            }
+            Vec::new()
+        }
+        Action::Type => {
+            if let (Mode::ValueEntry { buffer }, KeyCode::Char(c)) = (&mut model.mode, event.code)
+                && buffer.chars().count() < MAX_TYPED_LEN
+            {
+                buffer.push(c);
+            }
+            Vec::new()
+        }
+        Action::Backspace => {
+            if let Mode::ValueEntry { buffer } = &mut model.mode {
+                buffer.pop();
+            }
+            Vec::new()
+        }
+        Action::Apply => apply_typed_value(model),
+        Action::Order(delta) => edit(model, |l| {
+            edits::change_order(l, delta);
+            Ok(())
+        }),
+        Action::CycleWindow => edit(model, |l| {
+            l.window = l.window.next();
+            Ok(())
+        }),
+        Action::Dimmer(delta) => edit(model, |l| {
+            edits::step_dimmer(l, delta);
+            Ok(())
+        }),
+        Action::ToggleFalseColour => {
+            model.false_colour = !model.false_colour;
+            vec![Effect::Render]
+        }
+        Action::AimMode => {
+            if model.light().is_none() {
+                return Vec::new();
+            }
+            let (w, h) = model.preview_px;
+            let cursor = (w / 2, h / 2);
+            model.mode = Mode::Aim { cursor };
+            vec![Effect::Pick {
+                pixel: cursor,
+                aim: false,
+            }]
+        }
+        Action::MoveMode => {
+            if let Some(light) = model.light() {
+                model.mode = Mode::Move {
+                    start: Box::new(light.clone()),
+                };
+            }
+            Vec::new()
+        }
+        Action::Undo => undo_or_redo(model, true),
+        Action::Redo => undo_or_redo(model, false),
+        Action::Orbit { yaw_deg, pitch_deg } => {
+            set_camera(model, camera_nav::orbit(&model.camera, yaw_deg, pitch_deg))
+        }
+        Action::Pan { right_m, up_m } => set_camera(model, camera_nav::pan(&model.camera, right_m, up_m)),
+        Action::Dolly(factor) => set_camera(model, camera_nav::dolly(&model.camera, factor)),
+        Action::ResetCamera => set_camera(model, model.home_camera),
+        Action::Cursor { dx, dy, big } => move_cursor(model, dx, dy, big),
+        Action::AimHere => match model.mode {
+            Mode::Aim { cursor } => {
+                model.mode = Mode::Normal;
+                vec![Effect::Pick {
+                    pixel: cursor,
+                    aim: true,
+                }]
+            }
+            _ => Vec::new(),
+        },
+        Action::MoveBy(offset) => {
+            let room_size = model.room_size;
+            if let Some(light) = model.lights.get_mut(model.selected_light) {
+                edits::move_by(light, DVec3::from_array(offset), room_size);
+            }
+            model.refresh_dirty();
+            vec![Effect::Render]
+        }
+        Action::Finish => finish_move(model),
+        Action::Cancel => cancel(model),
+    }
+}
+
+/// Runs `change` on the selected light; records undo when it changed something, restores the
+/// light and shows the reason when it refused.
+fn edit(model: &mut Model, change: impl FnOnce(&mut LightEdit) -> Result<(), String>) -> Vec<Effect> {
+    let i = model.selected_light;
+    let Some(light) = model.lights.get_mut(i) else {
+        return Vec::new();
+    };
+    let before = light.clone();
+    if let Err(reason) = change(light) {
+        *light = before;
+        model.message = Some(reason);
+        return Vec::new();
+    }
+    let after = light.clone();
+    commit(model, i, before, after)
+}
+
+/// Records an edit of light `i` (when it changed anything) and returns the effects.
+fn commit(model: &mut Model, i: usize, before: LightEdit, after: LightEdit) -> Vec<Effect> {
+    if before == after {
+        return Vec::new();
+    }
+    let effects = effects_of_change(i, &before, &after);
+    model.history.record(Change {
+        light: i,
+        before,
+        after,
+    });
+    model.refresh_dirty();
+    effects
+}
+
+/// What the app must redo after light `i` went from `before` to `after`: a new position or
+/// order needs new basis columns (a re-bake); anything else a re-blend.
+fn effects_of_change(i: usize, before: &LightEdit, after: &LightEdit) -> Vec<Effect> {
+    if before.position != after.position || before.order != after.order {
+        vec![Effect::Rebake { light: i }, Effect::Render]
+    } else {
+        vec![Effect::Relight { light: i }, Effect::Render]
+    }
+}
+
+fn undo_or_redo(model: &mut Model, undo: bool) -> Vec<Effect> {
+    let change = if undo {
+        model.history.undo()
+    } else {
+        model.history.redo()
+    };
+    let Some(change) = change else {
+        model.message = Some(
+            if undo {
+                "nothing to undo"
+            } else {
+                "nothing to redo"
+            }
+            .into(),
+        );
+        return Vec::new();
+    };
+    let (from, to) = if undo {
+        (&change.after, &change.before)
+    } else {
+        (&change.before, &change.after)
+    };
+    let effects = effects_of_change(change.light, from, to);
+    let (i, state) = (change.light, to.clone());
+    model.lights[i] = state;
+    model.selected_light = i;
+    clamp_selected_point(model);
+    model.refresh_dirty();
+    effects
+}
+
+fn select_light(model: &mut Model, step: isize) -> Vec<Effect> {
+    let n = model.lights.len();
+    if n > 0 {
+        model.selected_light = (model.selected_light as isize + step).rem_euclid(n as isize) as usize;
+        clamp_selected_point(model);
+    }
+    Vec::new()
+}
+
+fn select_point(model: &mut Model, step: isize) -> Vec<Effect> {
+    if let Some(light) = model.light() {
+        let last = light.curve.len() - 1;
+        model.selected_point = model.selected_point.saturating_add_signed(step).min(last);
+    }
+    Vec::new()
+}
+
+fn clamp_selected_point(model: &mut Model) {
+    if let Some(light) = model.light() {
+        model.selected_point = model.selected_point.min(light.curve.len() - 1);
+    }
+}
+
+fn apply_typed_value(model: &mut Model) -> Vec<Effect> {
+    let Mode::ValueEntry { buffer } = std::mem::replace(&mut model.mode, Mode::Normal) else {
+        return Vec::new();
+    };
+    match edits::parse_intensity(&buffer) {
+        Ok(candela) => {
+            let k = model.selected_point;
+            edit(model, |l| edits::set_intensity(l, k, candela))
+        }
+        Err(reason) => {
+            model.message = Some(reason);
+            Vec::new()
+        }
+    }
+}
+
+fn set_camera(model: &mut Model, camera: Camera) -> Vec<Effect> {
+    model.camera = camera;
+    vec![Effect::Render]
+}
+
+fn clamp_pixel((x, y): (u32, u32), (w, h): (u32, u32)) -> (u32, u32) {
+    (x.min(w.saturating_sub(1)), y.min(h.saturating_sub(1)))
+}
+
+/// Moves the aim cursor by `dx, dy` steps of 1/40 (1/8 when `big`) of the preview size.
+fn move_cursor(model: &mut Model, dx: i32, dy: i32, big: bool) -> Vec<Effect> {
+    let Mode::Aim { cursor } = &mut model.mode else {
+        return Vec::new();
+    };
+    let (w, h) = model.preview_px;
+    let divisions = if big { 8 } else { 40 };
+    let step = |size: u32| i64::from((size / divisions).max(1));
+    let shift = |at: u32, by: i32, size: u32| {
+        let moved = i64::from(at) + i64::from(by) * step(size);
+        u32::try_from(moved.clamp(0, i64::from(size.saturating_sub(1)))).unwrap_or(0)
+    };
+    *cursor = (shift(cursor.0, dx, w), shift(cursor.1, dy, h));
+    vec![Effect::Pick {
+        pixel: *cursor,
+        aim: false,
+    }]
+}
+
+fn on_click(model: &mut Model, cell: Position) -> Vec<Effect> {
+    if !matches!(model.mode, Mode::Normal | Mode::Aim { .. }) || model.light().is_none() {
+        return Vec::new();
+    }
+    let (w, h) = model.terminal_size;
+    let area = preview_rect(Rect::new(0, 0, w, h));
+    let (pw, ph) = model.preview_px;
+    match cell_to_pixel(cell, area, pw, ph) {
+        Some(pixel) => {
+            model.mode = Mode::Normal;
+            vec![Effect::Pick { pixel, aim: true }]
+        }
+        None => Vec::new(),
+    }
+}
+
+fn on_picked(model: &mut Model, hit: Option<(DVec3, f64)>, aim: bool) -> Vec<Effect> {
+    model.picked = hit.map(|(point, lux)| Picked { point, lux });
+    if !aim {
+        return Vec::new();
+    }
+    match hit {
+        Some((point, _)) => edit(model, |l| edits::aim_at(l, point)),
+        None => {
+            model.message = Some("nothing under the cursor to aim at".into());
+            Vec::new()
+        }
+    }
+}
+
+fn finish_move(model: &mut Model) -> Vec<Effect> {
+    let Mode::Move { start } = std::mem::replace(&mut model.mode, Mode::Normal) else {
+        return Vec::new();
+    };
+    let i = model.selected_light;
+    let after = model.lights[i].clone();
+    commit(model, i, *start, after)
+}
+
+fn cancel(model: &mut Model) -> Vec<Effect> {
+    match std::mem::replace(&mut model.mode, Mode::Normal) {
+        Mode::Move { start } => {
+            let moved = model.lights[model.selected_light] != *start;
+            model.lights[model.selected_light] = *start;
+            model.refresh_dirty();
+            if moved { vec![Effect::Render] } else { Vec::new() }
+        }
+        _ => Vec::new(),
+    }
+}

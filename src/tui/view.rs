@@ -1,0 +1,337 @@
+//! `view(&Model, &mut Frame, PreviewArea)`: the screen layout. Left the polar editor with the
+//! control-point table and the light's numbers, right the preview pane, then a status line and
+//! a hint bar; the help overlay and the quit prompt on top.
+
+use ratatui::Frame;
+use ratatui::layout::{Alignment, Constraint, Layout, Position, Rect};
+use ratatui::style::{Color, Modifier, Style, Stylize};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
+
+use crate::tui::keys::{self, ModeKind};
+use crate::tui::model::{LightEdit, Mode, Model};
+use crate::tui::polar::{self, PolarDiagram};
+
+/// Smallest terminal (columns, rows) the layout needs.
+pub const MIN_SIZE: (u16, u16) = (80, 24);
+
+/// What to draw in the preview pane's inner rectangle.
+pub enum PreviewArea<'a> {
+    /// A placeholder naming the preview's pixel size (tests, and before the first frame).
+    Placeholder,
+    /// The app's drawing (the rendered image), given the frame and the inner rectangle.
+    Draw(&'a mut dyn FnMut(&mut Frame<'_>, Rect)),
+}
+
+/// The screen's regions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Areas {
+    polar: Rect,
+    table: Rect,
+    numbers: Rect,
+    preview: Rect,
+    status: Rect,
+    hints: Rect,
+}
+
+/// True when `area` is at least [`MIN_SIZE`].
+pub fn fits(area: Rect) -> bool {
+    area.width >= MIN_SIZE.0 && area.height >= MIN_SIZE.1
+}
+
+fn areas(area: Rect) -> Areas {
+    let [main, status, hints] =
+        Layout::vertical([Constraint::Min(0), Constraint::Length(1), Constraint::Length(1)]).areas(area);
+    let editor_width = (area.width * 2 / 5).clamp(40, 64);
+    let [editor, preview] =
+        Layout::horizontal([Constraint::Length(editor_width), Constraint::Min(0)]).areas(main);
+    // A square diagram: Braille cells are about twice as tall as wide.
+    let polar_height = (editor.width / 2 + 2).min(main.height.saturating_sub(8));
+    let [polar, below] =
+        Layout::vertical([Constraint::Length(polar_height), Constraint::Min(0)]).areas(editor);
+    let [table, numbers] = Layout::horizontal([Constraint::Length(22), Constraint::Min(0)]).areas(below);
+    Areas {
+        polar,
+        table,
+        numbers,
+        preview,
+        status,
+        hints,
+    }
+}
+
+/// The preview image's cells for a terminal of `area`: the inside of the preview pane's border
+/// (empty when the terminal is too small). The app renders at this size times the cell's
+/// pixel size, and mouse clicks map through it ([`cell_to_pixel`]).
+pub fn preview_rect(area: Rect) -> Rect {
+    if !fits(area) {
+        return Rect::default();
+    }
+    Block::bordered().inner(areas(area).preview)
+}
+
+/// The preview pixel under terminal cell `cell`, for an image of `width × height` pixels
+/// covering `image_area` (ECOSYSTEM §1): the cell's centre scaled to pixels,
+/// `(col − x0 + ½) / cols · width`, in exact integer arithmetic.
+pub fn cell_to_pixel(cell: Position, image_area: Rect, width: u32, height: u32) -> Option<(u32, u32)> {
+    let scale = |offset: u16, cells: u16, pixels: u32| {
+        let twice = (2 * u64::from(offset) + 1) * u64::from(pixels) / (2 * u64::from(cells));
+        u32::try_from(twice).unwrap_or(u32::MAX)
+    };
+    image_area.contains(cell).then(|| {
+        (
+            scale(cell.x - image_area.x, image_area.width, width),
+            scale(cell.y - image_area.y, image_area.height, height),
+        )
+    })
+}
+
+/// The cell of `image_area` showing preview pixel `pixel` of an image of `width × height`.
+pub fn pixel_to_cell(pixel: (u32, u32), image_area: Rect, width: u32, height: u32) -> Option<Position> {
+    if width == 0 || height == 0 || image_area.is_empty() {
+        return None;
+    }
+    let col = u64::from(pixel.0) * u64::from(image_area.width) / u64::from(width);
+    let row = u64::from(pixel.1) * u64::from(image_area.height) / u64::from(height);
+    let x = image_area.x + u16::try_from(col).ok()?.min(image_area.width - 1);
+    let y = image_area.y + u16::try_from(row).ok()?.min(image_area.height - 1);
+    Some(Position::new(x, y))
+}
+
+/// Draws the whole screen.
+pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
+    let area = frame.area();
+    if !fits(area) {
+        let text = format!(
+            "Terminal too small: {}×{}. Haiko needs at least {}×{}.",
+            area.width, area.height, MIN_SIZE.0, MIN_SIZE.1
+        );
+        let [middle] = Layout::vertical([Constraint::Length(1)])
+            .flex(ratatui::layout::Flex::Center)
+            .areas(area);
+        frame.render_widget(Paragraph::new(text).alignment(Alignment::Center), middle);
+        return;
+    }
+    let areas = areas(area);
+    if let Some(light) = model.light() {
+        draw_editor(model, light, frame, &areas);
+    } else {
+        frame.render_widget(
+            Paragraph::new("This room has no lights.").block(Block::bordered()),
+            areas.polar,
+        );
+    }
+    draw_preview(model, frame, areas.preview, preview);
+    frame.render_widget(Paragraph::new(status_line(model)).reversed(), areas.status);
+    frame.render_widget(Paragraph::new(hint_line(model)), areas.hints);
+    match model.mode {
+        Mode::Help => draw_help(frame, area),
+        Mode::ConfirmQuit => draw_quit_prompt(frame, area),
+        _ => {}
+    }
+}
+
+fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &Areas) {
+    let series = model.series.get(model.selected_light).and_then(Option::as_ref);
+    let title = format!(" {} · I(γ) cd · C0–C180 ", light.name);
+    let diagram = PolarDiagram {
+        curve: &light.curve,
+        series: series.map(|s| s.samples.as_slice()),
+        selected: model.selected_point,
+        block: Block::bordered()
+            .title(title)
+            .title_bottom(polar::legend(light.order)),
+    };
+    frame.render_widget(diagram, areas.polar);
+
+    let rows = light.curve.points().map(|(gamma_deg, cd)| {
+        Row::new([
+            Cell::from(format!("{gamma_deg:>6.1}")),
+            Cell::from(format!("{cd:>9.1}")),
+        ])
+    });
+    let table = Table::new(rows, [Constraint::Length(7), Constraint::Length(10)])
+        .header(Row::new(["   γ °", "     I cd"]).style(Style::new().bold()))
+        .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
+        .highlight_symbol("▶")
+        .block(Block::bordered().title(" points "));
+    let mut state = TableState::default().with_selected(Some(model.selected_point));
+    frame.render_stateful_widget(table, areas.table, &mut state);
+
+    let error = series.map_or("—".to_string(), |s| {
+        format!("{:.2} %", 100.0 * s.relative_error)
+    });
+    let numbers = [
+        ("order", light.order.to_string()),
+        ("window", light.window.label().to_string()),
+        ("error", error),
+        ("flux", format!("{:.0} lm", light.curve.flux_lm())),
+        ("peak", format!("{:.0} cd", light.curve.peak_cd())),
+        ("dimmer", format!("{:.0} %", 100.0 * light.dimmer)),
+        ("pos m", format_vec(light.position.to_array())),
+        ("aim", format_vec(light.aim.to_array())),
+    ];
+    let lines: Vec<Line> = numbers
+        .into_iter()
+        .map(|(name, value)| Line::from(vec![Span::from(format!("{name:<8}")).dim(), Span::from(value)]))
+        .collect();
+    frame.render_widget(
+        Paragraph::new(lines).block(Block::bordered().title(" light ")),
+        areas.numbers,
+    );
+}
+
+fn format_vec(v: [f64; 3]) -> String {
+    format!("{:.2} {:.2} {:.2}", v[0], v[1], v[2])
+}
+
+fn draw_preview(model: &Model, frame: &mut Frame<'_>, pane: Rect, preview: PreviewArea<'_>) {
+    let (w, h) = model.preview_px;
+    let title = match &model.mode {
+        Mode::Aim { cursor } => format!(" aim: cursor at pixel ({}, {}) ", cursor.0, cursor.1),
+        Mode::Move { .. } => match model.light() {
+            Some(light) => format!(" move: position {} m ", format_vec(light.position.to_array())),
+            None => " move ".into(),
+        },
+        _ if model.false_colour => " preview · false colour (lx) ".into(),
+        _ => " preview ".into(),
+    };
+    let block = Block::bordered().title(title);
+    let inner = block.inner(pane);
+    frame.render_widget(block, pane);
+    match preview {
+        PreviewArea::Placeholder => {
+            let [middle] = Layout::vertical([Constraint::Length(1)])
+                .flex(ratatui::layout::Flex::Center)
+                .areas(inner);
+            let text = format!("preview {w}×{h} px");
+            frame.render_widget(Paragraph::new(text).alignment(Alignment::Center).dim(), middle);
+        }
+        PreviewArea::Draw(draw) => draw(frame, inner),
+    }
+    if let Mode::Aim { cursor } = model.mode
+        && let Some(cell) = pixel_to_cell(cursor, inner, w, h)
+    {
+        frame.render_widget(
+            Paragraph::new("╋").style(Style::new().fg(Color::LightRed).bold()),
+            Rect::new(cell.x, cell.y, 1, 1),
+        );
+    }
+}
+
+fn status_line(model: &Model) -> Line<'static> {
+    let mut parts = Vec::new();
+    if let Some(light) = model.light() {
+        parts.push(format!(
+            " {} ({}/{})",
+            light.name,
+            model.selected_light + 1,
+            model.lights.len()
+        ));
+    }
+    parts.push(model.mode.label().to_string());
+    if let Some(t) = model.timings {
+        parts.push(format!(
+            "relight {:.1} · render {:.1} · encode {:.1} ms",
+            t.relight_ms, t.render_ms, t.encode_ms
+        ));
+    }
+    if !model.protocol.is_empty() {
+        parts.push(model.protocol.clone());
+    }
+    if let Some((done, total)) = model.bake {
+        parts.push(format!("baking {done}/{total}"));
+    }
+    if let Some(picked) = model.picked {
+        parts.push(format!("E {:.0} lx", picked.lux));
+    }
+    if model.dirty {
+        parts.push("● unsaved".into());
+    }
+    Line::from(parts.join(" │ "))
+}
+
+fn hint_line(model: &Model) -> Line<'static> {
+    if let Some(message) = &model.message {
+        return Line::from(format!(" {message}")).style(Style::new().fg(Color::Yellow));
+    }
+    let hints = keys::hint_line(model.mode.kind());
+    match &model.mode {
+        Mode::ValueEntry { buffer } => Line::from(vec![
+            Span::from(" intensity (cd): "),
+            Span::from(format!("{buffer}▏")).bold(),
+            Span::from(format!("   {hints}")).dim(),
+        ]),
+        _ => Line::from(format!(" {hints}")).dim(),
+    }
+}
+
+/// A centred rectangle of at most `width × height` inside `area`.
+fn centred(area: Rect, width: u16, height: u16) -> Rect {
+    let [row] = Layout::vertical([Constraint::Length(height.min(area.height))])
+        .flex(ratatui::layout::Flex::Center)
+        .areas(area);
+    let [cell] = Layout::horizontal([Constraint::Length(width.min(area.width))])
+        .flex(ratatui::layout::Flex::Center)
+        .areas(row);
+    cell
+}
+
+/// The help text, one line per binding, grouped by mode, from the key table.
+fn help_lines() -> Vec<Line<'static>> {
+    let mut lines = Vec::new();
+    for mode in ModeKind::ALL {
+        if !lines.is_empty() {
+            lines.push(Line::default());
+        }
+        lines.push(Line::from(mode.title()).bold());
+        for binding in keys::bindings_of(mode) {
+            lines.push(Line::from(vec![
+                Span::from(format!(" {:<10}", binding.keys_label())).fg(Color::Cyan),
+                Span::from(binding.help),
+            ]));
+        }
+    }
+    lines
+}
+
+fn draw_help(frame: &mut Frame<'_>, area: Rect) {
+    // Over the panes only: the status line and the hint bar stay visible.
+    let panes = Rect {
+        height: area.height.saturating_sub(2),
+        ..area
+    };
+    let popup = centred(
+        panes,
+        panes.width.saturating_sub(4),
+        panes.height.saturating_sub(2),
+    );
+    frame.render_widget(Clear, popup);
+    let block = Block::bordered().title(" keys · ? or Esc closes ");
+    let inner = block.inner(popup);
+    frame.render_widget(block, popup);
+    let lines = help_lines();
+    let per_column = usize::from(inner.height.max(1));
+    let columns = lines.len().div_ceil(per_column).max(1);
+    let column_areas = Layout::horizontal(vec![Constraint::Fill(1); columns])
+        .spacing(2)
+        .split(inner);
+    for (chunk, column) in lines.chunks(per_column).zip(column_areas.iter()) {
+        frame.render_widget(Paragraph::new(chunk.to_vec()), *column);
+    }
+}
+
+fn draw_quit_prompt(frame: &mut Frame<'_>, area: Rect) {
+    let popup = centred(area, 51, 4);
+    frame.render_widget(Clear, popup);
+    let text = vec![
+        Line::from("There are unsaved changes. Quit without saving?"),
+        Line::from(keys::hint_line(ModeKind::ConfirmQuit)).bold(),
+    ];
+    frame.render_widget(
+        Paragraph::new(text)
+            .alignment(Alignment::Center)
+            .block(Block::bordered().title(" quit ")),
+        popup,
+    );
+}
