@@ -115,14 +115,13 @@ fn gallery_white_box_and_sculpture_rooms_load() {
     );
 }
 
-/// Needs the EULUMDAT reader (lidfile work); fails until that is merged.
 #[test]
 fn office_loads_with_its_eulumdat_downlights() {
     let scene = check_bundled("office.toml", 6);
-    // sample_08: 3862 lm LED module, rotationally symmetric.
+    // sample_09: 13 743 lm (the file's LORL × lamp flux), rotationally symmetric.
     for light in &scene.lights {
         let flux = light.curve.flux_lm();
-        assert!((flux / 3862.0 - 1.0).abs() < 0.1, "{}: {flux} lm", light.name);
+        assert!((flux / 13743.0 - 1.0).abs() < 0.1, "{}: {flux} lm", light.name);
     }
     // No floor patch under the four desks or the cabinet.
     let floor = scene.surfaces.iter().position(|s| s.name == "floor").unwrap() as u32;
