@@ -2,10 +2,11 @@
 
 mod direct;
 mod lidfiles;
-mod scene;
 mod photometry;
+mod scene;
 
 fn main() {}
+mod bake;
 mod radiosity;
 mod render;
 mod tui;
