@@ -113,7 +113,7 @@ fn lid_rejects_malformed_files_with_exit_code_2() {
             "garbage.ldt",
             (0..2000u32).map(|i| (i * 7919 % 251) as u8).collect(),
         ),
-        ("truncated.ies", good[..good.len() * 2 / 3].as_bytes().to_vec()),
+        ("truncated.ies", good.as_bytes()[..good.len() * 2 / 3].to_vec()),
         (
             "nan.ies",
             good.replace("100 100 100 100 100", "100 NaN 100 100 100")
