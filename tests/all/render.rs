@@ -894,10 +894,7 @@ fn light_markers_land_on_the_projected_pixel_and_respect_the_camera() {
 
 fn golden() -> Golden {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    Golden::from_env(
-        root.join("tests/snapshots/render"),
-        root.join("target/golden-diffs"),
-    )
+    Golden::from_env(root.join("snapshots"), root.join("target/golden-diffs"))
 }
 
 #[test]
