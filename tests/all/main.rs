@@ -8,3 +8,4 @@ mod photometry;
 fn main() {}
 mod radiosity;
 mod render;
+mod render_rooms;
