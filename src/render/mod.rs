@@ -16,6 +16,7 @@ pub mod overlay;
 pub mod pick;
 pub mod raster;
 pub mod shade;
+pub mod tone;
 
 pub use camera::View;
 pub use overlay::{LightMarker, draw_crosshair, draw_lights};

@@ -222,6 +222,8 @@ impl<P: Copy> Band<'_, P> {
         let row_hi = t.rows.1.min(self.first_row + band_rows - 1);
         let half = SUBPIXEL / 2;
         let x0 = i64::from(t.cols.0) * SUBPIXEL + half;
+        // Change of each edge function per pixel to the right.
+        let step = [0, 1, 2].map(|i| -t.delta[i][1] * SUBPIXEL);
         for row in row_lo..=row_hi {
             let y = i64::from(row) * SUBPIXEL + half;
             let mut e = [0i64; 3];
@@ -229,7 +231,6 @@ impl<P: Copy> Band<'_, P> {
                 let ([ax, ay], [dx, dy]) = (t.origin[i], t.delta[i]);
                 e[i] = dx * (y - ay) - dy * (x0 - ax);
             }
-            let step = t.delta.map(|d| -d[1] * SUBPIXEL);
             let Some((first, last)) = covered_span(e, step, t.threshold, t.cols.1 - t.cols.0) else {
                 continue;
             };
@@ -237,21 +238,35 @@ impl<P: Copy> Band<'_, P> {
                 e[i] += step[i] * i64::from(first);
             }
             let row_start = (row - self.first_row) as usize * self.width as usize;
-            for col in t.cols.0 + first..=t.cols.0 + last {
-                let b = e.map(|ei| ei as f32 * t.inv_area);
-                let z = b[0] * t.depth[0] + b[1] * t.depth[1] + b[2] * t.depth[2];
-                let index = row_start + col as usize;
-                if z > self.depth[index] {
-                    let inv_w = b[0] * t.inv_w[0] + b[1] * t.inv_w[1] + b[2] * t.inv_w[2];
-                    let a = &t.attr_over_w;
-                    let attr = [0, 1, 2].map(|k| (b[0] * a[0][k] + b[1] * a[1][k] + b[2] * a[2][k]) / inv_w);
-                    self.depth[index] = z;
-                    self.ids[index] = t.id;
-                    self.pixels[index] = shade(attr);
+            let span = row_start + (t.cols.0 + first) as usize..=row_start + (t.cols.0 + last) as usize;
+            let pixels = &mut self.pixels[span.clone()];
+            let depth = &mut self.depth[span.clone()];
+            let ids = &mut self.ids[span];
+            let [mut e0, mut e1, mut e2] = e;
+            let [s0, s1, s2] = step;
+            let (a0, a1, a2) = (t.attr_over_w[0], t.attr_over_w[1], t.attr_over_w[2]);
+            for ((pixel, stored), id) in pixels.iter_mut().zip(depth.iter_mut()).zip(ids.iter_mut()) {
+                let (b0, b1, b2) = (
+                    e0 as f32 * t.inv_area,
+                    e1 as f32 * t.inv_area,
+                    e2 as f32 * t.inv_area,
+                );
+                let z = b0 * t.depth[0] + b1 * t.depth[1] + b2 * t.depth[2];
+                if z > *stored {
+                    // Perspective-correct: interpolate attr/w and 1/w linearly, divide.
+                    let w = 1.0 / (b0 * t.inv_w[0] + b1 * t.inv_w[1] + b2 * t.inv_w[2]);
+                    let attr = [
+                        (b0 * a0[0] + b1 * a1[0] + b2 * a2[0]) * w,
+                        (b0 * a0[1] + b1 * a1[1] + b2 * a2[1]) * w,
+                        (b0 * a0[2] + b1 * a1[2] + b2 * a2[2]) * w,
+                    ];
+                    *stored = z;
+                    *id = t.id;
+                    *pixel = shade(attr);
                 }
-                for i in 0..3 {
-                    e[i] += step[i];
-                }
+                e0 += s0;
+                e1 += s1;
+                e2 += s2;
             }
         }
     }

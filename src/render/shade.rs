@@ -7,7 +7,8 @@
 //!   mean** of the luminances of the vertices at least `L_90 / 100` bright is the key `L_key`
 //!   (darker ones would drag the key towards 0 and blow the picture out — a ceiling no
 //!   downlight reaches is left near-black instead). A pixel shows `x / (1 + x)` per channel
-//!   (Reinhard) with `x = L · k`, `k = (0.18 / 0.82) / L_key`, then the sRGB transfer. So a
+//!   (Reinhard) with `x = L · k`, `k = (0.18 / 0.82) / L_key`, then the sRGB transfer (both by
+//!   one table, within one sRGB8 level: [`super::tone`]). So a
 //!   surface at the key luminance is shown at display value 0.18 (mid-grey, sRGB8 118), and
 //!   scaling every light by any factor leaves the picture unchanged.
 //! * [`DisplayMode::FalseColor`]: the attribute is illuminance `E` (lx); its luma is placed on
@@ -15,8 +16,8 @@
 //!   bottom of the range, yellow at the top). The range is returned for the UI's legend.
 
 use std::f64::consts::PI;
-use std::sync::LazyLock;
 
+use super::tone::{self, tone_srgb8};
 use crate::error::{Error, Result};
 use crate::scene::model::{PatchMesh, Surface};
 
@@ -148,11 +149,15 @@ impl Photo {
 }
 
 impl Shader for Photo {
+    #[inline]
     fn shade(&self, luminance: [f32; 3]) -> [u8; 3] {
-        luminance.map(|l| {
-            let x = (l * self.exposure).max(0.0);
-            srgb8_from_linear(x / (1.0 + x))
-        })
+        let table = tone::table();
+        let k = self.exposure;
+        [
+            tone_srgb8(table, luminance[0] * k),
+            tone_srgb8(table, luminance[1] * k),
+            tone_srgb8(table, luminance[2] * k),
+        ]
     }
 }
 
@@ -293,6 +298,7 @@ impl DisplayShader {
 }
 
 impl Shader for DisplayShader {
+    #[inline]
     fn shade(&self, value: [f32; 3]) -> [u8; 3] {
         match self {
             DisplayShader::Photo(s) => s.shade(value),
@@ -325,15 +331,6 @@ pub fn viridis(t: f64) -> [u8; 3] {
     })
 }
 
-/// Entries of the sRGB encoding table over display values [0, 1].
-const SRGB_TABLE_SIZE: usize = 4096;
-
-static SRGB_TABLE: LazyLock<Vec<u8>> = LazyLock::new(|| {
-    (0..SRGB_TABLE_SIZE)
-        .map(|i| (srgb_encode(i as f64 / (SRGB_TABLE_SIZE - 1) as f64) * 255.0).round() as u8)
-        .collect()
-});
-
 /// The sRGB transfer function (IEC 61966-2-1) of a linear display value in [0, 1].
 pub fn srgb_encode(linear: f64) -> f64 {
     if linear <= 0.003_130_8 {
@@ -341,10 +338,4 @@ pub fn srgb_encode(linear: f64) -> f64 {
     } else {
         1.055 * linear.powf(1.0 / 2.4) - 0.055
     }
-}
-
-/// sRGB8 of a linear display value (clamped to [0, 1]; NaN → 0), by a 4096-entry table.
-pub fn srgb8_from_linear(linear: f32) -> u8 {
-    let index = (linear.clamp(0.0, 1.0) * (SRGB_TABLE_SIZE - 1) as f32 + 0.5) as usize;
-    SRGB_TABLE[index.min(SRGB_TABLE_SIZE - 1)]
 }
