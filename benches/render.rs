@@ -16,7 +16,9 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use haiko::cli::render::{light_markers, scene_view};
 use haiko::photometry::Curve;
 use haiko::relight::Relighter;
-use haiko::render::{DisplayMode, DisplayShader, View, draw_lights, render, vertex_attributes};
+use haiko::render::{
+    DisplayMode, DisplayShader, Frame, View, draw_lights, render, render_into, vertex_attributes,
+};
 use haiko::scene::{self, Scene};
 use rayon::ThreadPool;
 
@@ -75,8 +77,8 @@ fn edited_curve(curve: &Curve, factor: f64) -> Curve {
     edited
 }
 
-/// One edit → pixmap: the whole path the editor runs per keystroke.
-fn edit_to_pixmap(scene: &Scene, relighter: &mut Relighter, curve: Curve, view: &View) {
+/// One edit → pixmap: the whole path the editor runs per keystroke, redrawing into its frame.
+fn edit_to_pixmap(scene: &Scene, relighter: &mut Relighter, curve: Curve, view: &View, frame: &mut Frame) {
     relighter.set_curve(0, curve);
     let attrs = vertex_attributes(
         DisplayMode::Photo,
@@ -86,9 +88,9 @@ fn edit_to_pixmap(scene: &Scene, relighter: &mut Relighter, curve: Curve, view: 
     )
     .expect("attributes match the mesh");
     let shader = DisplayShader::fit(DisplayMode::Photo, &scene.fine, &attrs);
-    let mut frame = render(&scene.fine, &attrs, view, &shader).expect("the mesh renders");
-    draw_lights(&mut frame, view, &light_markers(scene));
-    black_box(frame);
+    render_into(frame, &scene.fine, &attrs, view, &shader).expect("the mesh renders");
+    draw_lights(frame, view, &light_markers(scene));
+    black_box(&frame.pixmap);
 }
 
 fn relight_and_rasterise(c: &mut Criterion) {
@@ -99,6 +101,7 @@ fn relight_and_rasterise(c: &mut Criterion) {
         let mut relighter = Relighter::new(&scene);
         let base = relighter.light(0).curve.clone();
         let curves = [edited_curve(&base, 1.1), base];
+        let mut frame = Frame::new(SIZE.0, SIZE.1).expect("a frame");
         for threads in THREADS {
             let pool = pool(threads);
             let id = BenchmarkId::new(name, format!("{threads}-thread"));
@@ -106,7 +109,9 @@ fn relight_and_rasterise(c: &mut Criterion) {
             group.bench_function(id, |b| {
                 b.iter(|| {
                     toggle ^= 1;
-                    pool.install(|| edit_to_pixmap(&scene, &mut relighter, curves[toggle].clone(), &view));
+                    pool.install(|| {
+                        edit_to_pixmap(&scene, &mut relighter, curves[toggle].clone(), &view, &mut frame)
+                    });
                 })
             });
             if threads == 1 {
@@ -115,7 +120,13 @@ fn relight_and_rasterise(c: &mut Criterion) {
                         pool.install(|| {
                             cpu_time_of(iters, || {
                                 toggle ^= 1;
-                                edit_to_pixmap(&scene, &mut relighter, curves[toggle].clone(), &view);
+                                edit_to_pixmap(
+                                    &scene,
+                                    &mut relighter,
+                                    curves[toggle].clone(),
+                                    &view,
+                                    &mut frame,
+                                );
                             })
                         })
                     })
@@ -164,6 +175,12 @@ fn stages(c: &mut Criterion) {
                 .expect("attributes match the mesh");
                 black_box(DisplayShader::fit(DisplayMode::Photo, &scene.fine, &a))
             })
+        })
+    });
+    let mut reused = Frame::new(SIZE.0, SIZE.1).expect("a frame");
+    group.bench_function("render_into", |b| {
+        b.iter(|| {
+            one.install(|| render_into(&mut reused, &scene.fine, &attrs, &view, &shader).expect("renders"))
         })
     });
     group.bench_function("render", |b| {

@@ -66,35 +66,69 @@ pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View
                 attr: DVec3::from(attrs[i as usize].map(f64::from)),
             });
             let polygon = if view.culls_back_faces() && !facing {
-                Vec::new()
+                Polygon::empty(vertices[0])
             } else {
                 clip_triangle(vertices, view.near_m())
             };
-            let screen: Vec<ScreenVertex> = polygon.iter().map(|v| to_screen(v, view)).collect();
-            (1..screen.len().saturating_sub(1))
-                .map(move |k| ScreenTriangle {
-                    vertices: [screen[0], screen[k], screen[k + 1]],
-                    id: patch_id,
-                })
-                .collect::<Vec<_>>()
+            let unused = ScreenVertex {
+                x: 0.0,
+                y: 0.0,
+                depth: 0.0,
+                inv_w: 0.0,
+                attr: [0.0; 3],
+            };
+            let screen: [ScreenVertex; MAX_POLYGON] = std::array::from_fn(|k| {
+                if k < polygon.len {
+                    to_screen(&polygon.vertices[k], view)
+                } else {
+                    unused
+                }
+            });
+            (1..polygon.len.saturating_sub(1)).map(move |k| ScreenTriangle {
+                vertices: [screen[0], screen[k], screen[k + 1]],
+                id: patch_id,
+            })
         })
         .collect()
 }
 
+/// Most vertices a clipped triangle can have: 3, plus one per clip plane.
+const MAX_POLYGON: usize = 3 + N_PLANES;
+
+/// A convex polygon of at most [`MAX_POLYGON`] vertices, on the stack (the first `len` count).
+#[derive(Clone, Copy)]
+struct Polygon {
+    vertices: [ClipVertex; MAX_POLYGON],
+    len: usize,
+}
+
+impl Polygon {
+    /// No vertices (`filler` only fills the unused slots).
+    fn empty(filler: ClipVertex) -> Polygon {
+        Polygon {
+            vertices: [filler; MAX_POLYGON],
+            len: 0,
+        }
+    }
+    fn push(&mut self, v: ClipVertex) {
+        self.vertices[self.len] = v;
+        self.len += 1;
+    }
+}
+
 /// The convex polygon (0 or 3..=8 vertices) of `triangle` inside all clip planes.
-fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Vec<ClipVertex> {
+fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Polygon {
+    let mut polygon = Polygon::empty(triangle[0]);
+    triangle.iter().for_each(|&v| polygon.push(v));
     let inside_all = |v: &ClipVertex| (0..N_PLANES).all(|k| plane_distance(k, v.clip, near) >= 0.0);
     if triangle.iter().all(inside_all) {
-        return triangle.to_vec();
+        return polygon;
     }
-    let mut polygon = triangle.to_vec();
     for plane in 0..N_PLANES {
-        if polygon.is_empty() {
-            break;
-        }
-        let mut clipped = Vec::with_capacity(polygon.len() + 1);
-        for (k, &current) in polygon.iter().enumerate() {
-            let next = polygon[(k + 1) % polygon.len()];
+        let mut clipped = Polygon::empty(triangle[0]);
+        let corners = &polygon.vertices[..polygon.len];
+        for (k, &current) in corners.iter().enumerate() {
+            let next = corners[(k + 1) % corners.len()];
             let d_current = plane_distance(plane, current.clip, near);
             let d_next = plane_distance(plane, next.clip, near);
             if d_current >= 0.0 {
@@ -110,6 +144,9 @@ fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Vec<ClipVertex> {
             }
         }
         polygon = clipped;
+        if polygon.len == 0 {
+            break;
+        }
     }
     polygon
 }
