@@ -164,7 +164,7 @@ impl Shader for Photo {
 /// The area quantile of `(value, area)` pairs: the smallest value such that at least the
 /// fraction `q` of the total area has a value at or below it. Sorts `pairs`; `None` when empty.
 fn area_quantile(pairs: &mut [(f64, f64)], q: f64) -> Option<f64> {
-    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     let total: f64 = pairs.iter().map(|p| p.1).sum();
     let mut below = 0.0;
     for &(value, area) in pairs.iter() {
