@@ -11,7 +11,9 @@ use crate::photometry::Window;
 pub mod bake;
 pub mod grid;
 pub mod lid;
+pub mod pick;
 pub mod probe;
+pub mod render;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -94,6 +96,43 @@ pub enum Command {
         #[arg(long)]
         direct_only: bool,
     },
+    /// Headless preview: render the room's camera view to a PNG, with per-stage timings.
+    Render {
+        /// The room file.
+        room: PathBuf,
+        /// Output PNG file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Image width, pixels (1..=8192).
+        #[arg(long, default_value_t = 1024)]
+        width: u32,
+        /// Image height, pixels (1..=8192).
+        #[arg(long, default_value_t = 768)]
+        height: u32,
+        /// What the image shows.
+        #[arg(long, value_enum, default_value_t = render::ModeArg::Photo)]
+        mode: render::ModeArg,
+    },
+    /// What a pixel of the `render` image shows (patch, surface, point, normal); aims a light at it.
+    Pick {
+        /// The room file.
+        room: PathBuf,
+        /// The pixel `X,Y` (0,0 = top left).
+        #[arg(long)]
+        pixel: pick::Pixel,
+        /// Image width, pixels (as for `render`).
+        #[arg(long, default_value_t = 1024)]
+        width: u32,
+        /// Image height, pixels (as for `render`).
+        #[arg(long, default_value_t = 768)]
+        height: u32,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Also print the unit aim vector that points this light at the picked point.
+        #[arg(long, value_name = "LIGHT")]
+        aim: Option<String>,
+    },
 }
 
 /// `--graphics` values.
@@ -170,6 +209,21 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
             direct_only,
         } => grid::run(&room, height, spacing, margin, json, direct_only),
+        Command::Render {
+            room,
+            output,
+            width,
+            height,
+            mode,
+        } => render::run(&room, &output, width, height, mode.into()),
+        Command::Pick {
+            room,
+            pixel,
+            width,
+            height,
+            json,
+            aim,
+        } => pick::run(&room, pixel, width, height, json, aim.as_deref()),
     }
 }
 

@@ -49,52 +49,91 @@ fn plane_distance(plane: usize, c: DVec4, near: f64) -> f64 {
 /// The screen triangles of every patch of `mesh` seen by `view`, with per-vertex `attrs`, in
 /// patch order. The caller guarantees `attrs.len() == mesh.n_vertices()` and valid indices.
 pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View) -> Vec<ScreenTriangle> {
-    let clip: Vec<DVec4> = mesh
+    let near = view.near_m();
+    // Once per vertex: its clip-space form and, when it is inside every clip plane, its screen
+    // vertex (shared bit for bit by all its triangles).
+    let vertices: Vec<(ClipVertex, Option<ScreenVertex>)> = mesh
         .positions
         .par_iter()
-        .map(|&p| view.clip_from_world(p))
+        .zip(attrs.par_iter())
+        .map(|(&position, attr)| {
+            let v = ClipVertex {
+                clip: view.clip_from_world(position),
+                attr: DVec3::from(attr.map(f64::from)),
+            };
+            let inside = (0..N_PLANES).all(|k| plane_distance(k, v.clip, near) >= 0.0);
+            (v, inside.then(|| to_screen(&v, view)))
+        })
         .collect();
     let triangles: Vec<([u32; 3], u32)> = mesh.triangles().collect();
     let eye = view.camera().eye;
+    let unused = ScreenVertex {
+        x: 0.0,
+        y: 0.0,
+        depth: 0.0,
+        inv_w: 0.0,
+        attr: [0.0; 3],
+    };
     triangles
         .par_iter()
         .flat_map_iter(|&(ids, patch_id)| {
             let patch = &mesh.patches[patch_id as usize];
             let facing = patch.normal.dot(eye - patch.centroid) > 0.0;
-            let vertices = ids.map(|i| ClipVertex {
-                clip: clip[i as usize],
-                attr: DVec3::from(attrs[i as usize].map(f64::from)),
-            });
-            let polygon = if view.culls_back_faces() && !facing {
-                Vec::new()
+            let [a, b, c] = ids.map(|i| vertices[i as usize]);
+            let mut screen = [unused; MAX_POLYGON];
+            let n = if view.culls_back_faces() && !facing {
+                0
+            } else if let (Some(sa), Some(sb), Some(sc)) = (a.1, b.1, c.1) {
+                screen[..3].copy_from_slice(&[sa, sb, sc]);
+                3
             } else {
-                clip_triangle(vertices, view.near_m())
+                let polygon = clip_triangle([a.0, b.0, c.0], near);
+                for (s, v) in screen.iter_mut().zip(&polygon.vertices[..polygon.len]) {
+                    *s = to_screen(v, view);
+                }
+                polygon.len
             };
-            let screen: Vec<ScreenVertex> = polygon.iter().map(|v| to_screen(v, view)).collect();
-            (1..screen.len().saturating_sub(1))
-                .map(move |k| ScreenTriangle {
-                    vertices: [screen[0], screen[k], screen[k + 1]],
-                    id: patch_id,
-                })
-                .collect::<Vec<_>>()
+            (1..n.saturating_sub(1)).map(move |k| ScreenTriangle {
+                vertices: [screen[0], screen[k], screen[k + 1]],
+                id: patch_id,
+            })
         })
         .collect()
 }
 
-/// The convex polygon (0 or 3..=8 vertices) of `triangle` inside all clip planes.
-fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Vec<ClipVertex> {
-    let inside_all = |v: &ClipVertex| (0..N_PLANES).all(|k| plane_distance(k, v.clip, near) >= 0.0);
-    if triangle.iter().all(inside_all) {
-        return triangle.to_vec();
-    }
-    let mut polygon = triangle.to_vec();
-    for plane in 0..N_PLANES {
-        if polygon.is_empty() {
-            break;
+/// Most vertices a clipped triangle can have: 3, plus one per clip plane.
+const MAX_POLYGON: usize = 3 + N_PLANES;
+
+/// A convex polygon of at most [`MAX_POLYGON`] vertices, on the stack (the first `len` count).
+#[derive(Clone, Copy)]
+struct Polygon {
+    vertices: [ClipVertex; MAX_POLYGON],
+    len: usize,
+}
+
+impl Polygon {
+    /// No vertices (`filler` only fills the unused slots).
+    fn empty(filler: ClipVertex) -> Polygon {
+        Polygon {
+            vertices: [filler; MAX_POLYGON],
+            len: 0,
         }
-        let mut clipped = Vec::with_capacity(polygon.len() + 1);
-        for (k, &current) in polygon.iter().enumerate() {
-            let next = polygon[(k + 1) % polygon.len()];
+    }
+    fn push(&mut self, v: ClipVertex) {
+        self.vertices[self.len] = v;
+        self.len += 1;
+    }
+}
+
+/// The convex polygon (0 or 3..=8 vertices) of `triangle` inside all clip planes.
+fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Polygon {
+    let mut polygon = Polygon::empty(triangle[0]);
+    triangle.iter().for_each(|&v| polygon.push(v));
+    for plane in 0..N_PLANES {
+        let mut clipped = Polygon::empty(triangle[0]);
+        let corners = &polygon.vertices[..polygon.len];
+        for (k, &current) in corners.iter().enumerate() {
+            let next = corners[(k + 1) % corners.len()];
             let d_current = plane_distance(plane, current.clip, near);
             let d_next = plane_distance(plane, next.clip, near);
             if d_current >= 0.0 {
@@ -110,6 +149,9 @@ fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Vec<ClipVertex> {
             }
         }
         polygon = clipped;
+        if polygon.len == 0 {
+            break;
+        }
     }
     polygon
 }

@@ -3,7 +3,7 @@
 //! and picking. Knows nothing of terminals; the only file format it touches is PNG (goldens).
 //!
 //! ```text
-//! vertex illuminance ─► shade::vertex_attributes ─► render(mesh, attrs, view, shader) ─► Frame
+//! vertex illuminance ─► shade::vertex_attributes ─► render(_into)(mesh, attrs, view, shader) ─► Frame
 //!                                                     (clip → raster)          │
 //!                                   overlay::draw_lights / draw_crosshair ◄────┤
 //!                                   pick::pick(frame, view, mesh, x, y) ◄──────┘
@@ -16,14 +16,15 @@ pub mod overlay;
 pub mod pick;
 pub mod raster;
 pub mod shade;
+pub mod tone;
 
 pub use camera::View;
 pub use overlay::{LightMarker, draw_crosshair, draw_lights};
 pub use pick::{Pick, aim_direction, pick};
-pub use raster::{BACKGROUND_ID, Raster, ScreenTriangle, ScreenVertex, rasterize};
+pub use raster::{BACKGROUND_ID, Raster, ScreenTriangle, ScreenVertex, Target, rasterize, rasterize_into};
 pub use shade::{DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, vertex_attributes};
 
-use tiny_skia::{IntSize, Pixmap};
+use tiny_skia::Pixmap;
 
 use crate::error::{Error, Result};
 use crate::scene::model::{Patch, PatchMesh};
@@ -86,6 +87,18 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// A blank `width × height` frame (transparent black, no depth, all background ids).
+    ///
+    /// Errors (internal): a side of 0.
+    pub fn new(width: u32, height: u32) -> Result<Frame> {
+        let n = width as usize * height as usize;
+        Ok(Frame {
+            pixmap: Pixmap::new(width, height).ok_or_else(|| Error::internal("render: empty image"))?,
+            depth: vec![0.0; n],
+            ids: IdBuffer::new(width, height, vec![BACKGROUND_ID; n])?,
+        })
+    }
+
     /// Depth at pixel (x, y), `None` for background or outside the image.
     pub fn depth_at(&self, x: u32, y: u32) -> Option<f32> {
         let i = self.ids.index(x, y)?;
@@ -98,44 +111,52 @@ impl Frame {
 ///
 /// Errors (internal): `attrs` not one per vertex, or a patch indexing a missing vertex.
 pub fn render(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View, shader: &impl Shader) -> Result<Frame> {
-    let raster = render_with(
-        mesh,
-        attrs,
-        view,
-        [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255],
-        |a| {
-            let [r, g, b] = shader.shade(a);
-            [r, g, b, 255]
-        },
-    )?;
-    let size = IntSize::from_wh(raster.width, raster.height)
-        .ok_or_else(|| Error::internal("render: empty image"))?;
-    let pixmap = Pixmap::from_vec(raster.pixels.into_flattened(), size)
-        .ok_or_else(|| Error::internal("render: pixmap size mismatch"))?;
-    Ok(Frame {
-        pixmap,
-        depth: raster.depth,
-        ids: IdBuffer::new(raster.width, raster.height, raster.ids)?,
-    })
+    let mut frame = Frame::new(view.width(), view.height())?;
+    render_into(&mut frame, mesh, attrs, view, shader)?;
+    Ok(frame)
+}
+
+/// As [`render`], into `frame`: its buffers are reused when it already has the view's size (no
+/// image-sized allocation per edit, the editor's path) and replaced otherwise.
+/// Errors as [`render`].
+pub fn render_into(
+    frame: &mut Frame,
+    mesh: &PatchMesh,
+    attrs: &[[f32; 3]],
+    view: &View,
+    shader: &impl Shader,
+) -> Result<()> {
+    let triangles = screen_triangles(mesh, attrs, view)?;
+    let (width, height) = (view.width(), view.height());
+    if (frame.ids.width, frame.ids.height) != (width, height) {
+        *frame = Frame::new(width, height)?;
+    }
+    let (pixels, _) = frame.pixmap.data_mut().as_chunks_mut::<4>();
+    let target = Target::new(width, height, pixels, &mut frame.depth, &mut frame.ids.ids)
+        .ok_or_else(|| Error::internal("render: frame buffers do not match the image size"))?;
+    let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
+    rasterize_into(target, &triangles, background, |a| {
+        let [r, g, b] = shader.shade(a);
+        [r, g, b, 255]
+    });
+    Ok(())
 }
 
 /// Renders the interpolated attribute itself per pixel (`[0; 3]` on background): the value a
 /// shader would see, e.g. to read the lux under the cursor. Errors as [`render`].
 pub fn render_attributes(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View) -> Result<Raster<[f32; 3]>> {
-    render_with(mesh, attrs, view, [0.0; 3], |a| a)
+    let triangles = screen_triangles(mesh, attrs, view)?;
+    Ok(rasterize(
+        &triangles,
+        view.width(),
+        view.height(),
+        [0.0; 3],
+        |a| a,
+    ))
 }
 
-fn render_with<P, F>(
-    mesh: &PatchMesh,
-    attrs: &[[f32; 3]],
-    view: &View,
-    background: P,
-    shade: F,
-) -> Result<Raster<P>>
-where
-    P: Copy + Send + Sync,
-    F: Fn([f32; 3]) -> P + Sync,
-{
+/// The screen triangles of `mesh` after checking `attrs` and the patches against it.
+fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View) -> Result<Vec<ScreenTriangle>> {
     let n = mesh.n_vertices();
     if attrs.len() != n {
         return Err(Error::internal(format!(
@@ -150,12 +171,5 @@ where
             "render: patch {pid} is not 3 or 4 vertices of {n}"
         )));
     }
-    let triangles = clip::screen_triangles(mesh, attrs, view);
-    Ok(rasterize(
-        &triangles,
-        view.width(),
-        view.height(),
-        background,
-        shade,
-    ))
+    Ok(clip::screen_triangles(mesh, attrs, view))
 }

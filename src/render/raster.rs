@@ -4,7 +4,9 @@
 //! i64 at pixel centres, with the top-left fill rule: a triangle sharing an edge with another
 //! never leaves a crack and never covers a pixel twice, whatever the evaluation order. Depth
 //! is reversed (larger = nearer, cleared to 0 = infinitely far) and interpolated linearly in
-//! screen space; attributes are interpolated perspective-correctly (`attr/w` and `1/w`) in f32.
+//! screen space; attributes are interpolated perspective-correctly (`attr/w` and `1/w`). Along a
+//! row the interpolants are stepped per pixel from their exact value at the span's first pixel
+//! (f64 sums, re-anchored every row: the drift along a row is ~1e-12 of the values' scale).
 //! Rows are split into bands rendered in parallel; each band visits its triangles in input
 //! order, so the result is the same on any number of threads (depth ties: first drawn wins).
 
@@ -71,6 +73,70 @@ where
     P: Copy + Send + Sync,
     F: Fn([f32; 3]) -> P + Sync,
 {
+    let n_pixels = width as usize * height as usize;
+    let mut raster = Raster {
+        width,
+        height,
+        pixels: vec![background; n_pixels],
+        depth: vec![0.0; n_pixels],
+        ids: vec![BACKGROUND_ID; n_pixels],
+    };
+    let target = Target {
+        width,
+        height,
+        pixels: &mut raster.pixels,
+        depth: &mut raster.depth,
+        ids: &mut raster.ids,
+    };
+    rasterize_into(target, triangles, background, shade);
+    raster
+}
+
+/// The three output buffers of a `width × height` image, borrowed (row-major from the
+/// top-left pixel): what [`rasterize_into`] draws into.
+pub struct Target<'a, P> {
+    width: u32,
+    height: u32,
+    pixels: &'a mut [P],
+    depth: &'a mut [f32],
+    ids: &'a mut [u32],
+}
+
+impl<'a, P> Target<'a, P> {
+    /// Borrows the buffers; `None` unless each holds exactly `width × height` values.
+    pub fn new(
+        width: u32,
+        height: u32,
+        pixels: &'a mut [P],
+        depth: &'a mut [f32],
+        ids: &'a mut [u32],
+    ) -> Option<Self> {
+        let n = width as usize * height as usize;
+        (pixels.len() == n && depth.len() == n && ids.len() == n).then_some(Target {
+            width,
+            height,
+            pixels,
+            depth,
+            ids,
+        })
+    }
+}
+
+/// As [`rasterize`], into existing buffers: they are cleared (to `background`, depth 0 and
+/// [`BACKGROUND_ID`]) and drawn band by band in parallel, without allocating image-sized memory
+/// (the editor redraws into the same buffers after every edit).
+pub fn rasterize_into<P, F>(target: Target<'_, P>, triangles: &[ScreenTriangle], background: P, shade: F)
+where
+    P: Copy + Send + Sync,
+    F: Fn([f32; 3]) -> P + Sync,
+{
+    let Target {
+        width,
+        height,
+        pixels,
+        depth,
+        ids,
+    } = target;
     let setups: Vec<Setup> = triangles
         .par_iter()
         .filter_map(|t| Setup::new(t, width, height))
@@ -84,24 +150,17 @@ where
             bin.push(index as u32);
         }
     }
-
-    let n_pixels = width as usize * height as usize;
-    let mut raster = Raster {
-        width,
-        height,
-        pixels: vec![background; n_pixels],
-        depth: vec![0.0; n_pixels],
-        ids: vec![BACKGROUND_ID; n_pixels],
-    };
     let band_len = (BAND_ROWS * width) as usize;
-    raster
-        .pixels
+    pixels
         .par_chunks_mut(band_len)
-        .zip(raster.depth.par_chunks_mut(band_len))
-        .zip(raster.ids.par_chunks_mut(band_len))
+        .zip(depth.par_chunks_mut(band_len))
+        .zip(ids.par_chunks_mut(band_len))
         .zip(bins.par_iter())
         .enumerate()
         .for_each(|(band, (((pixels, depth), ids), bin))| {
+            pixels.fill(background);
+            depth.fill(0.0);
+            ids.fill(BACKGROUND_ID);
             let mut target = Band {
                 width,
                 first_row: band as u32 * BAND_ROWS,
@@ -113,7 +172,6 @@ where
                 target.draw(&setups[index as usize], &shade);
             }
         });
-    raster
 }
 
 /// A triangle ready to scan: snapped vertices, edge functions, pixel bounds, attributes.
@@ -126,11 +184,27 @@ struct Setup {
     /// Inclusive pixel column and row ranges (clamped to the image).
     cols: (u32, u32),
     rows: (u32, u32),
-    inv_area: f32,
-    depth: [f32; 3],
-    inv_w: [f32; 3],
-    attr_over_w: [[f32; 3]; 3],
+    /// Per vertex: the quantities interpolated linearly in screen space, [`Interpolants`].
+    values: [Interpolants; 3],
+    /// Change of each interpolant per pixel to the right.
+    dx: Interpolants,
+    /// Change of each edge function per pixel to the right.
+    step: [i64; 3],
+    inv_area: f64,
     id: u32,
+}
+
+/// Depth, `1/w` and `attr/w` (three channels): what is linear in screen space.
+type Interpolants = [f64; 5];
+
+/// The interpolants of a point with barycentric weights `b`.
+#[inline(always)]
+fn blend(values: &[Interpolants; 3], b: [f64; 3]) -> Interpolants {
+    let mut out = [0.0; 5];
+    for (q, o) in out.iter_mut().enumerate() {
+        *o = b[0] * values[0][q] + b[1] * values[1][q] + b[2] * values[2][q];
+    }
+    out
 }
 
 impl Setup {
@@ -172,16 +246,24 @@ impl Setup {
             let top_left = dy < 0 || (dy == 0 && dx > 0);
             threshold[i] = i64::from(!top_left);
         }
+        let values = v.map(|p| {
+            let inv_w = f64::from(p.inv_w);
+            let [r, g, b] = p.attr.map(|a| f64::from(a) * inv_w);
+            [f64::from(p.depth), inv_w, r, g, b]
+        });
+        let inv_area = 1.0 / area as f64;
+        let step = [0, 1, 2].map(|i| -delta[i][1] * SUBPIXEL);
+        let dx = blend(&values, step.map(|s| s as f64 * inv_area));
         Some(Setup {
             origin,
             delta,
             threshold,
             cols,
             rows,
-            inv_area: (1.0 / area as f64) as f32,
-            depth: v.map(|p| p.depth),
-            inv_w: v.map(|p| p.inv_w),
-            attr_over_w: v.map(|p| p.attr.map(|a| a * p.inv_w)),
+            values,
+            dx,
+            step,
+            inv_area,
             id: triangle.id,
         })
     }
@@ -229,28 +311,27 @@ impl<P: Copy> Band<'_, P> {
                 let ([ax, ay], [dx, dy]) = (t.origin[i], t.delta[i]);
                 e[i] = dx * (y - ay) - dy * (x0 - ax);
             }
-            let step = t.delta.map(|d| -d[1] * SUBPIXEL);
-            let Some((first, last)) = covered_span(e, step, t.threshold, t.cols.1 - t.cols.0) else {
+            let Some((first, last)) = covered_span(e, t.step, t.threshold, t.cols.1 - t.cols.0) else {
                 continue;
             };
-            for i in 0..3 {
-                e[i] += step[i] * i64::from(first);
-            }
+            let b = [0, 1, 2].map(|i| (e[i] + t.step[i] * i64::from(first)) as f64 * t.inv_area);
+            let mut v = blend(&t.values, b);
             let row_start = (row - self.first_row) as usize * self.width as usize;
-            for col in t.cols.0 + first..=t.cols.0 + last {
-                let b = e.map(|ei| ei as f32 * t.inv_area);
-                let z = b[0] * t.depth[0] + b[1] * t.depth[1] + b[2] * t.depth[2];
-                let index = row_start + col as usize;
-                if z > self.depth[index] {
-                    let inv_w = b[0] * t.inv_w[0] + b[1] * t.inv_w[1] + b[2] * t.inv_w[2];
-                    let a = &t.attr_over_w;
-                    let attr = [0, 1, 2].map(|k| (b[0] * a[0][k] + b[1] * a[1][k] + b[2] * a[2][k]) / inv_w);
-                    self.depth[index] = z;
-                    self.ids[index] = t.id;
-                    self.pixels[index] = shade(attr);
+            let span = row_start + (t.cols.0 + first) as usize..=row_start + (t.cols.0 + last) as usize;
+            let pixels = &mut self.pixels[span.clone()];
+            let depth = &mut self.depth[span.clone()];
+            let ids = &mut self.ids[span];
+            for ((pixel, stored), id) in pixels.iter_mut().zip(depth.iter_mut()).zip(ids.iter_mut()) {
+                let z = v[0] as f32;
+                if z > *stored {
+                    // Perspective-correct: attr/w and 1/w are linear in screen space.
+                    let w = 1.0 / v[1];
+                    *stored = z;
+                    *id = t.id;
+                    *pixel = shade([(v[2] * w) as f32, (v[3] * w) as f32, (v[4] * w) as f32]);
                 }
-                for i in 0..3 {
-                    e[i] += step[i];
+                for q in 0..5 {
+                    v[q] += t.dx[q];
                 }
             }
         }

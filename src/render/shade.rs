@@ -2,9 +2,13 @@
 //! interpolated linear RGB triple into sRGB8.
 //!
 //! * [`DisplayMode::Photo`]: the attribute is luminance `L = ρ E / π` per channel (cd/m²).
-//!   Exposure rule (fixed): the **area-weighted geometric mean** of the positive vertex
-//!   luminances (Rec. 709 luma) is the key `L_key`; a pixel shows `x / (1 + x)` per channel
-//!   (Reinhard) with `x = L · k`, `k = (0.18 / 0.82) / L_key`, then the sRGB transfer. So a
+//!   Exposure rule (fixed): over the vertices with a positive luminance (Rec. 709 luma), take
+//!   the level `L_90` that 90 % of their area is at or below; the **area-weighted geometric
+//!   mean** of the luminances of the vertices at least `L_90 / 100` bright is the key `L_key`
+//!   (darker ones would drag the key towards 0 and blow the picture out — a ceiling no
+//!   downlight reaches is left near-black instead). A pixel shows `x / (1 + x)` per channel
+//!   (Reinhard) with `x = L · k`, `k = (0.18 / 0.82) / L_key`, then the sRGB transfer (both by
+//!   one table, within one sRGB8 level: [`super::tone`]). So a
 //!   surface at the key luminance is shown at display value 0.18 (mid-grey, sRGB8 118), and
 //!   scaling every light by any factor leaves the picture unchanged.
 //! * [`DisplayMode::FalseColor`]: the attribute is illuminance `E` (lx); its luma is placed on
@@ -12,8 +16,8 @@
 //!   bottom of the range, yellow at the top). The range is returned for the UI's legend.
 
 use std::f64::consts::PI;
-use std::sync::LazyLock;
 
+use super::tone::{self, tone_srgb8};
 use crate::error::{Error, Result};
 use crate::scene::model::{PatchMesh, Surface};
 
@@ -35,6 +39,13 @@ pub enum DisplayMode {
 
 /// Display value (after the tone curve) of a surface at the key luminance.
 pub const MID_GREY: f64 = 0.18;
+
+/// The auto-exposure's reference level is this area quantile of the lit vertices' luminance.
+pub const KEY_REFERENCE_QUANTILE: f64 = 0.9;
+
+/// Vertices darker than this fraction of the reference level are left out of the key: they
+/// show as near-black instead of dragging the exposure up (a ceiling no light reaches).
+pub const KEY_DARK_FRACTION: f64 = 0.01;
 
 /// Rec. 709 / sRGB luma of a linear RGB triple.
 pub fn luma(rgb: [f64; 3]) -> f64 {
@@ -113,17 +124,20 @@ impl Photo {
     /// by [`vertex_attributes`] in photo mode). A scene with no lit vertex gets exposure 1.
     pub fn auto(mesh: &PatchMesh, luminance_cd_m2: &[[f32; 3]]) -> Photo {
         let areas = vertex_areas(mesh);
-        let (mut weight, mut log_sum) = (0.0, 0.0);
-        for (area, l) in areas.iter().zip(luminance_cd_m2) {
-            let y = luma(l.map(f64::from));
-            if *area > 0.0 && y > 0.0 && y.is_finite() {
-                weight += area;
-                log_sum += area * y.ln();
-            }
-        }
-        if weight == 0.0 {
+        let mut lit: Vec<(f64, f64)> = areas
+            .iter()
+            .zip(luminance_cd_m2)
+            .map(|(&area, l)| (luma(l.map(f64::from)), area))
+            .filter(|&(y, area)| area > 0.0 && y > 0.0 && y.is_finite())
+            .collect();
+        let Some(reference) = area_quantile(&mut lit, KEY_REFERENCE_QUANTILE) else {
             return Photo::with_exposure(1.0);
-        }
+        };
+        let floor = reference * KEY_DARK_FRACTION;
+        let (weight, log_sum) = lit
+            .iter()
+            .filter(|&&(y, _)| y >= floor)
+            .fold((0.0, 0.0), |(w, s), &(y, area)| (w + area, s + area * y.ln()));
         let key = (log_sum / weight).exp();
         Photo::with_exposure(MID_GREY / (1.0 - MID_GREY) / key)
     }
@@ -135,12 +149,31 @@ impl Photo {
 }
 
 impl Shader for Photo {
+    #[inline]
     fn shade(&self, luminance: [f32; 3]) -> [u8; 3] {
-        luminance.map(|l| {
-            let x = (l * self.exposure).max(0.0);
-            srgb8_from_linear(x / (1.0 + x))
-        })
+        let table = tone::table();
+        let k = self.exposure;
+        [
+            tone_srgb8(table, luminance[0] * k),
+            tone_srgb8(table, luminance[1] * k),
+            tone_srgb8(table, luminance[2] * k),
+        ]
     }
+}
+
+/// The area quantile of `(value, area)` pairs: the smallest value such that at least the
+/// fraction `q` of the total area has a value at or below it. Sorts `pairs`; `None` when empty.
+fn area_quantile(pairs: &mut [(f64, f64)], q: f64) -> Option<f64> {
+    pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = pairs.iter().map(|p| p.1).sum();
+    let mut below = 0.0;
+    for &(value, area) in pairs.iter() {
+        below += area;
+        if below >= q * total {
+            return Some(value);
+        }
+    }
+    pairs.last().map(|p| p.0)
 }
 
 /// How lux values are placed on the false-colour scale.
@@ -265,6 +298,7 @@ impl DisplayShader {
 }
 
 impl Shader for DisplayShader {
+    #[inline]
     fn shade(&self, value: [f32; 3]) -> [u8; 3] {
         match self {
             DisplayShader::Photo(s) => s.shade(value),
@@ -297,15 +331,6 @@ pub fn viridis(t: f64) -> [u8; 3] {
     })
 }
 
-/// Entries of the sRGB encoding table over display values [0, 1].
-const SRGB_TABLE_SIZE: usize = 4096;
-
-static SRGB_TABLE: LazyLock<Vec<u8>> = LazyLock::new(|| {
-    (0..SRGB_TABLE_SIZE)
-        .map(|i| (srgb_encode(i as f64 / (SRGB_TABLE_SIZE - 1) as f64) * 255.0).round() as u8)
-        .collect()
-});
-
 /// The sRGB transfer function (IEC 61966-2-1) of a linear display value in [0, 1].
 pub fn srgb_encode(linear: f64) -> f64 {
     if linear <= 0.003_130_8 {
@@ -313,10 +338,4 @@ pub fn srgb_encode(linear: f64) -> f64 {
     } else {
         1.055 * linear.powf(1.0 / 2.4) - 0.055
     }
-}
-
-/// sRGB8 of a linear display value (clamped to [0, 1]; NaN → 0), by a 4096-entry table.
-pub fn srgb8_from_linear(linear: f32) -> u8 {
-    let index = (linear.clamp(0.0, 1.0) * (SRGB_TABLE_SIZE - 1) as f32 + 0.5) as usize;
-    SRGB_TABLE[index.min(SRGB_TABLE_SIZE - 1)]
 }

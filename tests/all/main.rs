@@ -10,4 +10,5 @@ mod bake;
 mod cli;
 mod radiosity;
 mod render;
+mod render_rooms;
 mod tui;

@@ -10,7 +10,7 @@ use haiko::render::shade::{VIRIDIS, srgb_encode};
 use haiko::render::{
     BACKGROUND_ID, DisplayMode, DisplayShader, FalseColor, LightMarker, LuxScale, Photo, ScreenTriangle,
     ScreenVertex, Shader, View, aim_direction, draw_crosshair, draw_lights, pick, rasterize, render,
-    render_attributes, vertex_attributes,
+    render_attributes, render_into, vertex_attributes,
 };
 use haiko::scene::model::{Camera, Patch, PatchMesh, Reflectance, Surface, SurfaceKind};
 use proptest::prelude::*;
@@ -672,6 +672,45 @@ fn parallel_rendering_is_deterministic() {
     assert_eq!(parallel, serial);
 }
 
+#[test]
+fn rendering_into_a_used_frame_equals_a_fresh_render() {
+    let room = box_room();
+    let e = lamp_illuminance(&room.mesh, 1.0);
+    let attrs = vertex_attributes(DisplayMode::Photo, &room.mesh, &room.surfaces, &e).unwrap();
+    let shader = DisplayShader::fit(DisplayMode::Photo, &room.mesh, &attrs);
+    let view = View::new(room_camera(), 120, 90).unwrap();
+    let fresh = render(&room.mesh, &attrs, &view, &shader).unwrap();
+    // A frame of another view and size, with overlays drawn on it: all of it must be replaced.
+    let other = View::new(room_camera(), 50, 40).unwrap();
+    let mut frame = render(
+        &room.mesh,
+        &vec![[9.0; 3]; room.mesh.n_vertices()],
+        &other,
+        &shader,
+    )
+    .unwrap();
+    draw_crosshair(&mut frame.pixmap, 20, 20);
+    render_into(&mut frame, &room.mesh, &attrs, &view, &shader).unwrap();
+    assert_eq!(frame, fresh);
+    // Same size, other content (a different camera and overlays): cleared and redrawn.
+    let near_wall = Camera {
+        eye: DVec3::new(0.5, 0.5, 1.0),
+        ..room_camera()
+    };
+    render_into(
+        &mut frame,
+        &room.mesh,
+        &attrs,
+        &View::new(near_wall, 120, 90).unwrap(),
+        &shader,
+    )
+    .unwrap();
+    draw_crosshair(&mut frame.pixmap, 60, 45);
+    assert_ne!(frame, fresh);
+    render_into(&mut frame, &room.mesh, &attrs, &view, &shader).unwrap();
+    assert_eq!(frame, fresh);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Display modes
 
@@ -894,10 +933,7 @@ fn light_markers_land_on_the_projected_pixel_and_respect_the_camera() {
 
 fn golden() -> Golden {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    Golden::from_env(
-        root.join("tests/snapshots/render"),
-        root.join("target/golden-diffs"),
-    )
+    Golden::from_env(root.join("snapshots"), root.join("target/golden-diffs"))
 }
 
 #[test]

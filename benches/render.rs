@@ -1,0 +1,202 @@
+//! Edit → new preview pixmap (DESIGN §9: under 16 ms for the paper room on one core): one curve
+//! edit (`Relighter::set_curve` with a changed control point) → `vertex_attributes` → shader fit
+//! → `render` at 1024×768 → light overlays, for the paper and office rooms, on a 1-thread and a
+//! 2-thread rayon pool. The stages are also benched alone to show where the time goes.
+//!
+//! On a shared machine wall time overstates the cost, so the 1-thread case is also measured in
+//! CPU time of the pool's one thread (`…/1-thread-cpu`; Linux `/proc/thread-self/schedstat`,
+//! which may lag by a scheduler tick per read — a few % of a criterion sample — and falls back
+//! to wall time elsewhere).
+
+use std::hint::black_box;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use haiko::cli::render::{light_markers, scene_view};
+use haiko::photometry::Curve;
+use haiko::relight::Relighter;
+use haiko::render::{
+    DisplayMode, DisplayShader, Frame, View, draw_lights, render, render_into, vertex_attributes,
+};
+use haiko::scene::{self, Scene};
+use rayon::ThreadPool;
+
+const ROOMS: [&str; 2] = ["paper", "office"];
+const THREADS: [usize; 2] = [1, 2];
+const SIZE: (u32, u32) = (1024, 768);
+
+fn configured() -> Criterion {
+    Criterion::default()
+        .sample_size(15)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(300))
+}
+
+fn pool(threads: usize) -> ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a rayon pool")
+}
+
+fn load(name: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("rooms")
+        .join(format!("{name}.toml"));
+    scene::load(&path).expect("a bundled room loads")
+}
+
+/// CPU time the calling thread has run so far, when the OS tells (Linux).
+fn thread_cpu_time() -> Option<Duration> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let nanos = text.split_whitespace().next()?.parse().ok()?;
+    Some(Duration::from_nanos(nanos))
+}
+
+/// Runs `f` `iters` times on the calling thread and returns its CPU time (wall time when the
+/// CPU time is not available).
+fn cpu_time_of(iters: u64, mut f: impl FnMut()) -> Duration {
+    let (cpu, wall) = (thread_cpu_time(), Instant::now());
+    for _ in 0..iters {
+        f();
+    }
+    match (cpu, thread_cpu_time()) {
+        (Some(before), Some(after)) => after.saturating_sub(before),
+        _ => wall.elapsed(),
+    }
+}
+
+/// Light 0's curve with its first control point scaled by `factor`.
+fn edited_curve(curve: &Curve, factor: f64) -> Curve {
+    let mut edited = curve.clone();
+    let first = edited.intensities_cd()[0];
+    edited
+        .set_intensity(0, first * factor)
+        .expect("a scaled positive intensity is valid");
+    edited
+}
+
+/// One edit → pixmap: the whole path the editor runs per keystroke, redrawing into its frame.
+fn edit_to_pixmap(scene: &Scene, relighter: &mut Relighter, curve: Curve, view: &View, frame: &mut Frame) {
+    relighter.set_curve(0, curve);
+    let attrs = vertex_attributes(
+        DisplayMode::Photo,
+        &scene.fine,
+        &scene.surfaces,
+        relighter.total(),
+    )
+    .expect("attributes match the mesh");
+    let shader = DisplayShader::fit(DisplayMode::Photo, &scene.fine, &attrs);
+    render_into(frame, &scene.fine, &attrs, view, &shader).expect("the mesh renders");
+    draw_lights(frame, view, &light_markers(scene));
+    black_box(&frame.pixmap);
+}
+
+fn relight_and_rasterise(c: &mut Criterion) {
+    let mut group = c.benchmark_group("relight_rasterise_1024x768");
+    for name in ROOMS {
+        let scene = load(name);
+        let view = scene_view(&scene, SIZE.0, SIZE.1).expect("a valid view");
+        let mut relighter = Relighter::new(&scene);
+        let base = relighter.light(0).curve.clone();
+        let curves = [edited_curve(&base, 1.1), base];
+        let mut frame = Frame::new(SIZE.0, SIZE.1).expect("a frame");
+        for threads in THREADS {
+            let pool = pool(threads);
+            let id = BenchmarkId::new(name, format!("{threads}-thread"));
+            let mut toggle = 0;
+            group.bench_function(id, |b| {
+                b.iter(|| {
+                    toggle ^= 1;
+                    pool.install(|| {
+                        edit_to_pixmap(&scene, &mut relighter, curves[toggle].clone(), &view, &mut frame)
+                    });
+                })
+            });
+            if threads == 1 {
+                group.bench_function(BenchmarkId::new(name, "1-thread-cpu"), |b| {
+                    b.iter_custom(|iters| {
+                        pool.install(|| {
+                            cpu_time_of(iters, || {
+                                toggle ^= 1;
+                                edit_to_pixmap(
+                                    &scene,
+                                    &mut relighter,
+                                    curves[toggle].clone(),
+                                    &view,
+                                    &mut frame,
+                                );
+                            })
+                        })
+                    })
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
+/// The stages alone on one thread (paper room): relight, attributes + fit, raster, overlays.
+fn stages(c: &mut Criterion) {
+    let scene = load("paper");
+    let view = scene_view(&scene, SIZE.0, SIZE.1).expect("a valid view");
+    let mut relighter = Relighter::new(&scene);
+    let base = relighter.light(0).curve.clone();
+    let curves = [edited_curve(&base, 1.1), base];
+    let attrs = vertex_attributes(
+        DisplayMode::Photo,
+        &scene.fine,
+        &scene.surfaces,
+        relighter.total(),
+    )
+    .expect("attributes match the mesh");
+    let shader = DisplayShader::fit(DisplayMode::Photo, &scene.fine, &attrs);
+    let frame = render(&scene.fine, &attrs, &view, &shader).expect("the mesh renders");
+    let markers = light_markers(&scene);
+    let one = pool(1);
+    let mut group = c.benchmark_group("paper_stages_1-thread");
+    let mut toggle = 0;
+    group.bench_function("set_curve", |b| {
+        b.iter(|| {
+            toggle ^= 1;
+            one.install(|| relighter.set_curve(0, curves[toggle].clone()));
+        })
+    });
+    group.bench_function("attributes_and_fit", |b| {
+        b.iter(|| {
+            one.install(|| {
+                let a = vertex_attributes(
+                    DisplayMode::Photo,
+                    &scene.fine,
+                    &scene.surfaces,
+                    relighter.total(),
+                )
+                .expect("attributes match the mesh");
+                black_box(DisplayShader::fit(DisplayMode::Photo, &scene.fine, &a))
+            })
+        })
+    });
+    let mut reused = Frame::new(SIZE.0, SIZE.1).expect("a frame");
+    group.bench_function("render_into", |b| {
+        b.iter(|| {
+            one.install(|| render_into(&mut reused, &scene.fine, &attrs, &view, &shader).expect("renders"))
+        })
+    });
+    group.bench_function("render", |b| {
+        b.iter(|| one.install(|| render(&scene.fine, &attrs, &view, &shader).expect("the mesh renders")))
+    });
+    // Markers drawn over and over on one frame: the same work as on a fresh frame.
+    let mut frame = frame;
+    group.bench_function("overlays", |b| {
+        b.iter(|| draw_lights(&mut frame, &view, &markers))
+    });
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = configured();
+    targets = relight_and_rasterise, stages
+}
+criterion_main!(benches);

@@ -1,0 +1,211 @@
+//! `haiko pick ROOM --pixel X,Y`: what a pixel of the `render` image shows — patch, surface,
+//! world point and normal — and, with `--aim LIGHT`, the unit aim vector that points that light
+//! at it. Same camera and image size as `haiko render`.
+
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+
+use glam::DVec3;
+use serde::Serialize;
+
+use super::render::scene_view;
+use crate::error::{Error, Result};
+use crate::render::{Photo, aim_direction, pick, render};
+use crate::scene::{self, Scene};
+
+/// A pixel of the image: column `x` from the left, row `y` from the top (DESIGN §1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pixel {
+    /// Column, 0 = leftmost.
+    pub x: u32,
+    /// Row, 0 = top.
+    pub y: u32,
+}
+
+impl FromStr for Pixel {
+    type Err = String;
+
+    /// Parses `X,Y` (two non-negative integers).
+    fn from_str(text: &str) -> std::result::Result<Self, Self::Err> {
+        let bad = || format!("`{text}` is not a pixel `X,Y` (two whole numbers ≥ 0)");
+        let (x, y) = text.split_once(',').ok_or_else(bad)?;
+        let x = x.trim().parse().map_err(|_| bad())?;
+        let y = y.trim().parse().map_err(|_| bad())?;
+        Ok(Pixel { x, y })
+    }
+}
+
+impl fmt::Display for Pixel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{},{}", self.x, self.y)
+    }
+}
+
+/// What a pixel shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PickReport {
+    /// Fine patch id (index into the scene's fine mesh).
+    pub patch: u32,
+    /// Name of the patch's surface (`floor`, `wall-y1`, `box0-top`, …).
+    pub surface: String,
+    /// World point seen at the pixel centre (m).
+    pub point: DVec3,
+    /// Unit normal of the patch (world), pointing into the room.
+    pub normal: DVec3,
+    /// With `--aim LIGHT`: the unit vector from the light's position to `point` (world).
+    pub aim: Option<DVec3>,
+}
+
+/// Picks pixel `pixel` of the `width × height` image of the room's camera; with `aim_light`,
+/// also the aim vector of that light towards the picked point.
+///
+/// Errors (bad input): a bad image size, a pixel outside the image, an unknown light (the
+/// message lists the lights), a background pixel, or a light sitting on the picked point.
+pub fn pick_pixel(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    pixel: Pixel,
+    aim_light: Option<&str>,
+) -> Result<PickReport> {
+    let view = scene_view(scene, width, height)?;
+    if pixel.x >= width || pixel.y >= height {
+        return Err(Error::input(
+            "--pixel",
+            "",
+            format!("pixel {pixel} is outside the {width}×{height} image (x < {width}, y < {height})"),
+        ));
+    }
+    let light = aim_light.map(|name| find_light(scene, name)).transpose()?;
+    // The ID and depth buffers do not depend on the lighting: render unlit.
+    let attrs = vec![[0.0f32; 3]; scene.fine.n_vertices()];
+    let frame = render(&scene.fine, &attrs, &view, &Photo::with_exposure(1.0))?;
+    let hit = pick(&frame, &view, &scene.fine, pixel.x, pixel.y)
+        .ok_or_else(|| Error::input("--pixel", "", format!("nothing at pixel {pixel} (background)")))?;
+    let surface = scene.surfaces.get(hit.surface as usize).ok_or_else(|| {
+        Error::internal(format!(
+            "pick: patch {} has no surface {}",
+            hit.patch, hit.surface
+        ))
+    })?;
+    let aim = match light {
+        Some(light) => Some(aim_direction(light.position, hit.point).ok_or_else(|| {
+            Error::input(
+                "--aim",
+                "",
+                format!(
+                    "light `{}` sits on the picked point; it cannot aim at it",
+                    light.name
+                ),
+            )
+        })?),
+        None => None,
+    };
+    Ok(PickReport {
+        patch: hit.patch,
+        surface: surface.name.clone(),
+        point: hit.point,
+        normal: hit.normal,
+        aim,
+    })
+}
+
+fn find_light<'a>(scene: &'a Scene, name: &str) -> Result<&'a scene::Light> {
+    scene.lights.iter().find(|l| l.name == name).ok_or_else(|| {
+        let names: Vec<&str> = scene.lights.iter().map(|l| l.name.as_str()).collect();
+        Error::input(
+            &scene.path,
+            "--aim",
+            format!("no light named `{name}` (lights: {})", names.join(", ")),
+        )
+    })
+}
+
+#[derive(Serialize)]
+struct PickJson<'a> {
+    patch: u32,
+    surface: &'a str,
+    point: [f64; 3],
+    normal: [f64; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    aim: Option<[f64; 3]>,
+}
+
+/// The report as one line of JSON:
+/// `{"patch": n, "surface": "floor", "point": [x, y, z], "normal": [x, y, z], "aim": [x, y, z]}`
+/// (`aim` only when asked for).
+pub fn to_json(report: &PickReport) -> Result<String> {
+    let doc = PickJson {
+        patch: report.patch,
+        surface: &report.surface,
+        point: report.point.to_array(),
+        normal: report.normal.to_array(),
+        aim: report.aim.map(|a| a.to_array()),
+    };
+    let mut out = Vec::new();
+    doc.serialize(&mut serde_json::Serializer::with_formatter(
+        &mut out,
+        SpacedFormatter,
+    ))
+    .map_err(|e| Error::internal(format!("pick: JSON: {e}")))?;
+    String::from_utf8(out).map_err(|e| Error::internal(format!("pick: JSON: {e}")))
+}
+
+/// Compact JSON with a space after every `:` and `,`.
+struct SpacedFormatter;
+
+impl serde_json::ser::Formatter for SpacedFormatter {
+    fn begin_array_value<W: ?Sized + std::io::Write>(
+        &mut self,
+        w: &mut W,
+        first: bool,
+    ) -> std::io::Result<()> {
+        if first { Ok(()) } else { w.write_all(b", ") }
+    }
+    fn begin_object_key<W: ?Sized + std::io::Write>(
+        &mut self,
+        w: &mut W,
+        first: bool,
+    ) -> std::io::Result<()> {
+        if first { Ok(()) } else { w.write_all(b", ") }
+    }
+    fn begin_object_value<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
+        w.write_all(b": ")
+    }
+}
+
+/// The report as text, one item per line.
+pub fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
+    let v = |d: DVec3| format!("[{:.4}, {:.4}, {:.4}]", d.x, d.y, d.z);
+    let mut text = format!(
+        "patch   {} (surface {})\npoint   {} m\nnormal  {}\n",
+        report.patch,
+        report.surface,
+        v(report.point),
+        v(report.normal)
+    );
+    if let (Some(aim), Some(name)) = (report.aim, aim_light) {
+        text.push_str(&format!("aim     {} (light {name})\n", v(aim)));
+    }
+    text
+}
+
+/// Runs the command: prints the report as text or, with `json`, as one JSON line.
+pub fn run(
+    room: &Path,
+    pixel: Pixel,
+    width: u32,
+    height: u32,
+    json: bool,
+    aim_light: Option<&str>,
+) -> Result<()> {
+    let scene = scene::load(room)?;
+    let report = pick_pixel(&scene, width, height, pixel, aim_light)?;
+    if json {
+        println!("{}", to_json(&report)?);
+    } else {
+        print!("{}", to_text(&report, aim_light));
+    }
+    Ok(())
+}

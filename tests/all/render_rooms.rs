@@ -1,0 +1,395 @@
+//! The bundled rooms through the `render` and `pick` commands: golden images per room and mode,
+//! the exact ID buffer of the paper room, picking against an analytic ray–plane intersection,
+//! and the built binary end to end (images written, JSON, bad-input exit codes).
+//!
+//! The reference images live in `snapshots/`. They WILL change when the interreflection bake
+//! adds indirect light to `Relighter::total()`: look at the new pictures, then regenerate with
+//! `HAIKO_UPDATE_SNAPSHOTS=1 cargo test --test all render_rooms`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use glam::DVec3;
+use haiko::cli::pick::{Pixel, pick_pixel, to_json};
+use haiko::cli::render::{MAX_SIDE_PX, light_markers, scene_view, shade_scene};
+use haiko::relight::Relighter;
+use haiko::render::golden::{Golden, Tolerance, UPDATE_ENV};
+use haiko::render::{DisplayMode, draw_lights};
+use haiko::scene::{self, Scene};
+
+/// Size of the room goldens, pixels.
+const SNAPSHOT_SIZE: (u32, u32) = (160, 120);
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn room(name: &str) -> PathBuf {
+    root().join("rooms").join(format!("{name}.toml"))
+}
+
+fn load(name: &str) -> Scene {
+    scene::load(&room(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn golden() -> Golden {
+    Golden::from_env(root().join("snapshots"), root().join("target/golden-diffs"))
+}
+
+fn regenerate_hint(e: impl std::fmt::Display) -> String {
+    format!(
+        "{e}\nIf the change is intended (e.g. the bake now adds indirect light), look at the images and \
+         regenerate the references with {UPDATE_ENV}=1 cargo test --test all render_rooms"
+    )
+}
+
+#[test]
+fn every_bundled_room_matches_its_golden_images() {
+    let mut rooms: Vec<String> = std::fs::read_dir(root().join("rooms"))
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    rooms.sort();
+    assert!(rooms.len() >= 5, "bundled rooms: {rooms:?}");
+    let (width, height) = SNAPSHOT_SIZE;
+    for name in &rooms {
+        let scene = load(name);
+        let relighter = Relighter::new(&scene);
+        let view = scene_view(&scene, width, height).unwrap();
+        for (mode, suffix) in [
+            (DisplayMode::Photo, "photo"),
+            (DisplayMode::FalseColor, "false_colour"),
+        ] {
+            let (mut frame, _) = shade_scene(&scene, relighter.total(), &view, mode).unwrap();
+            draw_lights(&mut frame, &view, &light_markers(&scene));
+            let tolerance = Tolerance {
+                channel: 2,
+                max_pixels: 16,
+            };
+            golden()
+                .check_image(&format!("{name}_{suffix}"), &frame.pixmap, tolerance)
+                .unwrap_or_else(|e| panic!("{}", regenerate_hint(e)));
+        }
+    }
+}
+
+#[test]
+fn paper_room_id_buffer_matches_its_exact_golden() {
+    let scene = load("paper");
+    let view = scene_view(&scene, SNAPSHOT_SIZE.0, SNAPSHOT_SIZE.1).unwrap();
+    let attrs = vec![[0.0; 3]; scene.fine.n_vertices()];
+    let (frame, _) = shade_scene(&scene, &attrs, &view, DisplayMode::FalseColor).unwrap();
+    // The camera is inside a closed room: every pixel shows a patch.
+    assert!(
+        frame
+            .ids
+            .as_slice()
+            .iter()
+            .all(|&id| (id as usize) < scene.fine.patches.len())
+    );
+    golden()
+        .check_ids("paper", &frame.ids)
+        .unwrap_or_else(|e| panic!("{}", regenerate_hint(e)));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Picking on the paper room (6 × 4 × 2.7 m, camera eye (0.5, 0.5, 1.6) → (3, 2, 0.8), 60°).
+
+/// The ray through the centre of pixel (x, y), built from the room file's camera numbers here
+/// (not through the renderer's matrices): unit direction, world frame.
+fn pixel_ray(eye: DVec3, target: DVec3, fov_deg: f64, size: (u32, u32), pixel: (u32, u32)) -> DVec3 {
+    let forward = (target - eye).normalize();
+    let right = forward.cross(DVec3::Z).normalize();
+    let up = right.cross(forward);
+    let tan_half = (fov_deg.to_radians() / 2.0).tan();
+    let aspect = f64::from(size.0) / f64::from(size.1);
+    let sx = (2.0 * (f64::from(pixel.0) + 0.5) / f64::from(size.0) - 1.0) * tan_half * aspect;
+    let sy = (1.0 - 2.0 * (f64::from(pixel.1) + 0.5) / f64::from(size.1)) * tan_half;
+    (forward + sx * right + sy * up).normalize()
+}
+
+/// Where a ray from inside the box room (0,0,0)–`size` first meets a wall, floor or ceiling:
+/// the surface name (as the scene names it), the point and the inward normal.
+fn room_hit(size: DVec3, eye: DVec3, dir: DVec3) -> (&'static str, DVec3, DVec3) {
+    let planes = [
+        ("floor", 2, 0.0, DVec3::Z),
+        ("ceiling", 2, size.z, -DVec3::Z),
+        ("wall-x0", 0, 0.0, DVec3::X),
+        ("wall-x1", 0, size.x, -DVec3::X),
+        ("wall-y0", 1, 0.0, DVec3::Y),
+        ("wall-y1", 1, size.y, -DVec3::Y),
+    ];
+    planes
+        .into_iter()
+        .filter(|&(_, axis, _, _)| dir[axis] != 0.0)
+        .map(|(name, axis, at, normal)| (name, (at - eye[axis]) / dir[axis], normal))
+        .filter(|&(_, t, _)| t > 0.0)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(name, t, normal)| (name, eye + t * dir, normal))
+        .unwrap()
+}
+
+#[test]
+fn picks_on_the_paper_room_land_on_the_analytic_ray_plane_intersection() {
+    let scene = load("paper");
+    // The room file's numbers, written out independently of the loader.
+    let (eye, target, fov_deg) = (DVec3::new(0.5, 0.5, 1.6), DVec3::new(3.0, 2.0, 0.8), 60.0);
+    let room_size = DVec3::new(6.0, 4.0, 2.7);
+    let accent = DVec3::new(5.7, 0.3, 2.6);
+    let half_patch = 0.1 / 2.0;
+    let size = (1024, 768);
+    for (pixel, expected_surface) in [
+        ((512, 700), "floor"),
+        ((100, 300), "wall-y1"),
+        ((600, 15), "ceiling"),
+    ] {
+        let dir = pixel_ray(eye, target, fov_deg, size, pixel);
+        let (surface, analytic, normal) = room_hit(room_size, eye, dir);
+        assert_eq!(
+            surface, expected_surface,
+            "the test's pixel {pixel:?} must see the {expected_surface}"
+        );
+        let report = pick_pixel(
+            &scene,
+            size.0,
+            size.1,
+            Pixel {
+                x: pixel.0,
+                y: pixel.1,
+            },
+            Some("accent"),
+        )
+        .unwrap();
+        assert_eq!(report.surface, expected_surface, "pixel {pixel:?}");
+        let error = report.point.distance(analytic);
+        assert!(
+            error < half_patch,
+            "pixel {pixel:?}: picked {} vs analytic {analytic}",
+            report.point
+        );
+        assert!(
+            report.normal.distance(normal) < 1e-12,
+            "pixel {pixel:?}: normal {}",
+            report.normal
+        );
+        // The picked patch is the one under the point: the point lies in its bounding box (to
+        // 0.1 mm: vertices are snapped to 1/256 pixel, a few µm at this distance).
+        let patch = &scene.fine.patches[report.patch as usize];
+        let corners = patch
+            .vertex_ids()
+            .iter()
+            .map(|&v| scene.fine.positions[v as usize]);
+        let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
+        assert!(
+            report.point.cmpge(lo - 1e-4).all() && report.point.cmple(hi + 1e-4).all(),
+            "pixel {pixel:?}: {} outside patch {} [{lo}, {hi}]",
+            report.point,
+            report.patch
+        );
+        let aim = report.aim.unwrap();
+        assert!((aim.length() - 1.0).abs() < 1e-12);
+        assert!(
+            aim.distance((report.point - accent).normalize()) < 1e-12,
+            "aim {aim}"
+        );
+    }
+}
+
+#[test]
+fn pick_rejects_bad_pixels_sizes_and_lights() {
+    let scene = load("paper");
+    let at = |x, y| Pixel { x, y };
+    let cases = [
+        (
+            pick_pixel(&scene, 320, 240, at(320, 10), None),
+            "outside the 320×240 image",
+        ),
+        (
+            pick_pixel(&scene, 320, 240, at(10, 240), None),
+            "outside the 320×240 image",
+        ),
+        (pick_pixel(&scene, 0, 240, at(0, 0), None), "--width"),
+        (
+            pick_pixel(&scene, 320, MAX_SIDE_PX + 1, at(0, 0), None),
+            "--height",
+        ),
+        (
+            pick_pixel(&scene, 320, 240, at(10, 10), Some("spot")),
+            "lights: centre, accent",
+        ),
+    ];
+    for (k, (result, needle)) in cases.into_iter().enumerate() {
+        let err = result.expect_err(&format!("case {k} must fail"));
+        assert_eq!(err.exit_code(), 2, "case {k}: {err}");
+        assert!(
+            err.to_string().contains(needle),
+            "case {k}: `{err}` lacks `{needle}`"
+        );
+    }
+    for text in ["", "3", "3,", "-1,2", "1.5,2", "a,b", "1,2,3"] {
+        assert!(text.parse::<Pixel>().is_err(), "`{text}` must not parse");
+    }
+    assert_eq!(" 7, 9".parse::<Pixel>(), Ok(at(7, 9)));
+}
+
+/// A copy of the paper room with the camera outside, looking away from the room.
+fn room_looking_away(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(room("paper")).unwrap();
+    let camera = text.find("[camera]").unwrap();
+    let path = dir.join("away.toml");
+    let away = "[camera]\neye = [-1.0, 2.0, 1.5]\ntarget = [-5.0, 2.0, 1.5]\nfov_deg = 60\n";
+    std::fs::write(&path, format!("{}{away}", &text[..camera])).unwrap();
+    path
+}
+
+#[test]
+fn picking_the_background_is_an_input_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene::load(&room_looking_away(dir.path())).unwrap();
+    let err = pick_pixel(&scene, 64, 48, Pixel { x: 32, y: 24 }, None).unwrap_err();
+    assert_eq!(err.exit_code(), 2);
+    assert!(
+        err.to_string().contains("nothing at pixel 32,24 (background)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn pick_json_has_the_documented_shape() {
+    let scene = load("paper");
+    let report = pick_pixel(&scene, 1024, 768, Pixel { x: 512, y: 700 }, None).unwrap();
+    let json = to_json(&report).unwrap();
+    assert!(json.starts_with(&format!(
+        "{{\"patch\": {}, \"surface\": \"floor\", \"point\": [",
+        report.patch
+    )));
+    assert!(!json.contains("aim"), "{json}");
+    let value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(value["normal"], serde_json::json!([0.0, 0.0, 1.0]));
+    assert_eq!(value["point"][2].as_f64().unwrap(), report.point.z);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The built binary.
+
+fn haiko(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_haiko"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn render_command_writes_a_png_of_the_asked_size_and_reports_stages() {
+    let dir = tempfile::tempdir().unwrap();
+    let paper = room("paper");
+    for (mode, needle) in [("photo", "exposure"), ("false-color", "lux range")] {
+        let out = dir.path().join(format!("{mode}.png"));
+        let run = haiko(&[
+            "render",
+            paper.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            "200",
+            "--height",
+            "150",
+            "--mode",
+            mode,
+        ]);
+        let stdout = text(&run.stdout);
+        assert!(run.status.success(), "{mode}: {}", text(&run.stderr));
+        let image = tiny_skia::Pixmap::load_png(&out).unwrap();
+        assert_eq!((image.width(), image.height()), (200, 150));
+        for stage in ["load+mesh", "relight", "raster", "overlays", "png", needle] {
+            assert!(stdout.contains(stage), "{mode}: no `{stage}` in {stdout}");
+        }
+    }
+    // The default size.
+    let out = dir.path().join("default.png");
+    let run = haiko(&["render", paper.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let image = tiny_skia::Pixmap::load_png(&out).unwrap();
+    assert_eq!((image.width(), image.height()), (1024, 768));
+}
+
+#[test]
+fn pick_command_prints_parseable_json_with_the_aim() {
+    let paper = room("paper");
+    let run = haiko(&[
+        "pick",
+        paper.to_str().unwrap(),
+        "--pixel",
+        "512,700",
+        "--json",
+        "--aim",
+        "centre",
+    ]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let value: serde_json::Value = serde_json::from_str(text(&run.stdout).trim()).unwrap();
+    assert_eq!(value["surface"], "floor");
+    let v = |key: &str| {
+        let a = value[key].as_array().unwrap_or_else(|| panic!("{key} missing"));
+        DVec3::new(
+            a[0].as_f64().unwrap(),
+            a[1].as_f64().unwrap(),
+            a[2].as_f64().unwrap(),
+        )
+    };
+    let (point, normal, aim) = (v("point"), v("normal"), v("aim"));
+    assert!(point.z.abs() < 1e-4, "on the floor: {point}");
+    assert_eq!(normal, DVec3::Z);
+    assert!(
+        aim.distance((point - DVec3::new(3.0, 2.0, 2.6)).normalize()) < 1e-12,
+        "aim {aim}"
+    );
+    assert!(value["patch"].as_u64().is_some());
+}
+
+#[test]
+fn bad_render_and_pick_input_exits_2_with_a_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let paper = room("paper");
+    let paper = paper.to_str().unwrap();
+    let out = dir.path().join("x.png");
+    let out = out.to_str().unwrap();
+    let away = room_looking_away(dir.path());
+    let cases: [(Vec<&str>, &str); 8] = [
+        (vec!["render", paper, "-o", out, "--width", "0"], "--width"),
+        (vec!["render", paper, "-o", out, "--height", "8193"], "--height"),
+        (vec!["render", paper, "-o", out, "--mode", "sepia"], "sepia"),
+        (
+            vec!["pick", paper, "--pixel", "1024,0"],
+            "outside the 1024×768 image",
+        ),
+        (
+            vec!["pick", paper, "--pixel", "10,10", "--width", "9000"],
+            "--width",
+        ),
+        (vec!["pick", paper, "--pixel", "ten,10"], "ten,10"),
+        (
+            vec!["pick", paper, "--pixel", "10,10", "--aim", "nope"],
+            "lights: centre, accent",
+        ),
+        (
+            vec!["pick", away.to_str().unwrap(), "--pixel", "5,5"],
+            "nothing at pixel 5,5 (background)",
+        ),
+    ];
+    for (args, needle) in cases {
+        let run = haiko(&args);
+        let stderr = text(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(needle), "{args:?}: `{stderr}` lacks `{needle}`");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+    assert!(!Path::new(out).exists(), "no image is written on bad input");
+}
