@@ -2,9 +2,9 @@
 //! the exact ID buffer of the paper room, picking against an analytic ray–plane intersection,
 //! and the built binary end to end (images written, JSON, bad-input exit codes).
 //!
-//! The reference images live in `snapshots/`. They WILL change when the interreflection bake
-//! adds indirect light to `Relighter::total()`: look at the new pictures, then regenerate with
-//! `HAIKO_UPDATE_SNAPSHOTS=1 cargo test --test all render_rooms`.
+//! The reference images live in `snapshots/` and include the baked indirect light. When a change
+//! is meant to alter them, look at the new pictures (diffs under `target/golden-diffs/`), then
+//! regenerate with `HAIKO_UPDATE_SNAPSHOTS=1 cargo test --test all render_rooms`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -16,6 +16,7 @@ use haiko::relight::Relighter;
 use haiko::render::golden::{Golden, Tolerance, UPDATE_ENV};
 use haiko::render::{DisplayMode, draw_lights};
 use haiko::scene::{self, Scene};
+use haiko::transport::bake::{BakeOptions, bake};
 
 /// Size of the room goldens, pixels.
 const SNAPSHOT_SIZE: (u32, u32) = (160, 120);
@@ -56,7 +57,8 @@ fn every_bundled_room_matches_its_golden_images() {
     let (width, height) = SNAPSHOT_SIZE;
     for name in &rooms {
         let scene = load(name);
-        let relighter = Relighter::new(&scene);
+        let bake = bake(&scene, &BakeOptions::default(), &mut |_| {}).unwrap();
+        let relighter = Relighter::with_bake(&scene, &bake);
         let view = scene_view(&scene, width, height).unwrap();
         for (mode, suffix) in [
             (DisplayMode::Photo, "photo"),
@@ -279,6 +281,10 @@ fn pick_json_has_the_documented_shape() {
 fn haiko(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_haiko"))
         .args(args)
+        .env(
+            "HAIKO_CACHE_DIR",
+            std::env::temp_dir().join("haiko-test-bake-cache"),
+        )
         .output()
         .unwrap()
 }
@@ -309,7 +315,15 @@ fn render_command_writes_a_png_of_the_asked_size_and_reports_stages() {
         assert!(run.status.success(), "{mode}: {}", text(&run.stderr));
         let image = tiny_skia::Pixmap::load_png(&out).unwrap();
         assert_eq!((image.width(), image.height()), (200, 150));
-        for stage in ["load+mesh", "relight", "raster", "overlays", "png", needle] {
+        for stage in [
+            "load+mesh",
+            "bake",
+            "relight",
+            "raster",
+            "overlays",
+            "png",
+            needle,
+        ] {
             assert!(stdout.contains(stage), "{mode}: no `{stage}` in {stdout}");
         }
     }
