@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use crate::error::{Error, Result};
 use crate::photometry::Window;
 
+pub mod accuracy;
 pub mod bake;
 pub mod grid;
 pub mod lid;
@@ -94,6 +95,14 @@ pub enum Command {
         #[arg(long)]
         direct_only: bool,
     },
+    /// What accuracy costs in time: error against time for each knob (DESIGN §8).
+    Accuracy {
+        /// The room file.
+        room: PathBuf,
+        /// Print one JSON object with one array per table.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// `--graphics` values.
@@ -170,6 +179,7 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
             direct_only,
         } => grid::run(&room, height, spacing, margin, json, direct_only),
+        Command::Accuracy { room, json } => accuracy::run(&room, json),
     }
 }
 
