@@ -237,6 +237,15 @@ pub struct DirectRow {
     pub direct: FieldErrors,
 }
 
+/// A pair of dimensionless errors: on the work plane and on the fine vertices.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GridVertices {
+    /// On the work plane.
+    pub grid: f64,
+    /// On the fine vertices.
+    pub vertices: f64,
+}
+
 /// How a table's reference was made and how converged it is.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Reference {
@@ -244,13 +253,13 @@ pub struct Reference {
     pub table: String,
     /// What the reference is.
     pub made: String,
-    /// The second, less refined run it was checked against (empty: the reference is exact).
-    pub checked_against: String,
-    /// `max |E_ref − E_check| / max |E_ref|` over work plane and vertices (0 when exact).
-    pub difference: f64,
-    /// The smallest error reported in the table (away from the reference settings).
-    pub smallest_error: f64,
-    /// `difference < smallest_error` (or the reference is exact).
+    /// The second, less refined run it was checked against (`None`: exact by construction).
+    pub checked_against: Option<String>,
+    /// `max |E_ref − E_check| / max |E_ref|` (`None`: exact by construction).
+    pub difference: Option<GridVertices>,
+    /// The smallest max error of the table's rows away from the reference settings.
+    pub smallest_error: Option<GridVertices>,
+    /// The difference is below the smallest error on both point sets (true when exact).
     pub converged: bool,
 }
 
@@ -300,12 +309,25 @@ impl Fields {
 
 /// Measures every table for `scene` (its lights' curves and aims as loaded); `progress` gets a
 /// line per step.
-pub fn accuracy(scene: &Scene, options: &AccuracyOptions, progress: &mut dyn FnMut(&str)) -> Result<AccuracyReport> {
+pub fn accuracy(
+    scene: &Scene,
+    options: &AccuracyOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<AccuracyReport> {
     validate(options)?;
     let base = in_mode(scene, DirectMode::Exact);
-    let plane = WorkPlane::new(&base, options.grid_height_m, options.grid_spacing_m, options.grid_spacing_m / 2.0)?;
+    let plane = WorkPlane::new(
+        &base,
+        options.grid_height_m,
+        options.grid_spacing_m,
+        options.grid_spacing_m / 2.0,
+    )?;
     if plane.receivers.is_empty() {
-        return Err(Error::input(&scene.path, "", "every work-plane point lies inside furniture"));
+        return Err(Error::input(
+            &scene.path,
+            "",
+            "every work-plane point lies inside furniture",
+        ));
     }
     let grid = plane.receivers;
     let mut references = Vec::new();
@@ -326,20 +348,17 @@ pub fn accuracy(scene: &Scene, options: &AccuracyOptions, progress: &mut dyn FnM
     references.push(exact_reference(
         "fine patch size",
         "exact direct light plus indirect light gathered from the coarse patches at the same points",
-        fine.iter().map(|r| r.between_vertices.max_rel),
     ));
     progress("quadrature and direct-light tables");
     let quadrature = quadrature_table(&base, &room_bake, options, &grid);
     references.push(exact_reference(
         "quadrature",
         "exact hat-function moments (Gauss–Legendre per segment)",
-        quadrature.iter().filter(|r| r.step_deg.is_some()).map(|r| r.illuminance.max_rel),
     ));
     let direct = direct_table(&base, &room_bake, options, &grid)?;
     references.push(exact_reference(
         "direct light",
         "the exact curve evaluated per point",
-        direct.iter().filter(|r| r.mode == "paper").map(|r| r.direct.grid.max_rel),
     ));
     Ok(AccuracyReport {
         room: scene.name.clone(),
@@ -463,34 +482,58 @@ fn edit_ms(relighter: &mut Relighter, light: usize, repeats: usize) -> f64 {
     median(&mut times)
 }
 
-/// The largest `max |a − b| / max |b|` over work plane and vertices.
-fn field_difference(a: &Fields, b: &Fields) -> f64 {
-    let e = a.errors_against(b);
-    e.grid.max_rel.max(e.vertices.max_rel)
+/// `max |a − b| / max |b|` on the work plane and on the vertices.
+fn field_difference(a: &Fields, b: &Fields) -> GridVertices {
+    max_errors(&a.errors_against(b))
 }
 
-/// A reference checked against a second, less refined run.
+/// The max errors of `e`.
+fn max_errors(e: &FieldErrors) -> GridVertices {
+    GridVertices {
+        grid: e.grid.max_rel,
+        vertices: e.vertices.max_rel,
+    }
+}
+
+/// A reference checked against a second, less refined run: converged when the two differ by
+/// less than the smallest error of `rows` on both point sets.
 fn checked_reference(
     table: &str,
     made: String,
     checked_against: String,
-    difference: f64,
-    errors: impl Iterator<Item = f64>,
+    difference: GridVertices,
+    rows: impl Iterator<Item = FieldErrors>,
 ) -> Reference {
-    let smallest_error = errors.fold(f64::INFINITY, f64::min);
+    let smallest = rows.map(|e| max_errors(&e)).fold(
+        GridVertices {
+            grid: f64::INFINITY,
+            vertices: f64::INFINITY,
+        },
+        |m, e| GridVertices {
+            grid: m.grid.min(e.grid),
+            vertices: m.vertices.min(e.vertices),
+        },
+    );
     Reference {
         table: table.to_string(),
         made,
-        checked_against,
-        difference,
-        smallest_error,
-        converged: difference < smallest_error,
+        checked_against: Some(checked_against),
+        converged: difference.grid < smallest.grid && difference.vertices < smallest.vertices,
+        difference: Some(difference),
+        smallest_error: Some(smallest),
     }
 }
 
 /// A reference that is exact by construction.
-fn exact_reference(table: &str, made: &str, errors: impl Iterator<Item = f64>) -> Reference {
-    checked_reference(table, made.to_string(), String::new(), 0.0, errors)
+fn exact_reference(table: &str, made: &str) -> Reference {
+    Reference {
+        table: table.to_string(),
+        made: made.to_string(),
+        checked_against: None,
+        difference: None,
+        smallest_error: None,
+        converged: true,
+    }
 }
 
 /// Table 1: every light at each order; hybrid and paper mode against a high-order hybrid run.
@@ -531,12 +574,15 @@ fn order_table(
         let check_bake = bake_with(&check_scene, Some(REFERENCE_TOLERANCE))?;
         field_difference(&fields(&check_scene, &check_bake, grid), &reference)
     } else {
-        0.0
+        GridVertices {
+            grid: 0.0,
+            vertices: 0.0,
+        }
     };
-    let smallest = rows.iter().filter(|r| r.order != reference_order).map(|r| {
-        let e = r.hybrid;
-        e.grid.max_rel.min(e.vertices.max_rel)
-    });
+    let smallest = rows
+        .iter()
+        .filter(|r| r.order != reference_order)
+        .map(|r| r.hybrid);
     let reference = checked_reference(
         "order",
         format!(
@@ -558,7 +604,11 @@ fn coarse_table(
     progress: &mut dyn FnMut(&str),
 ) -> Result<(Vec<CoarseRow>, Reference)> {
     let fine_size = base.settings.patch_size;
-    let smallest_size = options.solver_patch_sizes_m.iter().copied().fold(f64::INFINITY, f64::min);
+    let smallest_size = options
+        .solver_patch_sizes_m
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
     let reference_size = smallest_size / 2f64.sqrt();
     let check_size = smallest_size / 2f64.powf(0.25);
     let run = |size: f64| -> Result<(Scene, Bake, f64)> {
@@ -583,7 +633,7 @@ fn coarse_table(
     progress(&format!("  convergence check: {check_size:.3} m"));
     let (check_scene, check_bake, _) = run(check_size)?;
     let difference = field_difference(&fields(&check_scene, &check_bake, grid), &reference);
-    let smallest = rows.iter().map(|r| r.errors.grid.max_rel.min(r.errors.vertices.max_rel));
+    let smallest = rows.iter().map(|r| r.errors);
     let reference = checked_reference(
         "coarse patch size",
         format!(
@@ -603,7 +653,9 @@ fn true_radiosity_error(scene: &Scene, bake: &Bake, reference: &Bake) -> f64 {
     let mut worst = 0.0f64;
     for (light, reference_light) in bake.lights.iter().zip(&reference.lights) {
         let k = light.n_columns;
-        for (ch, (indirect, reference_indirect)) in light.indirect.iter().zip(&reference_light.indirect).enumerate() {
+        for (ch, (indirect, reference_indirect)) in
+            light.indirect.iter().zip(&reference_light.indirect).enumerate()
+        {
             let rho = patch_reflectance(scene, &scene.coarse, ch);
             for c in 0..k {
                 let (mut diff, mut norm) = (0.0f64, 0.0f64);
@@ -623,7 +675,11 @@ fn true_radiosity_error(scene: &Scene, bake: &Bake, reference: &Bake) -> f64 {
 }
 
 /// Table 4: each solver tolerance against a 1e-8 solve of the same system.
-fn tolerance_table(base: &Scene, options: &AccuracyOptions, grid: &[Receiver]) -> Result<(Vec<ToleranceRow>, Reference)> {
+fn tolerance_table(
+    base: &Scene,
+    options: &AccuracyOptions,
+    grid: &[Receiver],
+) -> Result<(Vec<ToleranceRow>, Reference)> {
     let reference_bake = bake_with(base, Some(REFERENCE_TOLERANCE))?;
     let reference = fields(base, &reference_bake, grid);
     let mut rows = Vec::new();
@@ -644,7 +700,7 @@ fn tolerance_table(base: &Scene, options: &AccuracyOptions, grid: &[Receiver]) -
     let smallest = rows
         .iter()
         .filter(|r| r.tolerance > REFERENCE_TOLERANCE)
-        .map(|r| r.errors.grid.max_rel.min(r.errors.vertices.max_rel));
+        .map(|r| r.errors);
     let reference = checked_reference(
         "solver tolerance",
         format!("solver tolerance {REFERENCE_TOLERANCE:.0e}, the room's orders and patch sizes"),
@@ -665,7 +721,13 @@ fn floor_samples(scene: &Scene, spacing_m: f64) -> Vec<Receiver> {
     };
     along(size.y, FLOOR_SAMPLE_OFFSET[1])
         .flat_map(|y| along(size.x, FLOOR_SAMPLE_OFFSET[0]).map(move |x| DVec3::new(x, y, 0.0)))
-        .filter(|&p| !scene.boxes.iter().chain(&scene.mesh_bounds).any(|b| b.contains_strictly(p + DVec3::Z * 1e-6)))
+        .filter(|&p| {
+            !scene
+                .boxes
+                .iter()
+                .chain(&scene.mesh_bounds)
+                .any(|b| b.contains_strictly(p + DVec3::Z * 1e-6))
+        })
         .map(|point| Receiver {
             point,
             normal: DVec3::Z,
@@ -710,7 +772,12 @@ fn on_floor(scene: &Scene, values: &[f64], points: &[Receiver]) -> Vec<Option<f6
 }
 
 /// Table 3: each fine patch size with the room's coarse mesh and bake.
-fn fine_table(base: &Scene, bake: &Bake, options: &AccuracyOptions, floor: &[Receiver]) -> Result<Vec<FineRow>> {
+fn fine_table(
+    base: &Scene,
+    bake: &Bake,
+    options: &AccuracyOptions,
+    floor: &[Receiver],
+) -> Result<Vec<FineRow>> {
     let exact_floor = illuminance_at_receivers(base, Some(bake), DirectMode::Exact, floor);
     let mut rows = Vec::new();
     for &size in &options.patch_sizes_m {
@@ -720,7 +787,8 @@ fn fine_table(base: &Scene, bake: &Bake, options: &AccuracyOptions, floor: &[Rec
         let mut relighter = Relighter::with_bake(&scene, bake);
         let relighter_build_ms = ms_since(t);
         let shown = lux(relighter.total());
-        let exact_vertices = illuminance_at_receivers(&scene, Some(bake), DirectMode::Exact, &fine_receivers(&scene));
+        let exact_vertices =
+            illuminance_at_receivers(&scene, Some(bake), DirectMode::Exact, &fine_receivers(&scene));
         let (interpolated, exact): (Vec<f64>, Vec<f64>) = on_floor(&scene, &shown, floor)
             .into_iter()
             .zip(&exact_floor)
@@ -754,7 +822,15 @@ fn light_direct(
     receivers
         .iter()
         .map(|rx| {
-            let g = illuminance_at(light.position, light.radius, &unit, light.aim, light.dimmer, rx, vis);
+            let g = illuminance_at(
+                light.position,
+                light.radius,
+                &unit,
+                light.aim,
+                light.dimmer,
+                rx,
+                vis,
+            );
             let dir = (rx.point - light.position).normalize_or_zero();
             if g == 0.0 || mask.is_some_and(|n| dir.dot(n) <= 0.0) {
                 0.0
@@ -778,7 +854,12 @@ fn median_ms<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
 }
 
 /// Table 5: exact weights vs the rectangle rule, per light.
-fn quadrature_table(base: &Scene, bake: &Bake, options: &AccuracyOptions, grid: &[Receiver]) -> Vec<QuadratureRow> {
+fn quadrature_table(
+    base: &Scene,
+    bake: &Bake,
+    options: &AccuracyOptions,
+    grid: &[Receiver],
+) -> Vec<QuadratureRow> {
     let highest = options.orders.iter().copied().max().unwrap_or(0);
     let mut rows = Vec::new();
     for (i, (light, baked)) in base.lights.iter().zip(&bake.lights).enumerate() {
@@ -801,7 +882,10 @@ fn quadrature_table(base: &Scene, bake: &Bake, options: &AccuracyOptions, grid: 
             };
             let time_ms = median_ms(options.repeats, compute);
             let w = compute();
-            let w_diff = w.w.iter().zip(&exact_high.w).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            let w_diff =
+                w.w.iter()
+                    .zip(&exact_high.w)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
             rows.push(QuadratureRow {
                 light: light.name.clone(),
                 method: step.map_or("exact".to_string(), |s| format!("rectangle {s}°")),
@@ -817,7 +901,12 @@ fn quadrature_table(base: &Scene, bake: &Bake, options: &AccuracyOptions, grid: 
 
 /// Table 6: per light, its direct light exact (hybrid) and from its series (paper) at the order
 /// each mode's plan gives it, against the exact curve.
-fn direct_table(base: &Scene, hybrid_bake: &Bake, options: &AccuracyOptions, grid: &[Receiver]) -> Result<Vec<DirectRow>> {
+fn direct_table(
+    base: &Scene,
+    hybrid_bake: &Bake,
+    options: &AccuracyOptions,
+    grid: &[Receiver],
+) -> Result<Vec<DirectRow>> {
     let paper_scene = in_mode(base, DirectMode::Basis);
     let paper_bake = bake_with(&paper_scene, None)?;
     let mut hybrid = Relighter::with_bake(base, hybrid_bake);

@@ -13,7 +13,10 @@ use crate::scene::model::{PatchMesh, Scene, SurfaceKind};
 /// A copy of `scene` meshed with fine patches of edge about `patch_size` metres and coarse
 /// (solver) patches of about `solver_patch_size` metres; its settings record the new sizes.
 pub fn remesh(scene: &Scene, patch_size: f64, solver_patch_size: f64) -> Result<Scene> {
-    for (size, field) in [(patch_size, "patch_size"), (solver_patch_size, "solver_patch_size")] {
+    for (size, field) in [
+        (patch_size, "patch_size"),
+        (solver_patch_size, "solver_patch_size"),
+    ] {
         if !(size > 0.0 && size.is_finite()) {
             return Err(Error::input(
                 &scene.path,

@@ -44,16 +44,24 @@ pub fn format_report(r: &AccuracyReport) -> String {
         "Each table varies one knob; the others stay at the room's settings (hybrid mode).\n\nReferences:"
     );
     for reference in &r.references {
-        let check = if reference.checked_against.is_empty() {
-            "exact by construction".to_string()
-        } else {
-            format!(
-                "vs {}: differs by {} (smallest error in the table {}) — {}",
-                reference.checked_against,
-                percent(reference.difference),
-                percent(reference.smallest_error),
-                if reference.converged { "converged" } else { "NOT converged" }
-            )
+        let check = match (
+            &reference.checked_against,
+            reference.difference,
+            reference.smallest_error,
+        ) {
+            (Some(against), Some(d), Some(e)) => format!(
+                "vs {against}: differs by {} (grid) / {} (vertices), smallest errors in the table {} / {} — {}",
+                percent(d.grid),
+                percent(d.vertices),
+                percent(e.grid),
+                percent(e.vertices),
+                if reference.converged {
+                    "converged"
+                } else {
+                    "NOT converged"
+                }
+            ),
+            _ => "exact by construction".to_string(),
         };
         let _ = writeln!(s, "  {:<18} {}; {}", reference.table, reference.made, check);
     }
@@ -80,7 +88,11 @@ pub fn format_report(r: &AccuracyReport) -> String {
     }
 
     let _ = writeln!(s, "\n2. Coarse (solver) patch size");
-    let _ = writeln!(s, "{:>8} {:>8} {:>10} |{grid_vertices}", "size m", "patches", "bake ms");
+    let _ = writeln!(
+        s,
+        "{:>8} {:>8} {:>10} |{grid_vertices}",
+        "size m", "patches", "bake ms"
+    );
     for row in &r.coarse {
         let _ = writeln!(
             s,
@@ -159,7 +171,10 @@ pub fn format_report(r: &AccuracyReport) -> String {
         );
     }
 
-    let _ = writeln!(s, "\n6. Direct light alone: exact (hybrid) vs from the SH series (paper)");
+    let _ = writeln!(
+        s,
+        "\n6. Direct light alone: exact (hybrid) vs from the SH series (paper)"
+    );
     let _ = writeln!(
         s,
         "{:<12} {:<7} {:>3} {:>9} |{grid_vertices}",
