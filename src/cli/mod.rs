@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use crate::error::{Error, Result};
 use crate::photometry::Window;
 
+pub mod accuracy;
 pub mod bake;
 pub mod grid;
 pub mod lid;
@@ -133,6 +134,14 @@ pub enum Command {
         #[arg(long, value_name = "LIGHT")]
         aim: Option<String>,
     },
+    /// What accuracy costs in time: error against time for each knob (DESIGN §8).
+    Accuracy {
+        /// The room file.
+        room: PathBuf,
+        /// Print one JSON object with one array per table.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// `--graphics` values.
@@ -224,6 +233,7 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
             aim,
         } => pick::run(&room, pixel, width, height, json, aim.as_deref()),
+        Command::Accuracy { room, json } => accuracy::run(&room, json),
     }
 }
 

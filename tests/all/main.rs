@@ -6,6 +6,7 @@ mod photometry;
 mod scene;
 
 fn main() {}
+mod accuracy;
 mod bake;
 mod cli;
 mod radiosity;
