@@ -33,18 +33,34 @@ impl WorkPlane {
     pub fn new(scene: &Scene, height_m: f64, spacing_m: f64, margin_m: f64) -> Result<Self> {
         let size = scene.room_size;
         if !(height_m > 0.0 && height_m < size.z) {
-            return Err(Error::input("--height", "", format!("{height_m} m is not inside the room (0 to {} m)", size.z)));
+            return Err(Error::input(
+                "--height",
+                "",
+                format!("{height_m} m is not inside the room (0 to {} m)", size.z),
+            ));
         }
         if !(spacing_m > 0.0 && spacing_m.is_finite()) {
-            return Err(Error::input("--spacing", "", format!("{spacing_m} m must be a positive number")));
+            return Err(Error::input(
+                "--spacing",
+                "",
+                format!("{spacing_m} m must be a positive number"),
+            ));
         }
         if !(margin_m >= 0.0 && 2.0 * margin_m < size.x.min(size.y)) {
-            return Err(Error::input("--margin", "", format!("{margin_m} m leaves no room for a grid")));
+            return Err(Error::input(
+                "--margin",
+                "",
+                format!("{margin_m} m leaves no room for a grid"),
+            ));
         }
         let count = |len: f64| ((len - 2.0 * margin_m) / spacing_m + 1e-9).floor() as usize + 1;
         let counts = [count(size.x), count(size.y)];
         if counts[0] * counts[1] > 4_000_000 {
-            return Err(Error::input("--spacing", "", format!("{spacing_m} m gives more than 4 million points")));
+            return Err(Error::input(
+                "--spacing",
+                "",
+                format!("{spacing_m} m gives more than 4 million points"),
+            ));
         }
         let start = |len: f64, n: usize| (len - (n - 1) as f64 * spacing_m) / 2.0;
         let (x0, y0) = (start(size.x, counts[0]), start(size.y, counts[1]));
@@ -53,14 +69,29 @@ impl WorkPlane {
         for j in 0..counts[1] {
             for i in 0..counts[0] {
                 let point = DVec3::new(x0 + i as f64 * spacing_m, y0 + j as f64 * spacing_m, height_m);
-                if scene.boxes.iter().chain(&scene.mesh_bounds).any(|b| b.contains_strictly(point)) {
+                if scene
+                    .boxes
+                    .iter()
+                    .chain(&scene.mesh_bounds)
+                    .any(|b| b.contains_strictly(point))
+                {
                     skipped_in_boxes += 1;
                 } else {
-                    receivers.push(Receiver { point, normal: DVec3::Z });
+                    receivers.push(Receiver {
+                        point,
+                        normal: DVec3::Z,
+                    });
                 }
             }
         }
-        Ok(WorkPlane { height_m, spacing_m, margin_m, counts, skipped_in_boxes, receivers })
+        Ok(WorkPlane {
+            height_m,
+            spacing_m,
+            margin_m,
+            counts,
+            skipped_in_boxes,
+            receivers,
+        })
     }
 }
 
@@ -86,7 +117,13 @@ impl GridStats {
         let e_min = lux.iter().copied().fold(f64::INFINITY, f64::min);
         let e_max = lux.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let u0 = if e_avg > 0.0 { e_min / e_avg } else { 0.0 };
-        GridStats { e_avg, e_min, e_max, u0, points: lux.len() }
+        GridStats {
+            e_avg,
+            e_min,
+            e_max,
+            u0,
+            points: lux.len(),
+        }
     }
 }
 
@@ -112,9 +149,20 @@ struct GridJson<'a> {
 }
 
 /// Runs the command.
-pub fn run(room: &Path, height_m: f64, spacing_m: f64, margin_m: Option<f64>, json: bool, direct_only: bool) -> Result<()> {
+pub fn run(
+    room: &Path,
+    height_m: f64,
+    spacing_m: f64,
+    margin_m: Option<f64>,
+    json: bool,
+    direct_only: bool,
+) -> Result<()> {
     if !direct_only {
-        return Err(Error::input("", "", "interreflection is not built yet: pass --direct-only for exact direct light"));
+        return Err(Error::input(
+            "",
+            "",
+            "interreflection is not built yet: pass --direct-only for exact direct light",
+        ));
     }
     let scene = scene::load(room)?;
     let plane = WorkPlane::new(&scene, height_m, spacing_m, margin_m.unwrap_or(spacing_m / 2.0))?;
@@ -136,7 +184,12 @@ pub fn run(room: &Path, height_m: f64, spacing_m: f64, margin_m: Option<f64>, js
                 .receivers
                 .iter()
                 .zip(&lux)
-                .map(|(r, &lux)| GridPoint { x: r.point.x, y: r.point.y, z: r.point.z, lux })
+                .map(|(r, &lux)| GridPoint {
+                    x: r.point.x,
+                    y: r.point.y,
+                    z: r.point.z,
+                    lux,
+                })
                 .collect(),
         };
         let text = serde_json::to_string_pretty(&doc).map_err(|e| Error::internal(e.to_string()))?;
@@ -150,7 +203,11 @@ pub fn run(room: &Path, height_m: f64, spacing_m: f64, margin_m: Option<f64>, js
             plane.margin_m,
             plane.counts[0],
             plane.counts[1],
-            if plane.skipped_in_boxes > 0 { format!(" ({} inside furniture left out)", plane.skipped_in_boxes) } else { String::new() },
+            if plane.skipped_in_boxes > 0 {
+                format!(" ({} inside furniture left out)", plane.skipped_in_boxes)
+            } else {
+                String::new()
+            },
             if direct_only { ", direct light only" } else { "" },
         );
         println!(

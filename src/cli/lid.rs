@@ -7,7 +7,8 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::photometry::{
-    Curve, IncrementalWeights, Window, ZonalWeights, auto_window, choose_order, read_lid_file, truncation_stats,
+    Curve, IncrementalWeights, Window, ZonalWeights, auto_window, choose_order, read_lid_file,
+    truncation_stats,
 };
 use crate::scene;
 
@@ -83,7 +84,12 @@ pub fn report(curve: &Curve, asymmetry: f64, max_order: Option<usize>, window: O
     let chosen = choose_order(curve, LID_TARGET_REL_L2, LID_MAX_AUTO_ORDER);
     let n = max_order.unwrap_or(chosen.max(16));
     let full = ZonalWeights::exact(curve, n);
-    let edit_point = curve.intensities_cd().iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map_or(0, |(k, _)| k);
+    let edit_point = curve
+        .intensities_cd()
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map_or(0, |(k, _)| k);
     let orders = (0..=n)
         .map(|order| {
             let truncated = full.truncated(order);
@@ -95,7 +101,9 @@ pub fn report(curve: &Curve, asymmetry: f64, max_order: Option<usize>, window: O
             let edit_us = median_us(|| {
                 toggle = !toggle;
                 let value = if toggle { peak * 1.01 } else { peak };
-                editor.set_intensity(edit_point, value).expect("a positive finite intensity is valid");
+                editor
+                    .set_intensity(edit_point, value)
+                    .expect("a positive finite intensity is valid");
             });
             OrderRow {
                 order,
@@ -114,7 +122,14 @@ pub fn report(curve: &Curve, asymmetry: f64, max_order: Option<usize>, window: O
             }
         })
         .collect();
-    LidReport { flux_lm: curve.flux_lm(), peak_cd: curve.peak_cd(), asymmetry, order: chosen, weights: full.w, orders }
+    LidReport {
+        flux_lm: curve.flux_lm(),
+        peak_cd: curve.peak_cd(),
+        asymmetry,
+        order: chosen,
+        weights: full.w,
+        orders,
+    }
 }
 
 /// Loads the curve named by `source`: a photometric file, or `ROOM.toml#LIGHT`.
@@ -123,7 +138,11 @@ pub fn load_curve(source: &str) -> Result<(Curve, f64)> {
         let scene = scene::load(Path::new(room))?;
         let found = scene.lights.iter().find(|l| l.name == light).ok_or_else(|| {
             let names: Vec<&str> = scene.lights.iter().map(|l| l.name.as_str()).collect();
-            Error::input(room, "", format!("no light named `{light}` (lights: {})", names.join(", ")))
+            Error::input(
+                room,
+                "",
+                format!("no light named `{light}` (lights: {})", names.join(", ")),
+            )
         })?;
         let asymmetry = match &found.lid_source {
             scene::LidSource::File { asymmetry, .. } => *asymmetry,
@@ -145,7 +164,9 @@ pub fn format_text(source: &str, r: &LidReport) -> String {
         r.order,
         LID_TARGET_REL_L2 * 100.0
     );
-    s.push_str("order  window   rel L2    max |err| cd   min cd     overshoot  exact µs  rect µs   edit µs\n");
+    s.push_str(
+        "order  window   rel L2    max |err| cd   min cd     overshoot  exact µs  rect µs   edit µs\n",
+    );
     for row in &r.orders {
         s.push_str(&format!(
             "{:>5}  {:<7} {:>8.4}  {:>13.2}  {:>9.2}  {:>9.4}  {:>8.2}  {:>7.2}  {:>8.3}\n",
@@ -171,7 +192,10 @@ pub fn run(source: &str, order: Option<usize>, window: Option<Window>, json: boo
     let (curve, asymmetry) = load_curve(source)?;
     let r = report(&curve, asymmetry, order, window);
     if json {
-        println!("{}", serde_json::to_string(&r).map_err(|e| Error::internal(e.to_string()))?);
+        println!(
+            "{}",
+            serde_json::to_string(&r).map_err(|e| Error::internal(e.to_string()))?
+        );
     } else {
         print!("{}", format_text(source, &r));
     }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::photometry::Window;
 
 pub mod grid;
@@ -110,14 +110,26 @@ pub enum WindowArg {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Edit { .. } => Err(Error::internal(
-            "`haiko edit` is not built yet (issue: the terminal editor); use `haiko lid` meanwhile",
-        )),
-        Command::Lid { source, order, window, json } => lid::run(&source, order, window.map(Window::from), json),
-        Command::Probe { room, points, direct_only } => probe::run(&room, &points, direct_only),
-        Command::Grid { room, height, spacing, margin, json, direct_only } => {
-            grid::run(&room, height, spacing, margin, json, direct_only)
-        }
+        Command::Edit { room, graphics } => crate::tui::app::run(&room, graphics),
+        Command::Lid {
+            source,
+            order,
+            window,
+            json,
+        } => lid::run(&source, order, window.map(Window::from), json),
+        Command::Probe {
+            room,
+            points,
+            direct_only,
+        } => probe::run(&room, &points, direct_only),
+        Command::Grid {
+            room,
+            height,
+            spacing,
+            margin,
+            json,
+            direct_only,
+        } => grid::run(&room, height, spacing, margin, json, direct_only),
     }
 }
 

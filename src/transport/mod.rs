@@ -3,9 +3,9 @@
 pub mod basis;
 pub mod cache;
 pub mod direct;
-pub mod occlusion;
-pub mod plan;
 pub mod formfactor;
 pub mod interpolate;
+pub mod occlusion;
+pub mod plan;
 pub mod radiosity;
 pub mod visibility;

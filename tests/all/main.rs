@@ -2,8 +2,8 @@
 
 mod direct;
 mod lidfiles;
-mod scene;
 mod photometry;
+mod scene;
 
 fn main() {}
 mod radiosity;
