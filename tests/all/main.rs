@@ -9,3 +9,4 @@ fn main() {}
 mod radiosity;
 mod render;
 mod tui;
+mod tui_e2e;
