@@ -275,3 +275,38 @@ fn draw_preview(model: &Model, image: Option<&Protocol>, frame: &mut Frame<'_>, 
         ),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+
+    use super::*;
+
+    #[test]
+    fn terminal_events_become_messages() {
+        let key = KeyEvent::new(KeyCode::Char('a'), KeyModifiers::NONE);
+        assert_eq!(input_msg(Event::Key(key)), Some(Msg::Key(key)));
+        let mouse = |kind| {
+            Event::Mouse(MouseEvent {
+                kind,
+                column: 7,
+                row: 3,
+                modifiers: KeyModifiers::NONE,
+            })
+        };
+        assert_eq!(
+            input_msg(mouse(MouseEventKind::Down(MouseButton::Left))),
+            Some(Msg::Click { column: 7, row: 3 })
+        );
+        assert_eq!(input_msg(mouse(MouseEventKind::Down(MouseButton::Right))), None);
+        assert_eq!(input_msg(mouse(MouseEventKind::Moved)), None);
+        assert_eq!(
+            input_msg(Event::Resize(120, 40)),
+            Some(Msg::Resize {
+                width: 120,
+                height: 40
+            })
+        );
+        assert_eq!(input_msg(Event::FocusGained), None);
+    }
+}

@@ -111,3 +111,69 @@ pub fn bytes_on_wire(protocol: &Protocol, area: Rect) -> Result<usize> {
         .map_err(|e| Error::internal(format!("preview: measuring bytes failed: {e}")))?;
     Ok(written.len())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `width × height` opaque pixmap with a colour gradient.
+    fn gradient(width: u32, height: u32) -> Pixmap {
+        let mut pixmap = Pixmap::new(width, height).unwrap();
+        for (i, px) in pixmap.data_mut().chunks_exact_mut(4).enumerate() {
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            px.copy_from_slice(&[(x * 255 / width) as u8, (y * 255 / height) as u8, 90, 255]);
+        }
+        pixmap
+    }
+
+    fn picker(protocol: ProtocolType) -> Picker {
+        let mut picker = Picker::halfblocks();
+        picker.set_protocol_type(protocol);
+        picker
+    }
+
+    #[test]
+    fn the_hash_sees_every_pixel() {
+        let a = gradient(40, 30);
+        let mut b = a.clone();
+        assert_eq!(pixmap_hash(&a), pixmap_hash(&b));
+        b.data_mut()[4 * (17 * 40 + 23)] ^= 1;
+        assert_ne!(pixmap_hash(&a), pixmap_hash(&b));
+        assert_ne!(pixmap_hash(&gradient(40, 30)), pixmap_hash(&gradient(30, 40)));
+    }
+
+    #[test]
+    fn an_image_of_cells_times_font_pixels_covers_exactly_those_cells() {
+        // Half-blocks' nominal font is 10 × 20 px: 160 × 160 px is 16 × 8 cells.
+        let cells = Size::new(16, 8);
+        for protocol in [
+            ProtocolType::Halfblocks,
+            ProtocolType::Sixel,
+            ProtocolType::Kitty,
+            ProtocolType::Iterm2,
+        ] {
+            let image = encode(&picker(protocol), &gradient(160, 160), cells).unwrap();
+            assert_eq!(image.size(), cells, "{protocol:?}");
+            assert!(fits(&image, Rect::new(0, 0, 16, 8)));
+            assert!(!fits(&image, Rect::new(0, 0, 15, 8)));
+        }
+    }
+
+    #[test]
+    fn kitty_sends_at_least_the_base64_of_the_raw_pixels() {
+        let (w, h) = (160u32, 160u32);
+        let image = encode(&picker(ProtocolType::Kitty), &gradient(w, h), Size::new(16, 8)).unwrap();
+        let raw = (w * h * 4) as usize;
+        let base64 = raw.div_ceil(3) * 4;
+        let bytes = bytes_on_wire(&image, Rect::new(0, 0, 16, 8)).unwrap();
+        assert!(bytes >= base64, "{bytes} < {base64}");
+        // Half-blocks: every cell at least its ▀ (3 bytes of UTF-8).
+        let blocks = encode(
+            &picker(ProtocolType::Halfblocks),
+            &gradient(w, h),
+            Size::new(16, 8),
+        )
+        .unwrap();
+        assert!(bytes_on_wire(&blocks, Rect::new(0, 0, 16, 8)).unwrap() >= 16 * 8 * 3);
+    }
+}

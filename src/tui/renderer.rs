@@ -317,3 +317,199 @@ fn barycentric(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<DVec3> {
     let w = (d00 * d21 - d01 * d20) / denom;
     Some(DVec3::new(1.0 - v - w, v, w))
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::photometry::Curve;
+    use crate::render::overlay::CROSSHAIR_ARM_PX;
+    use crate::render::render_attributes;
+    use crate::scene::model::Patch;
+
+    fn paper() -> Arc<Scene> {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rooms/paper.toml");
+        Arc::new(crate::scene::load(&path).unwrap())
+    }
+
+    fn request(scene: &Scene, lights: Vec<LightEdit>, cursor: Option<(u32, u32)>) -> FrameRequest {
+        FrameRequest {
+            lights,
+            selected_light: 0,
+            camera: scene.camera,
+            size_px: (160, 120),
+            mode: DisplayMode::Photo,
+            cursor,
+        }
+    }
+
+    fn edits(scene: &Scene) -> Vec<LightEdit> {
+        scene.lights.iter().map(LightEdit::from_light).collect()
+    }
+
+    /// The total a fresh relighter computes for `scene` with `lights` applied.
+    fn fresh_total(scene: &Scene, lights: &[LightEdit]) -> Vec<[f64; 3]> {
+        let mut scene = scene.clone();
+        for (light, edit) in scene.lights.iter_mut().zip(lights) {
+            light.position = edit.position;
+            light.aim = edit.aim;
+            light.curve = edit.curve.clone();
+            light.dimmer = edit.dimmer;
+        }
+        Relighter::new(&scene).total().to_vec()
+    }
+
+    fn assert_totals_close(a: &[[f64; 3]], b: &[[f64; 3]]) {
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(b) {
+            for c in 0..3 {
+                assert!((x[c] - y[c]).abs() <= 1e-9 * (1.0 + y[c].abs()), "{x:?} vs {y:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn lux_at_reproduces_a_linear_field_on_a_quad() {
+        let positions = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(2.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ];
+        let field = |p: DVec3| 10.0 * p.x + 20.0 * p.y + 5.0;
+        let lux: Vec<f32> = positions.iter().map(|&p| field(p) as f32).collect();
+        let mesh = PatchMesh {
+            normals: vec![DVec3::Z; 4],
+            vertex_surface: vec![0; 4],
+            patches: vec![Patch {
+                vertices: [0, 1, 2, 3],
+                n_vertices: 4,
+                surface: 0,
+                normal: DVec3::Z,
+                area: 2.0,
+                centroid: DVec3::new(1.0, 0.5, 0.0),
+            }],
+            positions,
+        };
+        for point in [
+            DVec3::new(0.3, 0.8, 0.0),
+            DVec3::new(1.7, 0.2, 0.0),
+            DVec3::new(1.0, 0.5, 0.0),
+            DVec3::new(2.0, 1.0, 0.0),
+        ] {
+            let got = lux_at(&mesh, 0, point, &lux).unwrap();
+            assert!(
+                (got - field(point)).abs() < 1e-4,
+                "{point}: {got} vs {}",
+                field(point)
+            );
+        }
+        assert_eq!(lux_at(&mesh, 1, DVec3::ZERO, &lux), None);
+    }
+
+    #[test]
+    fn aim_along_a_direction_ends_where_the_ray_leaves_the_room() {
+        let scene = paper();
+        let mut light = LightEdit::from_light(&scene.lights[0]);
+        light.position = DVec3::new(1.0, 1.0, 2.5);
+        light.aim = DVec3::new(1.0, 0.0, -1.0).normalize();
+        light.aim_spec = AimSpec::Direction(light.aim);
+        // z falls 2.5 m over 2.5 m of x: the floor at (3.5, 1, 0), before the wall x = 6.
+        let end = aim_target(&light, DVec3::new(6.0, 4.0, 2.7));
+        assert!((end - DVec3::new(3.5, 1.0, 0.0)).length() < 1e-12, "{end}");
+        light.aim_spec = AimSpec::Target(DVec3::new(2.0, 2.0, 2.0));
+        assert_eq!(
+            aim_target(&light, DVec3::new(6.0, 4.0, 2.7)),
+            DVec3::new(2.0, 2.0, 2.0)
+        );
+    }
+
+    #[test]
+    fn applying_lights_relights_only_the_changed_one_and_matches_a_fresh_relighter() {
+        let scene = paper();
+        let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+        let mut lights = edits(&scene);
+        assert_eq!(renderer.apply_lights(&lights).unwrap(), Applied::default());
+
+        lights[1].curve = Curve::new(&[(0.0, 3000.0), (20.0, 2000.0), (50.0, 0.0)]).unwrap();
+        lights[1].dimmer = 0.5;
+        let applied = renderer.apply_lights(&lights).unwrap();
+        assert_eq!(applied.relit, [1]);
+        assert!(!applied.rebuilt);
+        assert_totals_close(renderer.relighter.total(), &fresh_total(&scene, &lights));
+
+        lights[0].position += DVec3::new(-1.0, 0.5, 0.0);
+        let applied = renderer.apply_lights(&lights).unwrap();
+        assert!(applied.rebuilt);
+        assert_totals_close(renderer.relighter.total(), &fresh_total(&scene, &lights));
+        let expected_lux: Vec<f32> = renderer
+            .relighter
+            .total()
+            .iter()
+            .map(|&e| luma(e) as f32)
+            .collect();
+        assert_eq!(*renderer.vertex_lux, expected_lux);
+
+        assert!(renderer.apply_lights(&lights[..1]).is_err());
+    }
+
+    #[test]
+    fn a_cursor_move_redraws_only_the_overlay() {
+        let scene = paper();
+        let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+        let plain = renderer.render(&request(&scene, edits(&scene), None)).unwrap();
+        let cursor = (80, 60);
+        let with_cursor = renderer
+            .render(&request(&scene, edits(&scene), Some(cursor)))
+            .unwrap();
+        assert_eq!(plain.frame.ids, with_cursor.frame.ids);
+        assert_eq!(plain.frame.depth, with_cursor.frame.depth);
+        let reach = CROSSHAIR_ARM_PX as i64 + 2;
+        let mut changed = 0;
+        for (i, (a, b)) in plain
+            .frame
+            .pixmap
+            .pixels()
+            .iter()
+            .zip(with_cursor.frame.pixmap.pixels())
+            .enumerate()
+        {
+            if a != b {
+                changed += 1;
+                let (x, y) = ((i % 160) as i64, (i / 160) as i64);
+                assert!(
+                    (x - 80).abs() <= reach && (y - 60).abs() <= reach,
+                    "pixel ({x}, {y}) changed"
+                );
+            }
+        }
+        assert!(changed > 0, "the crosshair was not drawn");
+    }
+
+    #[test]
+    fn a_pick_reads_the_same_lux_as_the_rasterised_illuminance() {
+        let scene = paper();
+        let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+        let req = request(&scene, edits(&scene), None);
+        let preview = renderer.render(&req).unwrap();
+        let attrs = vertex_attributes(
+            DisplayMode::FalseColor,
+            &scene.fine,
+            &scene.surfaces,
+            renderer.relighter.total(),
+        )
+        .unwrap();
+        let raster = render_attributes(&scene.fine, &attrs, &preview.view).unwrap();
+        for pixel in [(80, 60), (20, 100), (140, 15)] {
+            let (point, lux) = preview.pick(&scene.fine, pixel).expect("the room fills the view");
+            let inside = (0..3).all(|a| point[a] > -1e-3 && point[a] < scene.room_size[a] + 1e-3);
+            assert!(inside, "{point}");
+            let expected = luma(raster.pixels[(pixel.1 * 160 + pixel.0) as usize].map(f64::from));
+            assert!(
+                (lux - expected).abs() <= 0.01 * expected,
+                "{pixel:?}: {lux} vs {expected}"
+            );
+        }
+    }
+}
