@@ -1,15 +1,21 @@
 //! The relight API the editor calls: change one light's curve, aim or dimmer and get the new
 //! fine-vertex illuminance, recomputing only that light (DESIGN §3, §9).
 //!
-//! Each light's contribution is kept separately (lx, before colour); the RGB total is updated by
-//! the difference of the edited light's old and new contribution, and re-summed from scratch every
-//! [`RESUM_EVERY`] edits so rounding cannot accumulate over a long session.
+//! Per light the relighter keeps its contribution to every fine vertex (lx, linear RGB, colour
+//! applied): the exact direct light from the [`DirectCache`] (or, in paper mode, the truncated SH
+//! series through the same cache) plus, when a bake is given, the indirect light blended from the
+//! baked basis on the coarse patches, `Σ_k c_k (H_k − E_k)`, interpolated to the fine vertices
+//! within each surface. An edit replaces one light's contribution and updates the total by the
+//! difference; the total is re-summed from scratch every [`RESUM_EVERY`] edits so rounding cannot
+//! accumulate over a long session.
 
 use glam::DVec3;
 
-use crate::photometry::Curve;
-use crate::scene::{Light, Scene};
+use crate::photometry::{Curve, ShBasis, Window, ZonalWeights, aimed_coefficients, auto_window, sh_count};
+use crate::scene::{DirectMode, Light, Scene};
+use crate::transport::bake::{Bake, BakedLight};
 use crate::transport::direct::{DirectCache, Receiver};
+use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::occlusion::Occluders;
 use crate::transport::visibility::Visibility;
 
@@ -51,24 +57,86 @@ pub fn fine_receivers(scene: &Scene) -> Vec<Receiver> {
         .collect()
 }
 
-/// Direct illuminance of every light at the fine vertices, kept per light.
+/// The SH coefficients `c_k = dimmer · σ_l w_l 4π/(2l+1) Y_lm(aim)` of a light for a baked order,
+/// with the window chosen automatically (`window = None`) or forced.
+pub fn light_coefficients(
+    state: &LightState,
+    order: usize,
+    window: Option<Window>,
+    basis: &ShBasis,
+) -> (Vec<f64>, Window) {
+    let weights = ZonalWeights::exact(&state.curve, order);
+    let window = window.unwrap_or_else(|| auto_window(&state.curve, &weights, order));
+    let mut coeffs = vec![0.0; sh_count(order)];
+    aimed_coefficients(&weights.windowed(window), state.aim, basis, &mut coeffs);
+    coeffs.iter_mut().for_each(|c| *c *= state.dimmer);
+    (coeffs, window)
+}
+
+/// The baked indirect light and what blending it needs.
+#[derive(Debug, Clone)]
+struct Indirect {
+    interp: InterpolationWeights,
+    lights: Vec<BakedLight>,
+    bases: Vec<ShBasis>,
+    n_patches: usize,
+}
+
+impl Indirect {
+    /// Light `i`'s indirect irradiance per fine vertex and channel (lx), for coefficients `c`.
+    fn blend(&self, i: usize, coeffs: &[f64]) -> Vec<Vec<f64>> {
+        let light = &self.lights[i];
+        let k = light.n_columns;
+        light
+            .indirect
+            .iter()
+            .map(|channel| {
+                let coarse: Vec<f64> = (0..self.n_patches)
+                    .map(|p| {
+                        channel[p * k..(p + 1) * k]
+                            .iter()
+                            .zip(coeffs)
+                            .map(|(&e, &c)| f64::from(e) * c)
+                            .sum()
+                    })
+                    .collect();
+                self.interp.apply(&coarse)
+            })
+            .collect()
+    }
+}
+
+/// Illuminance of every light at the fine vertices, kept per light.
 #[derive(Debug, Clone)]
 pub struct Relighter {
     lights: Vec<LightState>,
+    windows: Vec<Option<Window>>,
     caches: Vec<DirectCache>,
-    /// Per light, illuminance (lx) at each fine vertex, dimmer applied, colour not.
-    per_light: Vec<Vec<f64>>,
-    /// Σ over lights of colour × illuminance (lx, linear RGB) per fine vertex.
+    paper_mode: bool,
+    indirect: Option<Indirect>,
+    /// Per light, direct illuminance (lx) at each fine vertex, dimmer applied, colour not.
+    direct: Vec<Vec<f64>>,
+    /// Per light, its contribution to every fine vertex (lx, linear RGB, colour applied).
+    contributions: Vec<Vec<[f64; 3]>>,
+    /// Σ of the contributions.
     total: Vec<[f64; 3]>,
-    /// The edited light's previous values, kept to update the total by difference.
-    scratch: Vec<f64>,
     edits_since_resum: usize,
 }
 
 impl Relighter {
-    /// Caches the geometry of every light against the scene's fine vertices (visibility rays
-    /// only when the scene has occluders) and computes the initial illuminance.
+    /// Direct light only (no bake): caches the geometry of every light against the fine
+    /// vertices (visibility rays only when the scene has occluders).
     pub fn new(scene: &Scene) -> Self {
+        Self::build(scene, None)
+    }
+
+    /// Direct light plus the baked indirect light (and, in paper mode, direct light from the SH
+    /// series of the baked order).
+    pub fn with_bake(scene: &Scene, bake: &Bake) -> Self {
+        Self::build(scene, Some(bake))
+    }
+
+    fn build(scene: &Scene, bake: Option<&Bake>) -> Self {
         let occluders = Occluders::of_scene(scene);
         let receivers = fine_receivers(scene);
         let caches: Vec<DirectCache> = scene
@@ -83,17 +151,26 @@ impl Relighter {
                 )
             })
             .collect();
-        let lights: Vec<LightState> = scene.lights.iter().map(LightState::from).collect();
+        let indirect = bake.map(|b| Indirect {
+            interp: InterpolationWeights::new(&scene.coarse, &scene.fine),
+            bases: b.lights.iter().map(|l| ShBasis::new(l.plan.order)).collect(),
+            lights: b.lights.clone(),
+            n_patches: scene.coarse.patches.len(),
+        });
         let n = receivers.len();
+        let n_lights = scene.lights.len();
         let mut relighter = Relighter {
-            per_light: vec![vec![0.0; n]; lights.len()],
-            total: vec![[0.0; 3]; n],
-            scratch: vec![0.0; n],
-            lights,
+            lights: scene.lights.iter().map(LightState::from).collect(),
+            windows: vec![None; n_lights],
             caches,
+            paper_mode: bake.is_some() && scene.settings.direct == DirectMode::Basis,
+            indirect,
+            direct: vec![vec![0.0; n]; n_lights],
+            contributions: vec![vec![[0.0; 3]; n]; n_lights],
+            total: vec![[0.0; 3]; n],
             edits_since_resum: 0,
         };
-        for i in 0..relighter.lights.len() {
+        for i in 0..n_lights {
             relighter.recompute_light(i);
         }
         relighter.resum();
@@ -110,14 +187,26 @@ impl Relighter {
         self.lights.len()
     }
 
-    /// Total direct illuminance per fine vertex (lx, linear RGB).
+    /// True when indirect light from a bake is included.
+    pub fn has_indirect(&self) -> bool {
+        self.indirect
+            .as_ref()
+            .is_some_and(|ind| ind.lights.iter().any(BakedLight::has_indirect))
+    }
+
+    /// Total illuminance per fine vertex (lx, linear RGB).
     pub fn total(&self) -> &[[f64; 3]] {
         &self.total
     }
 
     /// Light `i`'s direct illuminance per fine vertex (lx, dimmer applied, before colour).
-    pub fn light_illuminance(&self, i: usize) -> &[f64] {
-        &self.per_light[i]
+    pub fn light_direct(&self, i: usize) -> &[f64] {
+        &self.direct[i]
+    }
+
+    /// Light `i`'s contribution per fine vertex (lx, linear RGB, colour applied).
+    pub fn light_contribution(&self, i: usize) -> &[[f64; 3]] {
+        &self.contributions[i]
     }
 
     /// Replaces light `i`'s curve and updates the illuminance (only that light is recomputed).
@@ -126,7 +215,7 @@ impl Relighter {
         self.update(i);
     }
 
-    /// Re-aims light `i` along the unit vector `aim` (world).
+    /// Re-aims light `i` along `aim` (world; normalised here).
     pub fn set_aim(&mut self, i: usize, aim: DVec3) {
         self.lights[i].aim = aim.normalize();
         self.update(i);
@@ -138,38 +227,88 @@ impl Relighter {
         self.update(i);
     }
 
+    /// Forces light `i`'s window (`None`: chosen automatically per edit, NUMERICS §3.4).
+    pub fn set_window(&mut self, i: usize, window: Option<Window>) {
+        self.windows[i] = window;
+        self.update(i);
+    }
+
+    /// Replaces light `i`'s whole state at once (one recomputation).
+    pub fn set_state(&mut self, i: usize, state: LightState) {
+        self.lights[i] = LightState {
+            aim: state.aim.normalize(),
+            ..state
+        };
+        self.update(i);
+    }
+
     fn recompute_light(&mut self, i: usize) {
-        let LightState {
-            curve, aim, dimmer, ..
-        } = &self.lights[i];
-        self.caches[i].illuminance_into(curve, *aim, *dimmer, &mut self.per_light[i]);
+        let state = &self.lights[i];
+        let baked = self
+            .indirect
+            .as_ref()
+            .map(|ind| (ind, &ind.lights[i], &ind.bases[i]));
+        let coeffs = baked
+            .map(|(_, light, basis)| light_coefficients(state, light.plan.order, self.windows[i], basis).0);
+        match (self.paper_mode, baked, &coeffs) {
+            (true, Some((_, light, basis)), Some(c)) => {
+                // Paper mode: direct light from the series Σ c_lm Y_lm(dir), masked like the basis.
+                let mask = light.plan.mask.map(DVec3::from);
+                self.caches[i].illuminance_with(
+                    |dir| {
+                        if mask.is_some_and(|n| dir.dot(n) <= 0.0) {
+                            0.0
+                        } else {
+                            basis.dot(c, dir)
+                        }
+                    },
+                    1.0,
+                    &mut self.direct[i],
+                );
+            }
+            _ => self.caches[i].illuminance_into(&state.curve, state.aim, state.dimmer, &mut self.direct[i]),
+        }
+        let indirect = match (baked, &coeffs) {
+            (Some((ind, light, _)), Some(c)) if light.has_indirect() => ind.blend(i, c),
+            _ => Vec::new(),
+        };
+        let color = state.color;
+        for (v, out) in self.contributions[i].iter_mut().enumerate() {
+            let d = self.direct[i][v];
+            for ch in 0..3 {
+                let ind = match indirect.len() {
+                    0 => 0.0,
+                    1 => indirect[0][v],
+                    _ => indirect[ch][v],
+                };
+                out[ch] = color[ch] * (d + ind);
+            }
+        }
     }
 
     fn update(&mut self, i: usize) {
-        std::mem::swap(&mut self.scratch, &mut self.per_light[i]);
+        let old = std::mem::take(&mut self.contributions[i]);
+        self.contributions[i] = old.clone();
         self.recompute_light(i);
-        let old = &self.scratch;
         self.edits_since_resum += 1;
         if self.edits_since_resum >= RESUM_EVERY {
             self.resum();
             return;
         }
-        let color = self.lights[i].color;
-        for ((t, &new), &old) in self.total.iter_mut().zip(&self.per_light[i]).zip(old) {
-            let d = new - old;
+        for ((t, new), old) in self.total.iter_mut().zip(&self.contributions[i]).zip(&old) {
             for c in 0..3 {
-                t[c] += color[c] * d;
+                t[c] += new[c] - old[c];
             }
         }
     }
 
-    /// Re-sums the total from the per-light values.
+    /// Re-sums the total from the per-light contributions.
     fn resum(&mut self) {
         self.total.iter_mut().for_each(|t| *t = [0.0; 3]);
-        for (light, values) in self.lights.iter().zip(&self.per_light) {
-            for (t, &e) in self.total.iter_mut().zip(values) {
-                for c in 0..3 {
-                    t[c] += light.color[c] * e;
+        for contribution in &self.contributions {
+            for (t, c) in self.total.iter_mut().zip(contribution) {
+                for ch in 0..3 {
+                    t[ch] += c[ch];
                 }
             }
         }

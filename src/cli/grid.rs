@@ -6,8 +6,9 @@ use glam::DVec3;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::scene::DirectMode;
 use crate::scene::{self, Scene};
-use crate::transport::direct::{Receiver, scene_direct_at};
+use crate::transport::direct::Receiver;
 
 /// A work-plane grid: points facing up at one height, spaced evenly and centred in the room.
 #[derive(Debug, Clone, PartialEq)]
@@ -157,19 +158,12 @@ pub fn run(
     json: bool,
     direct_only: bool,
 ) -> Result<()> {
-    if !direct_only {
-        return Err(Error::input(
-            "",
-            "",
-            "interreflection is not built yet: pass --direct-only for exact direct light",
-        ));
-    }
     let scene = scene::load(room)?;
     let plane = WorkPlane::new(&scene, height_m, spacing_m, margin_m.unwrap_or(spacing_m / 2.0))?;
     if plane.receivers.is_empty() {
         return Err(Error::input(room, "", "every grid point lies inside furniture"));
     }
-    let lux = scene_direct_at(&scene, &plane.receivers);
+    let lux = crate::cli::probe::lux_at(&scene, &plane.receivers, direct_only, DirectMode::Exact)?;
     let stats = GridStats::of(&lux);
     if json {
         let doc = GridJson {

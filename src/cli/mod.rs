@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use crate::error::Result;
 use crate::photometry::Window;
 
+pub mod bake;
 pub mod grid;
 pub mod lid;
 pub mod probe;
@@ -56,6 +57,22 @@ pub enum Command {
         /// Direct light only (no interreflection).
         #[arg(long)]
         direct_only: bool,
+        /// Direct light exact from the curve (hybrid, default) or from the SH series (paper mode).
+        #[arg(long, value_enum, default_value_t = DirectArg::Exact)]
+        mode: DirectArg,
+    },
+    /// Which effects the scene calls for, and why.
+    Plan {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Precompute and cache the SH basis (interreflection) of every light.
+    Bake {
+        /// The room file.
+        room: PathBuf,
     },
     /// Work-plane calculation grid: E_avg, E_min, E_max, U0 = E_min/E_avg.
     Grid {
@@ -94,6 +111,24 @@ pub enum Graphics {
     Halfblocks,
 }
 
+/// `--mode` values of `probe`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DirectArg {
+    /// Exact direct light from the curve (hybrid mode).
+    Exact,
+    /// Direct light from the truncated SH series (paper mode).
+    Basis,
+}
+
+impl From<DirectArg> for crate::scene::DirectMode {
+    fn from(d: DirectArg) -> Self {
+        match d {
+            DirectArg::Exact => crate::scene::DirectMode::Exact,
+            DirectArg::Basis => crate::scene::DirectMode::Basis,
+        }
+    }
+}
+
 /// `--window` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum WindowArg {
@@ -117,11 +152,14 @@ pub fn run(cli: Cli) -> Result<()> {
             window,
             json,
         } => lid::run(&source, order, window.map(Window::from), json),
+        Command::Plan { room, json } => bake::run_plan(&room, json),
+        Command::Bake { room } => bake::run_bake(&room),
         Command::Probe {
             room,
             points,
             direct_only,
-        } => probe::run(&room, &points, direct_only),
+            mode,
+        } => probe::run(&room, &points, direct_only, mode.into()),
         Command::Grid {
             room,
             height,

@@ -6,8 +6,9 @@ use std::path::Path;
 use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::scene;
-use crate::transport::direct::{Receiver, scene_direct_at};
+use crate::scene::{self, DirectMode, Scene};
+use crate::transport::direct::Receiver;
+use crate::transport::gather::illuminance_at_receivers;
 
 /// The header the points file must start with.
 pub const POINTS_HEADER: &str = "x,y,z,nx,ny,nz";
@@ -89,19 +90,39 @@ pub fn format_csv(receivers: &[Receiver], lux: &[f64]) -> String {
     out
 }
 
-/// Runs the command: prints the CSV on standard output.
-pub fn run(room: &Path, points: &Path, direct_only: bool) -> Result<()> {
-    if !direct_only {
-        return Err(Error::input(
-            "",
-            "",
-            "interreflection is not built yet: pass --direct-only for exact direct light",
+/// Illuminance (lx) at receivers for the command line: direct only, or direct plus gathered
+/// indirect light from the bake (loaded from the cache or baked, with progress on stderr).
+pub fn lux_at(
+    scene: &Scene,
+    receivers: &[Receiver],
+    direct_only: bool,
+    mode: DirectMode,
+) -> Result<Vec<f64>> {
+    if direct_only {
+        if mode == DirectMode::Basis {
+            return Err(Error::input(
+                "--mode",
+                "",
+                "basis mode needs the bake: drop --direct-only",
+            ));
+        }
+        return Ok(illuminance_at_receivers(
+            scene,
+            None,
+            DirectMode::Exact,
+            receivers,
         ));
     }
+    let bake = crate::cli::bake::bake_for_cli(scene)?;
+    Ok(illuminance_at_receivers(scene, Some(&bake), mode, receivers))
+}
+
+/// Runs the command: prints the CSV on standard output.
+pub fn run(room: &Path, points: &Path, direct_only: bool, mode: DirectMode) -> Result<()> {
     let scene = scene::load(room)?;
     let text = std::fs::read_to_string(points).map_err(|e| Error::unreadable(points, &e))?;
     let receivers = parse_points(&text, points)?;
-    let lux = scene_direct_at(&scene, &receivers);
+    let lux = lux_at(&scene, &receivers, direct_only, mode)?;
     print!("{}", format_csv(&receivers, &lux));
     Ok(())
 }

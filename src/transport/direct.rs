@@ -159,8 +159,9 @@ pub fn triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 /// Solid-angle quadrature over a planar convex polygon (world, m) seen from a source at
 /// `position`: the polygon is fanned into triangles, each split recursively until its longest
 /// edge is below a quarter of its distance to the source; `visit(dir, weight, point)` is called
-/// once per piece with the unit direction to the piece's centroid, its exact solid angle (sr)
-/// times the near-field softening `r²/(r² + a²)`, and the centroid (world). Only the side the
+/// three times per piece, at its edge midpoints, with the unit direction to the point, a third of
+/// the piece's exact solid angle (sr) times the near-field softening `r²/(r² + a²)`, and the point
+/// (world). Only the side the
 /// polygon's `normal` faces is visited. `Σ weight · I(dir)` is the flux (lm) onto the polygon.
 pub fn polygon_quadrature(
     position: DVec3,
@@ -191,19 +192,27 @@ pub fn polygon_quadrature(
             .length_squared()
             .max((c - b).length_squared())
             .max((a - c).length_squared());
-        if longest2 > r2 / 16.0 && depth < MAX_SPLIT_DEPTH {
+        if longest2 > r2 / 256.0 && depth < MAX_SPLIT_DEPTH {
             let (ab, bc, ca) = ((a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0);
             for tri in [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]] {
                 stack.push((tri, depth + 1));
             }
             continue;
         }
+        // Edge-midpoint rule on the flat triangle (exact for quadratics) applied to the solid-angle
+        // density, which is ∝ 1/|q|³ on a plane; the weights are rescaled to the exact solid angle.
         let omega = triangle_solid_angle(a, b, c);
-        visit(
-            mid / r2.sqrt(),
-            omega * r2 / (r2 + radius_m * radius_m),
-            position + mid,
-        );
+        let points = [(a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0];
+        let density = points.map(|q| q.length_squared().powf(-1.5));
+        let norm = omega / (density[0] + density[1] + density[2]);
+        for (q, d) in points.into_iter().zip(density) {
+            let q2 = q.length_squared();
+            visit(
+                q / q2.sqrt(),
+                norm * d * q2 / (q2 + radius_m * radius_m),
+                position + q,
+            );
+        }
     }
 }
 

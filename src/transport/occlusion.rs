@@ -170,6 +170,9 @@ impl Occluders {
 
     /// True when any occluder meets the open segment `from → to`.
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
+        if self.primitives.is_empty() {
+            return false;
+        }
         let d = to - from;
         let inv_d = d.recip();
         let (t0, t1) = (END_EPS, 1.0 - END_EPS);
@@ -346,6 +349,8 @@ mod tests {
         assert!(!occ.blocked(light, DVec3::new(1.5, 1.5, 1.0)));
         // Grazing along a face plane (NaN in the slab test) does not count as a hit.
         assert!(!occ.blocked(DVec3::new(0.0, 1.0, 2.0), DVec3::new(3.0, 1.0, 2.0)));
+        // No occluders at all (a forced visibility pass in an empty room) blocks nothing.
+        assert!(!Occluders::from_parts(&[], &[]).blocked(light, DVec3::ZERO));
     }
 
     #[test]

@@ -5,8 +5,9 @@
 use glam::DVec3;
 use serde::Serialize;
 
-use crate::photometry::{Curve, Window, ZonalWeights, auto_window, choose_order, sh_count};
+use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
 use crate::scene::{DirectMode, Scene};
+use crate::transport::formfactor::FormFactorOptions;
 
 /// Target relative L2 error of a curve's SH series when the basis carries only indirect light
 /// (hybrid mode): indirect light is a smooth average of the emission, so a coarse series suffices.
@@ -18,7 +19,7 @@ pub const BASIS_TARGET_REL_L2: f64 = 0.02;
 /// Highest automatic order in paper mode.
 pub const BASIS_MAX_ORDER: usize = 30;
 /// A light this close to a room surface (m) counts as mounted on it.
-pub const MOUNT_DISTANCE_M: f64 = 0.1;
+pub const MOUNT_DISTANCE_M: f64 = 0.15;
 
 /// One yes/no decision and why.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -64,7 +65,7 @@ pub struct PlanOptions {
     pub force_visibility: bool,
     /// Solve three channels even for a grey room.
     pub force_rgb: bool,
-    /// Add this to every light's order.
+    /// Add this to every order the plan chooses (orders fixed by the room file are the user's).
     pub order_boost: usize,
 }
 
@@ -93,12 +94,10 @@ pub struct Plan {
     pub basis_bytes: usize,
     /// Bytes of the dense form-factor matrix (f32), 0 when there is no solve.
     pub form_factor_bytes: usize,
-    /// Visibility rays cast to build the form factors (0 when visibility is off or no solve).
+    /// Upper bound on the visibility rays cast to build the form factors (rays are cast only for
+    /// pairs that see each other geometrically; 0 when visibility is off or there is no solve).
     pub form_factor_rays: usize,
 }
-
-/// Rays per form-factor entry when visibility is on (centroid to sample points of the patch).
-pub const FORM_FACTOR_RAYS: usize = 4;
 
 /// Plans the bake of `scene`.
 pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
@@ -184,7 +183,8 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
         basis_bytes: if solve { 2 * columns * n_coarse * 4 } else { 0 },
         form_factor_bytes: if solve { n_coarse * n_coarse * 4 } else { 0 },
         form_factor_rays: if solve && visibility.on {
-            n_coarse * n_coarse * FORM_FACTOR_RAYS
+            let per_edge = FormFactorOptions::default().visibility_samples_per_edge;
+            n_coarse * n_coarse * per_edge * per_edge
         } else {
             0
         },
@@ -203,18 +203,15 @@ fn plan_light(scene: &Scene, light: &crate::scene::Light, paper: bool, options: 
     } else {
         (HYBRID_TARGET_REL_L2, HYBRID_MAX_ORDER)
     };
-    let (base, order_reason) = match light.order {
+    let (order, order_reason) = match light.order {
         Some(n) => (n, format!("fixed by the room file ({n})")),
         None => {
-            let n = choose_order(&light.curve, target, cap);
-            (n, order_reason(&light.curve, n, target, cap))
+            let (n, reason) = choose_windowed_order(&light.curve, target, cap);
+            match options.order_boost {
+                0 => (n, reason),
+                boost => (n + boost, format!("{reason}; raised by {boost} (forced)")),
+            }
         }
-    };
-    let order = base + options.order_boost;
-    let order_reason = if options.order_boost > 0 {
-        format!("{order_reason}; raised by {} (forced)", options.order_boost)
-    } else {
-        order_reason
     };
     let weights = ZonalWeights::exact(&light.curve, order);
     let window = auto_window(&light.curve, &weights, order);
@@ -235,22 +232,39 @@ fn plan_light(scene: &Scene, light: &crate::scene::Light, paper: bool, options: 
     }
 }
 
-fn order_reason(curve: &Curve, n: usize, target: f64, cap: usize) -> String {
-    let w = ZonalWeights::exact(curve, n);
-    let err = crate::photometry::truncation_stats(curve, &w, n, Window::None).rel_l2_error;
-    if err <= target {
-        format!(
-            "lowest order with relative L2 error ≤ {:.0} % ({:.1} %)",
-            target * 100.0,
-            err * 100.0
-        )
-    } else {
+/// The lowest order whose series, as relighting will use it (windowed when it rings, NUMERICS
+/// §3.4), has a relative L2 error within `target`; `cap` when none does.
+fn choose_windowed_order(curve: &Curve, target: f64, cap: usize) -> (usize, String) {
+    let full = ZonalWeights::exact(curve, cap);
+    let mut last_error = f64::INFINITY;
+    for n in 0..=cap {
+        let w = full.truncated(n);
+        let window = auto_window(curve, &w, n);
+        last_error = truncation_stats(curve, &w, n, window).rel_l2_error;
+        if last_error <= target {
+            return (
+                n,
+                format!(
+                    "lowest order whose {} series has relative L2 error ≤ {:.0} % ({:.1} %)",
+                    if window == Window::None {
+                        "plain"
+                    } else {
+                        "windowed"
+                    },
+                    target * 100.0,
+                    last_error * 100.0
+                ),
+            );
+        }
+    }
+    (
+        cap,
         format!(
             "capped at {cap}: the curve needs more for {:.0} % (error {:.1} %; sharp cut-off?)",
             target * 100.0,
-            err * 100.0
-        )
-    }
+            last_error * 100.0
+        ),
+    )
 }
 
 /// The inward normal of the room surface a light is mounted on, when its curve emits nothing

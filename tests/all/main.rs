@@ -6,6 +6,7 @@ mod photometry;
 mod scene;
 
 fn main() {}
+mod bake;
 mod radiosity;
 mod render;
 mod tui;

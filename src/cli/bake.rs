@@ -1,0 +1,179 @@
+//! `haiko plan ROOM` and `haiko bake ROOM`: what the bake will simulate and why, and the bake
+//! itself with sizes, memory, solver iterations, certified error and timings.
+
+use std::io::{IsTerminal, Write};
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::scene;
+use crate::transport::bake::{Bake, BakeOptions, Progress, bake};
+use crate::transport::cache;
+use crate::transport::plan::{Plan, PlanOptions, plan};
+
+/// Formats a plan with its reasons.
+pub fn format_plan(p: &Plan) -> String {
+    let on = |b: bool| if b { "on " } else { "off" };
+    let mut s = String::new();
+    s.push_str(&format!(
+        "visibility       {}  {}\n",
+        on(p.visibility.on),
+        p.visibility.reason
+    ));
+    s.push_str(&format!(
+        "interreflection  {}  {}\n",
+        on(p.interreflection.on),
+        p.interreflection.reason
+    ));
+    s.push_str(&format!(
+        "channels         {}    {}\n",
+        p.channels, p.channels_reason
+    ));
+    s.push_str(&format!(
+        "direct basis     {}  {}\n",
+        on(p.direct_basis.on),
+        p.direct_basis.reason
+    ));
+    for l in &p.lights {
+        s.push_str(&format!(
+            "light {:<10} order {:>2} ({} columns): {}\n    window {}: {}\n    mask: {}\n",
+            l.name,
+            l.order,
+            l.columns,
+            l.order_reason,
+            l.window.name(),
+            l.window_reason,
+            if l.mask_reason.is_empty() {
+                "no"
+            } else {
+                &l.mask_reason
+            }
+        ));
+    }
+    s.push_str(&format!(
+        "mesh: {} fine vertices, {} coarse patches; {} basis columns in all\n",
+        p.fine_vertices, p.coarse_patches, p.columns
+    ));
+    s.push_str(&format!(
+        "expected: basis {:.2} MB ({} B per coarse patch and column: direct + indirect, f32), form factors {:.2} MB, at most {} visibility rays\n",
+        p.basis_bytes as f64 / 1e6,
+        8,
+        p.form_factor_bytes as f64 / 1e6,
+        p.form_factor_rays
+    ));
+    s
+}
+
+/// Runs `haiko plan`.
+pub fn run_plan(room: &Path, json: bool) -> Result<()> {
+    let scene = scene::load(room)?;
+    let p = plan(&scene, PlanOptions::default());
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&p).map_err(|e| Error::internal(e.to_string()))?
+        );
+    } else {
+        print!("{}", format_plan(&p));
+    }
+    Ok(())
+}
+
+/// A progress reporter for the command line: a redrawn bar on a terminal, stage lines otherwise.
+pub fn progress_printer() -> impl FnMut(Progress) {
+    let tty = std::io::stderr().is_terminal();
+    let mut last_stage = "";
+    move |p: Progress| {
+        let mut err = std::io::stderr();
+        if tty {
+            let width = 30;
+            let filled = (p.done * width).checked_div(p.total).unwrap_or(width);
+            let _ = write!(
+                err,
+                "\r{:<24} [{}{}] {}/{}",
+                p.stage,
+                "#".repeat(filled),
+                " ".repeat(width - filled),
+                p.done,
+                p.total
+            );
+            if p.done == p.total {
+                let _ = writeln!(err);
+            }
+        } else if p.stage != last_stage {
+            let _ = writeln!(err, "bake: {} …", p.stage);
+        }
+        last_stage = p.stage;
+    }
+}
+
+/// Bakes with the user's cache and the command-line progress bar; prints cache notices.
+pub fn bake_for_cli(scene: &scene::Scene) -> Result<Bake> {
+    let options = BakeOptions {
+        cache_dir: Some(cache::default_dir()),
+        ..BakeOptions::default()
+    };
+    let result = bake(scene, &options, &mut progress_printer())?;
+    for notice in &result.notices {
+        eprintln!("haiko: {notice}");
+    }
+    Ok(result)
+}
+
+/// Formats what a bake did.
+pub fn format_bake(b: &Bake) -> String {
+    let mut s = String::new();
+    let t = &b.timings;
+    for l in &b.lights {
+        let bytes = (l.direct.len() + l.indirect.iter().map(Vec::len).sum::<usize>()) * 4;
+        s.push_str(&format!(
+            "light {:<10} order {:>2}, {:>4} columns, {:>8.2} MB, {}\n",
+            l.plan.name,
+            l.plan.order,
+            l.n_columns,
+            bytes as f64 / 1e6,
+            if l.from_cache {
+                "from the cache".to_string()
+            } else if l.has_indirect() {
+                format!(
+                    "solved in ≤ {} GMRES steps, certified relative error ≤ {:.1e}",
+                    l.iterations, l.certified_error
+                )
+            } else {
+                "no interreflection".to_string()
+            }
+        ));
+    }
+    let n = b.plan.coarse_patches;
+    s.push_str(&format!(
+        "memory: form factors {:.2} MB ({n}² × 4 B), basis {:.2} MB ({} coarse patches × {} columns × {} channel(s) × 8 B)\n",
+        b.form_factor_bytes as f64 / 1e6,
+        b.lights.iter().map(|l| (l.direct.len() + l.indirect.iter().map(Vec::len).sum::<usize>()) * 4).sum::<usize>() as f64 / 1e6,
+        n,
+        b.plan.columns / b.plan.channels.max(1),
+        b.plan.channels,
+    ));
+    s.push_str(&format!(
+        "visibility rays cast for form factors: {}\n",
+        b.form_factor_rays
+    ));
+    s.push_str(&format!(
+        "time: plan {:.1} ms, cache read {:.1} ms, form factors {:.1} ms, basis direct {:.1} ms, solve {:.1} ms, cache write {:.1} ms\n",
+        t.plan_s * 1e3,
+        t.cache_read_s * 1e3,
+        t.form_factors_s * 1e3,
+        t.basis_direct_s * 1e3,
+        t.solve_s * 1e3,
+        t.cache_write_s * 1e3
+    ));
+    s
+}
+
+/// Runs `haiko bake`.
+pub fn run_bake(room: &Path) -> Result<()> {
+    let scene = scene::load(room)?;
+    let p = plan(&scene, PlanOptions::default());
+    print!("{}", format_plan(&p));
+    let b = bake_for_cli(&scene)?;
+    print!("{}", format_bake(&b));
+    Ok(())
+}
