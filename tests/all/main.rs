@@ -7,6 +7,7 @@ mod scene;
 
 fn main() {}
 mod bake;
+mod cli;
 mod radiosity;
 mod render;
 mod tui;
