@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::photometry::Window;
 
 pub mod accuracy;
@@ -193,9 +193,7 @@ pub enum WindowArg {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Edit { .. } => Err(Error::internal(
-            "`haiko edit` is not built yet (issue: the terminal editor); use `haiko lid` meanwhile",
-        )),
+        Command::Edit { room, graphics } => crate::tui::app::run(&room, graphics),
         Command::Lid {
             source,
             order,

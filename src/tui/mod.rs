@@ -1,8 +1,11 @@
 //! The terminal editor, in the Elm architecture (STYLE): [`model::Model`] holds the state,
 //! [`msg::Msg`] the events and worker results, [`update::update`] the only state transition
 //! (pure, tested without a terminal), [`view::view`] draws the state. The app loop (part 2)
-//! carries out the [`msg::Effect`]s and feeds results back as messages.
+//! carries out the [`msg::Effect`]s and feeds results back as messages: [`app::run`] owns the
+//! loop, [`workers`] the render and encode threads, [`renderer`] the preview's pixels,
+//! [`preview`] the terminal image protocol, [`terminal`] the screen itself.
 
+pub mod app;
 pub mod camera_nav;
 pub mod edits;
 pub mod history;
@@ -10,9 +13,14 @@ pub mod keys;
 pub mod model;
 pub mod msg;
 pub mod polar;
+pub mod preview;
+pub mod renderer;
 pub mod save;
+pub mod series;
+pub mod terminal;
 pub mod update;
 pub mod view;
+pub mod workers;
 
 pub use model::{LightEdit, Mode, Model, Window};
 pub use msg::{Effect, Msg};

@@ -13,3 +13,4 @@ mod radiosity;
 mod render;
 mod render_rooms;
 mod tui;
+mod tui_e2e;

@@ -1,0 +1,106 @@
+//! The real terminal: entering and leaving full-screen mode (raw mode, alternate screen, mouse
+//! capture), restored on quit, on error and on panic; synchronized drawing; the input reader
+//! thread.
+
+use std::io::{Write, stdout};
+use std::sync::mpsc::Sender;
+use std::thread;
+
+use ratatui::crossterm::event::{self, DisableMouseCapture, EnableMouseCapture};
+use ratatui::crossterm::execute;
+use ratatui::crossterm::terminal::{BeginSynchronizedUpdate, EndSynchronizedUpdate};
+use ratatui::{DefaultTerminal, Frame};
+use ratatui_image::picker::Picker;
+
+use crate::cli::Graphics;
+use crate::error::{Error, Result};
+use crate::tui::preview;
+use crate::tui::workers::AppEvent;
+
+/// The terminal in full-screen mode and the graphics protocol it speaks. Dropping it restores
+/// the terminal.
+pub struct TerminalSession {
+    terminal: DefaultTerminal,
+    picker: Picker,
+}
+
+impl TerminalSession {
+    /// Takes the terminal: raw mode, alternate screen and a panic hook that restores both
+    /// (ratatui), the graphics query ([`preview::detect_picker`], before any event is read),
+    /// then mouse capture (also released by the panic hook).
+    ///
+    /// Errors (internal): the terminal refused (e.g. stdout is not a terminal).
+    pub fn enter(graphics: Graphics) -> Result<TerminalSession> {
+        let terminal = ratatui::try_init().map_err(|e| {
+            ratatui::restore();
+            Error::internal(format!("cannot take the terminal: {e}"))
+        })?;
+        let previous_hook = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            let _ = execute!(stdout(), DisableMouseCapture);
+            previous_hook(info);
+        }));
+        let mut session = TerminalSession {
+            terminal,
+            picker: Picker::halfblocks(),
+        };
+        session.picker = preview::detect_picker(graphics);
+        execute!(stdout(), EnableMouseCapture)
+            .map_err(|e| Error::internal(format!("cannot enable the mouse: {e}")))?;
+        Ok(session)
+    }
+
+    /// The graphics protocol and cell size in use.
+    pub fn picker(&self) -> &Picker {
+        &self.picker
+    }
+
+    /// The terminal's size in cells (columns, rows).
+    ///
+    /// Errors (internal): the terminal cannot tell.
+    pub fn size(&self) -> Result<(u16, u16)> {
+        let size = self
+            .terminal
+            .size()
+            .map_err(|e| Error::internal(format!("cannot read the terminal size: {e}")))?;
+        Ok((size.width, size.height))
+    }
+
+    /// Draws one frame inside a synchronized update, so the terminal shows it at once.
+    ///
+    /// Errors (internal): writing to the terminal failed.
+    pub fn draw(&mut self, render: impl FnOnce(&mut Frame<'_>)) -> Result<()> {
+        let failed = |e: std::io::Error| Error::internal(format!("cannot draw: {e}"));
+        execute!(stdout(), BeginSynchronizedUpdate).map_err(failed)?;
+        let drawn = self.terminal.draw(render).map(|_| ()).map_err(failed);
+        execute!(stdout(), EndSynchronizedUpdate).map_err(failed)?;
+        stdout().flush().map_err(failed)?;
+        drawn
+    }
+}
+
+impl Drop for TerminalSession {
+    fn drop(&mut self) {
+        let _ = execute!(stdout(), DisableMouseCapture);
+        ratatui::restore();
+    }
+}
+
+/// Starts the thread that reads terminal events and forwards them to the app's channel; it
+/// ends when the app drops the receiver (after the next event) or reading fails.
+pub fn spawn_input_reader(events: Sender<AppEvent>) {
+    thread::spawn(move || {
+        loop {
+            let event = match event::read() {
+                Ok(event) => AppEvent::Input(event),
+                Err(e) => {
+                    let _ = events.send(AppEvent::InputFailed(e.to_string()));
+                    return;
+                }
+            };
+            if events.send(event).is_err() {
+                return;
+            }
+        }
+    });
+}

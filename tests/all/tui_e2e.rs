@@ -1,0 +1,203 @@
+//! End to end: the real `haiko edit` binary in a detached tmux session (160 × 48 cells,
+//! half-blocks): raise a control point, aim by keyboard, save, quit; then check the exit
+//! status and the saved room file. Needs tmux (CI installs it): without it the test fails.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// How long any one step may take (a debug build's first frame included).
+const STEP_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// A tmux session that is killed when the test ends, passed or failed.
+struct TmuxSession {
+    name: String,
+}
+
+impl TmuxSession {
+    /// Starts `command` in a new detached session of `width × height` cells.
+    fn start(command: &str, width: u16, height: u16) -> TmuxSession {
+        let nanos = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let name = format!("haiko-e2e-{}-{nanos}", std::process::id());
+        let (w, h) = (width.to_string(), height.to_string());
+        tmux(&["new-session", "-d", "-s", &name, "-x", &w, "-y", &h, command]);
+        // Keep the pane after the command ends, so a failure can still show the last screen.
+        let session = TmuxSession { name };
+        tmux(&["set-option", "-t", &session.name, "remain-on-exit", "on"]);
+        session
+    }
+
+    fn capture(&self) -> String {
+        tmux(&["capture-pane", "-p", "-t", &self.name])
+    }
+
+    fn send(&self, key: &str) {
+        tmux(&["send-keys", "-t", &self.name, key]);
+    }
+
+    /// Waits until the pane satisfies `done`; panics with the last screen after the timeout.
+    fn wait_for(&self, what: &str, done: impl Fn(&str) -> bool) -> String {
+        let start = Instant::now();
+        loop {
+            let screen = self.capture();
+            if done(&screen) {
+                return screen;
+            }
+            assert!(
+                start.elapsed() < STEP_TIMEOUT,
+                "timed out waiting for {what}; the screen was:\n{screen}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+}
+
+impl Drop for TmuxSession {
+    fn drop(&mut self) {
+        let _ = Command::new("tmux")
+            .args(["kill-session", "-t", &self.name])
+            .output();
+    }
+}
+
+/// Runs tmux with `args` and returns its stdout; fails the test when tmux is missing or fails.
+fn tmux(args: &[&str]) -> String {
+    let output = Command::new("tmux").args(args).output().unwrap_or_else(|e| {
+        panic!("tmux is required for the end-to-end editor test (CI installs it) but could not be run: {e}")
+    });
+    assert!(
+        output.status.success(),
+        "tmux {args:?} failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// The status line (second-to-last row of the screen).
+fn status_line(screen: &str) -> &str {
+    let lines: Vec<&str> = screen.lines().collect();
+    lines.len().checked_sub(2).map_or("", |i| lines[i])
+}
+
+/// The aim cursor title of the preview pane, e.g. `aim: cursor at pixel (470, 440)`.
+fn aim_title(screen: &str) -> Option<String> {
+    let start = screen.find("aim: cursor at pixel")?;
+    let end = start + screen[start..].find(')')?;
+    Some(screen[start..=end].to_string())
+}
+
+fn wait_for_file(path: &Path) -> String {
+    let start = Instant::now();
+    while start.elapsed() < STEP_TIMEOUT {
+        if let Ok(text) = std::fs::read_to_string(path)
+            && text.ends_with('\n')
+        {
+            return text;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    panic!("{} was not written: the editor did not exit", path.display());
+}
+
+fn number(value: &toml::Value) -> f64 {
+    value
+        .as_float()
+        .or_else(|| value.as_integer().map(|i| i as f64))
+        .expect("a number")
+}
+
+#[test]
+fn edit_aim_save_and_quit_in_tmux() {
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let original = std::fs::read_to_string(repo.join("rooms/paper.toml")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let room = dir.path().join("paper.toml");
+    std::fs::write(&room, &original).unwrap();
+    let exit_file = dir.path().join("exit-status");
+    let command = format!(
+        "'{}' edit '{}' --graphics halfblocks; echo EXIT=$? > '{}'",
+        env!("CARGO_BIN_EXE_haiko"),
+        room.display(),
+        exit_file.display()
+    );
+    let session = TmuxSession::start(&command, 160, 48);
+
+    // The first frame: the status line reports the stage timings of a rendered preview.
+    let screen = session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
+    assert!(status_line(&screen).contains("half-blocks"), "{screen}");
+    assert!(screen.contains("centre"), "the first light is selected: {screen}");
+    assert!(
+        screen.contains("1000.0"),
+        "the first point of centre's curve is 1000 cd: {screen}"
+    );
+
+    // ↑ raises the first control point by 5 % of the 1000 cd peak: 1050 cd.
+    session.send("Up");
+    session.wait_for("the raised point", |s| {
+        s.contains("1050.0") && s.contains("unsaved")
+    });
+
+    // Aim mode; two steps to the right; Enter aims the light at the point under the cursor.
+    session.send("a");
+    let screen = session.wait_for("aim mode", |s| aim_title(s).is_some());
+    let centred = aim_title(&screen).unwrap();
+    session.send("Right");
+    session.send("Right");
+    session.wait_for("the cursor to move", |s| {
+        aim_title(s).is_some_and(|t| t != centred)
+    });
+    session.send("Enter");
+    session.wait_for("the aim to apply", |s| {
+        aim_title(s).is_none() && status_line(s).contains("EDIT")
+    });
+
+    session.send("s");
+    session.wait_for("the save", |s| s.contains("saved "));
+    session.send("q");
+    assert_eq!(wait_for_file(&exit_file).trim(), "EXIT=0");
+
+    let saved_text = std::fs::read_to_string(&room).unwrap();
+    let saved: toml::Value = toml::from_str(&saved_text).unwrap();
+    let centre = &saved["light"][0];
+    let lid = centre["lid"].as_array().unwrap();
+    let first = lid[0].as_array().unwrap();
+    assert_eq!(
+        (number(&first[0]), number(&first[1])),
+        (0.0, 1050.0),
+        "{saved_text}"
+    );
+    let rest: Vec<(f64, f64)> = lid[1..]
+        .iter()
+        .map(|p| {
+            let p = p.as_array().unwrap();
+            (number(&p[0]), number(&p[1]))
+        })
+        .collect();
+    assert_eq!(rest, [(30.0, 950.0), (60.0, 700.0), (90.0, 0.0)]);
+
+    // The new aim is a point on a room surface (6 × 4 × 2.7 m), not the old (3, 2, 0).
+    let aim: Vec<f64> = centre["aim"].as_array().unwrap().iter().map(number).collect();
+    assert_ne!(aim, [3.0, 2.0, 0.0]);
+    let size = [6.0, 4.0, 2.7];
+    let on_surface = (0..3).any(|a| aim[a].abs() < 1e-3 || (aim[a] - size[a]).abs() < 1e-3);
+    let inside = (0..3).all(|a| aim[a] > -1e-3 && aim[a] < size[a] + 1e-3);
+    assert!(on_surface && inside, "aim {aim:?} is not on the room's surface");
+
+    // Every comment of the original is still there, and the other light is untouched.
+    for line in original.lines().filter(|l| l.contains('#')) {
+        let comment = &line[line.find('#').unwrap()..];
+        assert!(
+            saved_text.contains(comment),
+            "lost comment {comment:?}:\n{saved_text}"
+        );
+    }
+    let accent_lines = |text: &str| -> Vec<String> {
+        let start = text.find("name = \"accent\"").unwrap();
+        let end = start + text[start..].find("[settings]").unwrap();
+        text[start..end].lines().map(str::to_string).collect()
+    };
+    assert_eq!(accent_lines(&saved_text), accent_lines(&original));
+    drop(session);
+}
