@@ -35,7 +35,7 @@ fn key(code: KeyCode) -> Msg {
 fn key_to_pixmap(c: &mut Criterion) {
     let scene = paper();
     let mut model = Model::new(&scene, TERMINAL, FONT);
-    let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+    let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).expect("bake");
     let mut up = true;
     c.bench_function("editor/key_to_pixmap_paper_1024x768", |b| {
         b.iter(|| {
@@ -53,7 +53,7 @@ fn key_to_pixmap(c: &mut Criterion) {
 fn bytes_per_frame(c: &mut Criterion) {
     let scene = paper();
     let model = Model::new(&scene, TERMINAL, FONT);
-    let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+    let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).expect("bake");
     let request = FrameRequest::from_model(&model).expect("the preview has pixels");
     let frame = render_one(&mut renderer, &request).expect("the frame renders");
     let pixmap = &frame.preview.frame.pixmap;

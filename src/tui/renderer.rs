@@ -6,18 +6,21 @@
 //! The render worker ([`crate::tui::workers`]) owns one [`PreviewRenderer`]; the bench drives it
 //! directly. World frame: metres, z up (DESIGN §1); pixels as in [`crate::render::camera`].
 
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::DVec3;
 
 use crate::error::{Error, Result};
+use crate::photometry;
 use crate::relight::Relighter;
 use crate::render::shade::luma;
 use crate::render::{
     self, DisplayMode, DisplayShader, LightMarker, View, draw_crosshair, draw_lights, vertex_attributes,
 };
 use crate::scene::{AimSpec, Camera, PatchMesh, Scene};
-use crate::tui::model::{LightEdit, Mode, Model};
+use crate::transport::bake::{BakeOptions, Progress, bake};
+use crate::tui::model::{LightEdit, Mode, Model, Window};
 
 /// Everything one preview frame shows, snapshotted from the editor's model.
 #[derive(Debug, Clone, PartialEq)]
@@ -102,6 +105,7 @@ struct BaseKey {
 #[derive(Debug)]
 pub struct PreviewRenderer {
     scene: Arc<Scene>,
+    cache_dir: Option<PathBuf>,
     relighter: Relighter,
     applied: Vec<LightEdit>,
     lights_version: u64,
@@ -110,12 +114,21 @@ pub struct PreviewRenderer {
 }
 
 impl PreviewRenderer {
-    /// Caches every light's direct illuminance at the fine vertices (the slow start-up step).
-    pub fn new(scene: Arc<Scene>) -> PreviewRenderer {
-        let relighter = Relighter::new(&scene);
+    /// Loads the bake from the cache in `cache_dir` (or bakes without a cache when `None`),
+    /// reporting `progress`, and caches every light's direct illuminance at the fine vertices:
+    /// the slow start-up step, run on a worker.
+    ///
+    /// Errors: the interreflection solve failing (an internal error).
+    pub fn new(
+        scene: Arc<Scene>,
+        cache_dir: Option<PathBuf>,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<PreviewRenderer> {
+        let relighter = baked_relighter(&scene, cache_dir.as_deref(), progress)?;
         let applied = scene.lights.iter().map(LightEdit::from_light).collect();
         let mut renderer = PreviewRenderer {
             scene,
+            cache_dir,
             relighter,
             applied,
             lights_version: 0,
@@ -123,7 +136,7 @@ impl PreviewRenderer {
             base: None,
         };
         renderer.refresh_vertex_lux();
-        renderer
+        Ok(renderer)
     }
 
     /// The scene rendered.
@@ -148,9 +161,9 @@ impl PreviewRenderer {
         if lights
             .iter()
             .zip(&self.applied)
-            .any(|(now, was)| now.position != was.position)
+            .any(|(now, was)| now.position != was.position || now.order != was.order)
         {
-            self.rebuild(lights);
+            self.rebuild(lights)?;
             applied.rebuilt = true;
             applied.relit = (0..lights.len()).collect();
         } else {
@@ -166,6 +179,10 @@ impl PreviewRenderer {
                 }
                 if now.dimmer != was.dimmer {
                     self.relighter.set_dimmer(i, now.dimmer);
+                    changed = true;
+                }
+                if now.window != was.window {
+                    self.relighter.set_window(i, relight_window(now.window));
                     changed = true;
                 }
                 if changed {
@@ -218,19 +235,53 @@ impl PreviewRenderer {
         render::render(mesh, &attrs, view, &shader)
     }
 
-    fn rebuild(&mut self, lights: &[LightEdit]) {
+    /// Re-bakes after a light moved or its order changed: the per-light cache keys change only
+    /// for that light, so the others load from the cache and only it is solved again.
+    fn rebuild(&mut self, lights: &[LightEdit]) -> Result<()> {
         let mut scene = Scene::clone(&self.scene);
         for (light, edit) in scene.lights.iter_mut().zip(lights) {
             light.position = edit.position;
             light.aim = edit.aim;
             light.curve = edit.curve.clone();
             light.dimmer = edit.dimmer;
+            light.order = Some(edit.order);
         }
-        self.relighter = Relighter::new(&scene);
+        self.relighter = baked_relighter(&scene, self.cache_dir.as_deref(), &mut |_| {})?;
+        for (i, edit) in lights.iter().enumerate() {
+            if edit.window != Window::Auto {
+                self.relighter.set_window(i, relight_window(edit.window));
+            }
+        }
+        Ok(())
     }
 
     fn refresh_vertex_lux(&mut self) {
         self.vertex_lux = Arc::new(self.relighter.total().iter().map(|&e| luma(e) as f32).collect());
+    }
+}
+
+/// A relighter with the scene's bake (from the bake cache in `cache_dir` when valid).
+pub fn baked_relighter(
+    scene: &Scene,
+    cache_dir: Option<&Path>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Relighter> {
+    let options = BakeOptions {
+        cache_dir: cache_dir.map(Path::to_path_buf),
+        ..BakeOptions::default()
+    };
+    let bake = bake(scene, &options, progress)?;
+    Ok(Relighter::with_bake(scene, &bake))
+}
+
+/// The relighter's window for the editor's choice (`Auto`: decided per edit).
+fn relight_window(window: Window) -> Option<photometry::Window> {
+    match window {
+        Window::Auto => None,
+        Window::None => Some(photometry::Window::None),
+        Window::Hann => Some(photometry::Window::Hann),
+        Window::Lanczos => Some(photometry::Window::Lanczos),
+        Window::Cesaro2 => Some(photometry::Window::Cesaro2),
     }
 }
 
@@ -356,8 +407,12 @@ mod tests {
             light.aim = edit.aim;
             light.curve = edit.curve.clone();
             light.dimmer = edit.dimmer;
+            light.order = Some(edit.order);
         }
-        Relighter::new(&scene).total().to_vec()
+        baked_relighter(&scene, None, &mut |_| {})
+            .unwrap()
+            .total()
+            .to_vec()
     }
 
     fn assert_totals_close(a: &[[f64; 3]], b: &[[f64; 3]]) {
@@ -428,7 +483,7 @@ mod tests {
     #[test]
     fn applying_lights_relights_only_the_changed_one_and_matches_a_fresh_relighter() {
         let scene = paper();
-        let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+        let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).unwrap();
         let mut lights = edits(&scene);
         assert_eq!(renderer.apply_lights(&lights).unwrap(), Applied::default());
 
@@ -457,7 +512,7 @@ mod tests {
     #[test]
     fn a_cursor_move_redraws_only_the_overlay() {
         let scene = paper();
-        let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+        let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).unwrap();
         let plain = renderer.render(&request(&scene, edits(&scene), None)).unwrap();
         let cursor = (80, 60);
         let with_cursor = renderer
@@ -490,7 +545,7 @@ mod tests {
     #[test]
     fn a_pick_reads_the_same_lux_as_the_rasterised_illuminance() {
         let scene = paper();
-        let mut renderer = PreviewRenderer::new(Arc::clone(&scene));
+        let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).unwrap();
         let req = request(&scene, edits(&scene), None);
         let preview = renderer.render(&req).unwrap();
         let attrs = vertex_attributes(

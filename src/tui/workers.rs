@@ -15,6 +15,8 @@ use ratatui_image::protocol::Protocol;
 
 use crate::error::Result;
 use crate::scene::Scene;
+use crate::transport::bake::Progress;
+use crate::transport::cache;
 use crate::tui::msg::Msg;
 use crate::tui::preview;
 use crate::tui::renderer::{FrameRequest, PreviewFrame, PreviewRenderer};
@@ -86,7 +88,22 @@ pub fn spawn_render_worker(scene: Arc<Scene>, events: Sender<AppEvent>) -> Sende
     let (jobs, queue) = mpsc::channel::<FrameRequest>();
     thread::spawn(move || {
         let _ = events.send(AppEvent::Msg(Msg::BakeProgress { done: 0, total: 1 }));
-        let mut renderer = PreviewRenderer::new(scene);
+        let progress_events = events.clone();
+        let mut progress = move |p: Progress| {
+            let _ = progress_events.send(AppEvent::Msg(Msg::BakeProgress {
+                done: p.done,
+                total: p.total.max(1),
+            }));
+        };
+        let mut renderer = match PreviewRenderer::new(scene, Some(cache::default_dir()), &mut progress) {
+            Ok(renderer) => renderer,
+            Err(e) => {
+                let _ = events.send(AppEvent::Msg(Msg::Failed {
+                    message: format!("bake: {e}"),
+                }));
+                return;
+            }
+        };
         if events.send(AppEvent::Msg(Msg::BakeDone)).is_err() {
             return;
         }
