@@ -116,8 +116,10 @@ fn edit_aim_save_and_quit_in_tmux() {
     let room = dir.path().join("paper.toml");
     std::fs::write(&room, &original).unwrap();
     let exit_file = dir.path().join("exit-status");
+    // A private bake cache: the editor bakes on start (the preview appears when it is done).
     let command = format!(
-        "'{}' edit '{}' --graphics halfblocks; echo EXIT=$? > '{}'",
+        "HAIKO_CACHE_DIR='{}' '{}' edit '{}' --graphics halfblocks; echo EXIT=$? > '{}'",
+        dir.path().join("cache").display(),
         env!("CARGO_BIN_EXE_haiko"),
         room.display(),
         exit_file.display()
