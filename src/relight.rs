@@ -10,6 +10,7 @@
 //! accumulate over a long session.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::photometry::{Curve, ShBasis, Window, ZonalWeights, aimed_coefficients, auto_window, sh_count};
 use crate::scene::{DirectMode, Light, Scene};
@@ -21,6 +22,9 @@ use crate::transport::visibility::Visibility;
 
 /// Edits between two full re-sums of the total.
 pub const RESUM_EVERY: usize = 1024;
+
+/// Fine vertices per rayon task when updating a light's contribution.
+const MIN_VERTICES_PER_TASK: usize = 4096;
 
 /// The editable state of one light: what an edit may change without a new bake.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,26 +87,21 @@ struct Indirect {
 }
 
 impl Indirect {
-    /// Light `i`'s indirect irradiance per fine vertex and channel (lx), for coefficients `c`.
-    fn blend(&self, i: usize, coeffs: &[f64]) -> Vec<Vec<f64>> {
+    /// Light `i`'s indirect irradiance (lx) for coefficients `c`: vertex-major, one value per
+    /// baked channel (1 or 3) per fine vertex. `coarse` is scratch space for the coarse values.
+    fn blend(&self, i: usize, coeffs: &[f64], coarse: &mut Vec<f64>) -> Vec<f64> {
         let light = &self.lights[i];
-        let k = light.n_columns;
-        light
-            .indirect
-            .iter()
-            .map(|channel| {
-                let coarse: Vec<f64> = (0..self.n_patches)
-                    .map(|p| {
-                        channel[p * k..(p + 1) * k]
-                            .iter()
-                            .zip(coeffs)
-                            .map(|(&e, &c)| f64::from(e) * c)
-                            .sum()
-                    })
-                    .collect();
-                self.interp.apply(&coarse)
-            })
-            .collect()
+        let rows = light.n_columns.max(1);
+        let channels = light.indirect.len();
+        coarse.clear();
+        coarse.resize(self.n_patches * channels, 0.0);
+        for (ch, channel) in light.indirect.iter().enumerate() {
+            // Σ_k c_k column_k on every coarse patch (columns stored patch-major, f32).
+            for (p, row) in channel.chunks_exact(rows).enumerate() {
+                coarse[p * channels + ch] = row.iter().zip(coeffs).map(|(&e, &c)| f64::from(e) * c).sum();
+            }
+        }
+        self.interp.apply_columns(coarse, channels)
     }
 }
 
@@ -121,6 +120,8 @@ pub struct Relighter {
     /// Σ of the contributions.
     total: Vec<[f64; 3]>,
     edits_since_resum: usize,
+    /// Scratch for the blended coarse indirect values (reused across edits).
+    coarse_scratch: Vec<f64>,
 }
 
 impl Relighter {
@@ -169,9 +170,10 @@ impl Relighter {
             contributions: vec![vec![[0.0; 3]; n]; n_lights],
             total: vec![[0.0; 3]; n],
             edits_since_resum: 0,
+            coarse_scratch: Vec::new(),
         };
         for i in 0..n_lights {
-            relighter.recompute_light(i);
+            relighter.recompute_light(i, false);
         }
         relighter.resum();
         relighter
@@ -242,7 +244,9 @@ impl Relighter {
         self.update(i);
     }
 
-    fn recompute_light(&mut self, i: usize) {
+    /// Recomputes light `i`'s direct light and contribution; with `update_total`, also moves the
+    /// total by the difference between the new and the old contribution (in the same pass).
+    fn recompute_light(&mut self, i: usize, update_total: bool) {
         let state = &self.lights[i];
         let baked = self
             .indirect
@@ -269,36 +273,38 @@ impl Relighter {
             _ => self.caches[i].illuminance_into(&state.curve, state.aim, state.dimmer, &mut self.direct[i]),
         }
         let indirect = match (baked, &coeffs) {
-            (Some((ind, light, _)), Some(c)) if light.has_indirect() => ind.blend(i, c),
-            _ => Vec::new(),
+            (Some((ind, light, _)), Some(c)) if light.has_indirect() => {
+                Some((ind.blend(i, c, &mut self.coarse_scratch), light.indirect.len()))
+            }
+            _ => None,
         };
         let color = state.color;
-        for (v, out) in self.contributions[i].iter_mut().enumerate() {
-            let d = self.direct[i][v];
-            for ch in 0..3 {
-                let ind = match indirect.len() {
-                    0 => 0.0,
-                    1 => indirect[0][v],
-                    _ => indirect[ch][v],
-                };
-                out[ch] = color[ch] * (d + ind);
-            }
-        }
+        let direct = &self.direct[i];
+        self.contributions[i]
+            .par_iter_mut()
+            .zip(self.total.par_iter_mut())
+            .enumerate()
+            .with_min_len(MIN_VERTICES_PER_TASK)
+            .for_each(|(v, (out, total))| {
+                for ch in 0..3 {
+                    let ind = indirect.as_ref().map_or(0.0, |(values, channels)| {
+                        values[v * channels + ch.min(channels - 1)]
+                    });
+                    let new = color[ch] * (direct[v] + ind);
+                    if update_total {
+                        total[ch] += new - out[ch];
+                    }
+                    out[ch] = new;
+                }
+            });
     }
 
     fn update(&mut self, i: usize) {
-        let old = std::mem::take(&mut self.contributions[i]);
-        self.contributions[i] = old.clone();
-        self.recompute_light(i);
         self.edits_since_resum += 1;
-        if self.edits_since_resum >= RESUM_EVERY {
+        let resum = self.edits_since_resum >= RESUM_EVERY;
+        self.recompute_light(i, !resum);
+        if resum {
             self.resum();
-            return;
-        }
-        for ((t, new), old) in self.total.iter_mut().zip(&self.contributions[i]).zip(&old) {
-            for c in 0..3 {
-                t[c] += new[c] - old[c];
-            }
         }
     }
 
