@@ -24,7 +24,7 @@ use crate::transport::visibility::Visibility;
 pub const RESUM_EVERY: usize = 1024;
 
 /// Fine vertices per rayon task when updating a light's contribution.
-const MIN_VERTICES_PER_TASK: usize = 4096;
+const MIN_VERTICES_PER_TASK: usize = 16384;
 
 /// The editable state of one light: what an edit may change without a new bake.
 #[derive(Debug, Clone, PartialEq)]
