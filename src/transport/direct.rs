@@ -25,15 +25,15 @@ pub struct Receiver {
 const MIN_DISTANCE_M: f64 = 1e-6;
 
 /// Per (light, receiver) geometry: the unit direction from the light and the factor
-/// `cosθ / (r² + a²) · V` (1/m²), stored only for receivers that can be lit.
+/// `cosθ / (r² + a²) · V` (1/m²), one entry per receiver (factor 0 for receivers that cannot be
+/// lit), so an edit writes every receiver's illuminance in one parallel pass without allocating.
 #[derive(Debug, Clone)]
 pub struct DirectCache {
-    n_receivers: usize,
-    /// Indices of receivers with a non-zero factor.
-    lit: Vec<u32>,
-    /// Unit direction light → receiver (world), parallel to `lit`.
+    /// Number of receivers with a non-zero factor.
+    n_lit: usize,
+    /// Unit direction light → receiver (world), one per receiver (zero when unlit).
     dirs: Vec<DVec3>,
-    /// `cosθ / (r² + a²) · V` in 1/m², parallel to `lit`.
+    /// `cosθ / (r² + a²) · V` in 1/m², one per receiver (0 when unlit).
     factors: Vec<f64>,
 }
 
@@ -46,41 +46,33 @@ impl DirectCache {
         receivers: &[Receiver],
         occluders: Option<&dyn Visibility>,
     ) -> Self {
-        let entries: Vec<(u32, DVec3, f64)> = receivers
+        let (dirs, factors): (Vec<DVec3>, Vec<f64>) = receivers
             .par_iter()
-            .enumerate()
-            .filter_map(|(i, rx)| {
-                let (dir, factor) = geometry_factor(position, radius_m, rx)?;
-                if let Some(vis) = occluders
-                    && !vis.visible(position, rx.point)
-                {
-                    return None;
+            .map(|rx| {
+                let Some((dir, factor)) = geometry_factor(position, radius_m, rx) else {
+                    return (DVec3::ZERO, 0.0);
+                };
+                if occluders.is_some_and(|vis| !vis.visible(position, rx.point)) {
+                    return (DVec3::ZERO, 0.0);
                 }
-                Some((i as u32, dir, factor))
+                (dir, factor)
             })
-            .collect();
-        let mut cache = DirectCache {
-            n_receivers: receivers.len(),
-            lit: Vec::with_capacity(entries.len()),
-            dirs: Vec::with_capacity(entries.len()),
-            factors: Vec::with_capacity(entries.len()),
-        };
-        for (i, dir, factor) in entries {
-            cache.lit.push(i);
-            cache.dirs.push(dir);
-            cache.factors.push(factor);
+            .unzip();
+        DirectCache {
+            n_lit: factors.iter().filter(|&&f| f != 0.0).count(),
+            dirs,
+            factors,
         }
-        cache
     }
 
     /// Number of receivers the cache was built for.
     pub fn n_receivers(&self) -> usize {
-        self.n_receivers
+        self.factors.len()
     }
 
     /// Number of receivers that can be lit (facing the light, visible).
     pub fn n_lit(&self) -> usize {
-        self.lit.len()
+        self.n_lit
     }
 
     /// Direct illuminance (lx) at every receiver into `out` (len = receivers), for `curve` (cd)
@@ -99,22 +91,24 @@ impl DirectCache {
     pub fn illuminance_with(&self, intensity: impl Fn(DVec3) -> f64 + Sync, scale: f64, out: &mut [f64]) {
         assert_eq!(
             out.len(),
-            self.n_receivers,
+            self.factors.len(),
             "output length must match the receivers"
         );
-        out.fill(0.0);
-        let values: Vec<f64> = self
-            .dirs
-            .par_iter()
-            .zip(&self.factors)
-            .with_min_len(4096)
-            .map(|(dir, factor)| scale * intensity(*dir) * factor)
-            .collect();
-        for (&i, v) in self.lit.iter().zip(values) {
-            out[i as usize] = v;
-        }
+        out.par_iter_mut()
+            .zip(self.dirs.par_iter().zip(&self.factors))
+            .with_min_len(MIN_RECEIVERS_PER_TASK)
+            .for_each(|(o, (&dir, &factor))| {
+                *o = if factor == 0.0 {
+                    0.0
+                } else {
+                    scale * intensity(dir) * factor
+                };
+            });
     }
 }
+
+/// Receivers per rayon task when evaluating a cache: enough to amortise the task overhead.
+const MIN_RECEIVERS_PER_TASK: usize = 4096;
 
 /// Unit direction light → receiver and `cosθ / (r² + a²)`, or `None` when the receiver faces
 /// away or sits inside the luminaire.
