@@ -152,6 +152,17 @@ pub fn format_bake(b: &Bake) -> String {
         b.plan.columns / b.plan.channels.max(1),
         b.plan.channels,
     ));
+    // Relight state per fine vertex: per light the direct cache (unit direction 24 B + factor 8 B),
+    // its direct lux (8 B) and RGB contribution (24 B); the RGB total (24 B); at most four
+    // coarse → fine interpolation terms (16 B each).
+    let per_vertex = 64 * b.lights.len() + 24 + 64;
+    s.push_str(&format!(
+        "relight memory: ≤ {per_vertex} B per fine vertex ({} lights × 64 B + 88 B) × {} vertices = {:.2} MB; basis {} B per coarse patch and column and channel (f32 direct + indirect)\n",
+        b.lights.len(),
+        b.plan.fine_vertices,
+        (per_vertex * b.plan.fine_vertices) as f64 / 1e6,
+        8
+    ));
     s.push_str(&format!(
         "visibility rays cast for form factors: {}\n",
         b.form_factor_rays

@@ -267,6 +267,17 @@ fn choose_windowed_order(curve: &Curve, target: f64, cap: usize) -> (usize, Stri
     )
 }
 
+/// The largest γ (degrees) up to which the curve can be non-zero: the end of the last segment
+/// that has a non-zero end (the curve is 0 past its last point).
+fn emission_reach_deg(curve: &Curve) -> f64 {
+    let (g, i) = (curve.gammas_deg(), curve.intensities_cd());
+    match i.iter().rposition(|&v| v > 0.0) {
+        None => 0.0,
+        Some(k) if k + 1 < g.len() => g[k + 1],
+        Some(k) => g[k],
+    }
+}
+
 /// The inward normal of the room surface a light is mounted on, when its curve emits nothing
 /// behind that surface for its aim: emitters are then masked to the half-space in front of it.
 fn mounting_mask(scene: &Scene, light: &crate::scene::Light) -> (Option<DVec3>, String) {
@@ -287,12 +298,7 @@ fn mounting_mask(scene: &Scene, light: &crate::scene::Light) -> (Option<DVec3>, 
         return (None, format!("free-standing ({d:.2} m from the nearest surface)"));
     }
     // Largest γ at which the curve is non-zero; the mask is exact when that cone stays in front.
-    let reach_deg = light
-        .curve
-        .points()
-        .filter(|p| p.1 > 0.0)
-        .map(|p| p.0)
-        .fold(0.0, f64::max);
+    let reach_deg = emission_reach_deg(&light.curve);
     let tilt_deg = light.aim.dot(n).clamp(-1.0, 1.0).acos().to_degrees();
     if reach_deg + tilt_deg <= 90.0 + 1e-9 {
         (
