@@ -132,9 +132,13 @@ pub fn report(curve: &Curve, asymmetry: f64, max_order: Option<usize>, window: O
     }
 }
 
-/// Loads the curve named by `source`: a photometric file, or `ROOM.toml#LIGHT`.
+/// Loads the curve named by `source`: a photometric file, or `ROOM.toml#LIGHT` (a `#` elsewhere
+/// belongs to the file name).
 pub fn load_curve(source: &str) -> Result<(Curve, f64)> {
-    if let Some((room, light)) = source.rsplit_once('#') {
+    if let Some((room, light)) = source
+        .rsplit_once('#')
+        .filter(|(room, _)| room.ends_with(".toml"))
+    {
         let scene = scene::load(Path::new(room))?;
         let found = scene.lights.iter().find(|l| l.name == light).ok_or_else(|| {
             let names: Vec<&str> = scene.lights.iter().map(|l| l.name.as_str()).collect();
