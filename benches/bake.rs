@@ -1,4 +1,4 @@
-//! Full bake cost (DESIGN §9, issue 4): plan, form factors, basis direct light and the certified
+//! Full bake cost (docs/BENCHMARKS.md): plan, form factors, basis direct light and the certified
 //! interreflection solve for every light, without a cache, of `rooms/paper.toml` (target: a few
 //! seconds) and the furnished `rooms/office.toml` (target: under a minute on 2 cores).
 

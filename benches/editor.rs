@@ -1,4 +1,4 @@
-//! The editor's costs per keystroke (DESIGN §9, ISSUE 6): a key press → a new 1024 × 768
+//! The editor's costs per keystroke (docs/BENCHMARKS.md): a key press → a new 1024 × 768
 //! preview pixmap of the paper room (update + relight + render + overlays), and what one
 //! preview frame costs on the wire for each image protocol at 160 × 48 cells with a 10 × 20 px
 //! font (encode time is benched; the byte counts are printed).

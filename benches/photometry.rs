@@ -1,4 +1,4 @@
-//! Photometry costs per keystroke (DESIGN §9): exact weights, the paper's rectangle rule, and one
+//! Photometry costs per keystroke (docs/BENCHMARKS.md): exact weights, the paper's rectangle rule, and one
 //! incremental intensity edit, for orders 5, 16, 30, 60 on a realistic 37-knot curve (5° steps).
 
 use std::hint::black_box;

@@ -1,4 +1,4 @@
-//! Relight costs per edit (DESIGN §9, issues 3 and 4): one light's new fine-vertex illuminance after
+//! Relight costs per edit (docs/BENCHMARKS.md): one light's new fine-vertex illuminance after
 //! a curve edit (one control point changed) or a re-aim, with and without a bake, at about 10 000
 //! and 100 000 fine vertices, plus the time to build the [`Relighter`] (direct caches, visibility
 //! rays, interpolation weights). Targets: an edit under 1 ms for the paper room, under 10 ms at

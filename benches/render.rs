@@ -1,4 +1,4 @@
-//! Edit → new preview pixmap (DESIGN §9: under 16 ms for the paper room on one core): one curve
+//! Edit → new preview pixmap (docs/BENCHMARKS.md: under 16 ms for the paper room on one core): one curve
 //! edit (`Relighter::set_curve` with a changed control point) → `vertex_attributes` → shader fit
 //! → `render` at 1024×768 → light overlays, for the paper and office rooms, on a 1-thread and a
 //! 2-thread rayon pool. The stages are also benched alone to show where the time goes.

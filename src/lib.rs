@@ -1,6 +1,6 @@
 //! Haiko: a terminal editor for interior lighting design.
 //!
-//! Data flows one way (DESIGN §2): [`scene`] → [`transport`] (plan, bake) → [`relight`] →
+//! Data flows one way (docs/ARCHITECTURE.md): [`scene`] → [`transport`] (plan, bake) → [`relight`] →
 //! [`render`] → the terminal UI or a PNG. [`photometry`] owns the luminous intensity curves and
 //! their spherical-harmonic series.
 

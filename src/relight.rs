@@ -1,5 +1,5 @@
 //! The relight API the editor calls: change one light's curve, aim or dimmer and get the new
-//! fine-vertex illuminance, recomputing only that light (DESIGN §3, §9).
+//! fine-vertex illuminance, recomputing only that light (docs/METHOD.md §5; docs/BENCHMARKS.md).
 //!
 //! Per light the relighter keeps its contribution to every fine vertex (lx, linear RGB, colour
 //! applied): the exact direct light from the [`DirectCache`] (or, in paper mode, the truncated SH
@@ -12,8 +12,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::photometry::{Curve, ShBasis, Window, ZonalWeights, aimed_coefficients, auto_window, sh_count};
-use crate::scene::{DirectMode, Light, Scene};
+pub use crate::photometry::emission::{LightState, light_coefficients};
+use crate::photometry::{Curve, ShBasis, Window};
+use crate::scene::{DirectMode, Scene};
 use crate::transport::bake::{Bake, BakedLight};
 use crate::transport::direct::{DirectCache, Receiver};
 use crate::transport::interpolate::InterpolationWeights;
@@ -26,30 +27,6 @@ pub const RESUM_EVERY: usize = 1024;
 /// Fine vertices per rayon task when updating a light's contribution.
 const MIN_VERTICES_PER_TASK: usize = 16384;
 
-/// The editable state of one light: what an edit may change without a new bake.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LightState {
-    /// Intensity curve (cd).
-    pub curve: Curve,
-    /// Unit aim axis (world).
-    pub aim: DVec3,
-    /// Dimmer factor, ≥ 0.
-    pub dimmer: f64,
-    /// Linear RGB colour multipliers.
-    pub color: [f64; 3],
-}
-
-impl From<&Light> for LightState {
-    fn from(light: &Light) -> Self {
-        LightState {
-            curve: light.curve.clone(),
-            aim: light.aim,
-            dimmer: light.dimmer,
-            color: light.color,
-        }
-    }
-}
-
 /// The receivers of a scene's fine mesh: every vertex with its surface normal.
 pub fn fine_receivers(scene: &Scene) -> Vec<Receiver> {
     scene
@@ -59,22 +36,6 @@ pub fn fine_receivers(scene: &Scene) -> Vec<Receiver> {
         .zip(&scene.fine.normals)
         .map(|(&point, &normal)| Receiver { point, normal })
         .collect()
-}
-
-/// The SH coefficients `c_k = dimmer · σ_l w_l 4π/(2l+1) Y_lm(aim)` of a light for a baked order,
-/// with the window chosen automatically (`window = None`) or forced.
-pub fn light_coefficients(
-    state: &LightState,
-    order: usize,
-    window: Option<Window>,
-    basis: &ShBasis,
-) -> (Vec<f64>, Window) {
-    let weights = ZonalWeights::exact(&state.curve, order);
-    let window = window.unwrap_or_else(|| auto_window(&state.curve, &weights, order));
-    let mut coeffs = vec![0.0; sh_count(order)];
-    aimed_coefficients(&weights.windowed(window), state.aim, basis, &mut coeffs);
-    coeffs.iter_mut().for_each(|c| *c *= state.dimmer);
-    (coeffs, window)
 }
 
 /// The baked indirect light and what blending it needs.
@@ -229,7 +190,7 @@ impl Relighter {
         self.update(i);
     }
 
-    /// Forces light `i`'s window (`None`: chosen automatically per edit, NUMERICS §3.4).
+    /// Forces light `i`'s window (`None`: chosen automatically per edit, docs/METHOD.md §4.4).
     pub fn set_window(&mut self, i: usize, window: Option<Window>) {
         self.windows[i] = window;
         self.update(i);

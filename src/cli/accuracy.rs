@@ -1,4 +1,4 @@
-//! `haiko accuracy ROOM [--json]`: what accuracy costs in time (DESIGN §8).
+//! `haiko accuracy ROOM [--json]`: what accuracy costs in time (docs/ACCURACY.md).
 //!
 //! One table per knob — SH order, coarse (solver) patch size, fine (display) patch size, solver
 //! tolerance, quadrature of the Legendre weights `w_l`, exact vs series direct light — each row

@@ -12,7 +12,7 @@ use crate::photometry::{
 };
 use crate::scene;
 
-/// Target relative L2 error for the order `haiko lid` chooses (unwindowed, NUMERICS §3.4).
+/// Target relative L2 error for the order `haiko lid` chooses (unwindowed, docs/METHOD.md §4.4).
 pub const LID_TARGET_REL_L2: f64 = 0.05;
 /// Highest order `haiko lid` chooses automatically.
 pub const LID_MAX_AUTO_ORDER: usize = 60;

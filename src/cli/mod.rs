@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::error::Result;
 use crate::photometry::Window;
+use crate::tui::Graphics;
 
 pub mod accuracy;
 pub mod bake;
@@ -25,7 +26,7 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// The subcommands (DESIGN §6).
+/// The subcommands (README "Commands").
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Edit a room in the terminal: curves, aiming, live preview.
@@ -33,8 +34,8 @@ pub enum Command {
         /// The room file (rooms/*.toml).
         room: PathBuf,
         /// Inline image protocol for the preview.
-        #[arg(long, value_enum, default_value_t = Graphics::Auto)]
-        graphics: Graphics,
+        #[arg(long, value_enum, default_value_t = GraphicsArg::Auto)]
+        graphics: GraphicsArg,
     },
     /// Luminous intensity curve report: flux, asymmetry, truncation error per SH order.
     Lid {
@@ -43,7 +44,7 @@ pub enum Command {
         /// Highest order to tabulate (default: the chosen order, at least 16).
         #[arg(long)]
         order: Option<usize>,
-        /// Window applied to the truncated series (default: automatic, NUMERICS §3.4).
+        /// Window applied to the truncated series (default: automatic, docs/METHOD.md §4.4).
         #[arg(long, value_enum)]
         window: Option<WindowArg>,
         /// Print one JSON object instead of tables.
@@ -134,7 +135,7 @@ pub enum Command {
         #[arg(long, value_name = "LIGHT")]
         aim: Option<String>,
     },
-    /// What accuracy costs in time: error against time for each knob (DESIGN §8).
+    /// What accuracy costs in time: error against time for each knob (docs/ACCURACY.md).
     Accuracy {
         /// The room file.
         room: PathBuf,
@@ -146,7 +147,7 @@ pub enum Command {
 
 /// `--graphics` values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Graphics {
+pub enum GraphicsArg {
     /// Ask the terminal, fall back to half-blocks.
     Auto,
     /// DEC sixel.
@@ -157,6 +158,18 @@ pub enum Graphics {
     Iterm2,
     /// Unicode half-blocks (works everywhere).
     Halfblocks,
+}
+
+impl From<GraphicsArg> for Graphics {
+    fn from(g: GraphicsArg) -> Self {
+        match g {
+            GraphicsArg::Auto => Graphics::Auto,
+            GraphicsArg::Sixel => Graphics::Sixel,
+            GraphicsArg::Kitty => Graphics::Kitty,
+            GraphicsArg::Iterm2 => Graphics::Iterm2,
+            GraphicsArg::Halfblocks => Graphics::Halfblocks,
+        }
+    }
 }
 
 /// `--mode` values of `probe`.
@@ -193,7 +206,7 @@ pub enum WindowArg {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Edit { room, graphics } => crate::tui::app::run(&room, graphics),
+        Command::Edit { room, graphics } => crate::tui::app::run(&room, graphics.into()),
         Command::Lid {
             source,
             order,

@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::render::{Photo, aim_direction, pick, render};
 use crate::scene::{self, Scene};
 
-/// A pixel of the image: column `x` from the left, row `y` from the top (DESIGN §1).
+/// A pixel of the image: column `x` from the left, row `y` from the top (docs/METHOD.md §1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Pixel {
     /// Column, 0 = leftmost.

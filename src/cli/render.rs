@@ -35,7 +35,7 @@ impl From<ModeArg> for DisplayMode {
     }
 }
 
-/// The view of the room's camera (DESIGN §1) through a `width × height` pixel image.
+/// The view of the room's camera (docs/METHOD.md §1) through a `width × height` pixel image.
 ///
 /// Errors (bad input, naming `--width` / `--height`): a side of 0 or above [`MAX_SIDE_PX`].
 pub fn scene_view(scene: &Scene, width: u32, height: u32) -> Result<View> {

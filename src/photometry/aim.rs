@@ -1,6 +1,6 @@
 //! Aiming a zonal series: the addition theorem `P_l(a·ω) = 4π/(2l+1) Σ_m Y_lm(a) Y_lm(ω)` turns
 //! the Legendre weights of a curve about its axis `a` into real-SH coefficients in the world frame
-//! (paper eq. 1–2, DESIGN §3).
+//! (paper eq. 1–2, docs/METHOD.md §5).
 
 use std::f64::consts::PI;
 

@@ -185,7 +185,7 @@ impl Curve {
     }
 
     /// `‖I‖² = ∫ I(γ)² sin γ dγ` (cd² · rad), exact per segment; the denominator of the
-    /// relative L2 truncation error (NUMERICS §3).
+    /// relative L2 truncation error (docs/METHOD.md §4).
     pub fn norm_squared(&self) -> f64 {
         // I² is quadratic in γ: integrate against sin γ with 3-point Gauss–Legendre on each
         // sub-interval of a fine split; the split makes the sin factor's error < 1e-16.

@@ -1,6 +1,6 @@
 //! IES LM-63 photometric files (1986, 1991, 1995, 2002, 2019): reading and writing.
 //!
-//! Layout (FORMATS §5): a version line (none in LM-63-1986), keyword or free-text lines, the
+//! Layout (docs/FORMATS.md): a version line (none in LM-63-1986), keyword or free-text lines, the
 //! `TILT=` line, then numbers separated by white space (commas are tolerated) that may wrap
 //! across lines, so they are read as one token stream:
 //! the optional tilt table; `#lamps lumens/lamp multiplier #vertical #horizontal type units
@@ -14,7 +14,7 @@
 //! photometry; with rated lumens/lamp the values are for the rated lamps, which is what Haiko
 //! uses (it has no other lamp flux to scale to). From LM-63-1995 on that field is "future use",
 //! and the LM-63-2019 file-generation-type (1.00001, 1.10000, …) is a code, not a factor
-//! (FORMATS §2, pitfall 10): both are ignored.
+//! (docs/FORMATS.md): both are ignored.
 
 use std::path::Path;
 

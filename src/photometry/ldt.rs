@@ -1,4 +1,4 @@
-//! EULUMDAT (`.ldt`) photometric files: one value per line in a fixed order (FORMATS §5).
+//! EULUMDAT (`.ldt`) photometric files: one value per line in a fixed order (docs/FORMATS.md).
 //!
 //! Fields 1–26 are lines 1–26: company, Ityp, Isym, Mc, Dc, Ng, Dg, report, luminaire name and
 //! number, file name, date, dimensions (mm), DFF, LORL, the conversion factor for intensities,

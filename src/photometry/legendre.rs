@@ -1,4 +1,4 @@
-//! Legendre polynomials `P_l(x)` by Bonnet's recurrence (NUMERICS §1): stable on [−1, 1], no
+//! Legendre polynomials `P_l(x)` by Bonnet's recurrence (docs/METHOD.md §2): stable on [−1, 1], no
 //! factorials, accurate to ~2e-13 up to l = 200.
 
 /// Writes `P_0(x) ..= P_lmax(x)` into `out[..=lmax]` by Bonnet's recurrence

@@ -4,6 +4,7 @@
 pub mod aim;
 pub mod curve;
 pub mod edit;
+pub mod emission;
 pub mod gauss;
 pub mod ies;
 pub mod ldt;
@@ -16,6 +17,7 @@ pub mod weights;
 pub use aim::{aimed_coefficients, eval_aimed};
 pub use curve::{Curve, CurveError};
 pub use edit::IncrementalWeights;
+pub use emission::{LightState, light_coefficients};
 pub use ies::write_ies;
 pub use legendre::{legendre_series, legendre_table};
 pub use lidfile::{LidFile, LidFormat, read_lid_file};

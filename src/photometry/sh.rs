@@ -1,6 +1,6 @@
 //! Real orthonormal spherical harmonics `Y_lm` (∫ Y² dΩ = 1, with the Condon–Shortley phase),
 //! evaluated as polynomials in the unit direction (x, y, z) of the world frame (z up) by the fully
-//! normalised forward-column recurrence of NUMERICS §1: no θ/φ, no pole special case, no
+//! normalised forward-column recurrence of docs/METHOD.md §2: no θ/φ, no pole special case, no
 //! factorials, accurate to ~1e-13 at l = 150.
 
 use std::f64::consts::{PI, SQRT_2};

@@ -1,4 +1,4 @@
-//! Truncating and windowing the zonal series (NUMERICS §3): window factors, the exact L2 error
+//! Truncating and windowing the zonal series (docs/METHOD.md §4): window factors, the exact L2 error
 //! from Parseval, ringing measured on a 0.25° grid, the automatic order and window choice.
 
 use std::f64::consts::PI;
@@ -57,7 +57,7 @@ impl Window {
 /// Step of the grid on which ringing is measured (degrees).
 const GRID_STEP_DEG: f64 = 0.25;
 
-/// A negative lobe deeper than this fraction of the peak calls for a window (NUMERICS §3.4).
+/// A negative lobe deeper than this fraction of the peak calls for a window (docs/METHOD.md §4.4).
 const NEGATIVE_LOBE_LIMIT: f64 = 0.005;
 
 /// How well the windowed series of order N represents its curve.
@@ -82,7 +82,7 @@ pub struct TruncationStats {
 /// `weights` must be the curve's exact weights (e.g. [`ZonalWeights::exact`]) of order ≥ `order`
 /// (fewer are treated as zero). The L2 error is
 /// `e² = [Σ_{l≤N} (1−σ_l)² w_l² 2/(2l+1) + ‖I‖² − Σ_{l≤N} w_l² 2/(2l+1)] / ‖I‖²`
-/// with `‖I‖²` from [`Curve::norm_squared`] (NUMERICS §3).
+/// with `‖I‖²` from [`Curve::norm_squared`] (docs/METHOD.md §4).
 pub fn truncation_stats(
     curve: &Curve,
     weights: &ZonalWeights,
@@ -133,7 +133,7 @@ fn grid_deg() -> impl Iterator<Item = f64> {
 }
 
 /// The smallest N ≤ `max_order` whose unwindowed relative L2 error is ≤ `target_rel_l2`, from the
-/// exact tail energy `‖I‖² − Σ_{l≤N} w_l² 2/(2l+1)` (NUMERICS §3.4); `max_order` if none is.
+/// exact tail energy `‖I‖² − Σ_{l≤N} w_l² 2/(2l+1)` (docs/METHOD.md §4.4); `max_order` if none is.
 pub fn choose_order(curve: &Curve, target_rel_l2: f64, max_order: usize) -> usize {
     let norm2 = curve.norm_squared();
     if norm2 <= 0.0 {
@@ -152,7 +152,7 @@ pub fn choose_order(curve: &Curve, target_rel_l2: f64, max_order: usize) -> usiz
 }
 
 /// [`Window::Hann`] when the unwindowed series at `order` dips below −0.5 % of the curve's peak
-/// on the 0.25° grid, else [`Window::None`] (NUMERICS §3.4). `weights` as in [`truncation_stats`].
+/// on the 0.25° grid, else [`Window::None`] (docs/METHOD.md §4.4). `weights` as in [`truncation_stats`].
 pub fn auto_window(curve: &Curve, weights: &ZonalWeights, order: usize) -> Window {
     let stats = truncation_stats(curve, weights, order, Window::None);
     if stats.min_cd < -NEGATIVE_LOBE_LIMIT * curve.peak_cd() {

@@ -1,4 +1,4 @@
-//! Legendre weights `w_l` of a piecewise-linear intensity curve (DESIGN §3, NUMERICS §2):
+//! Legendre weights `w_l` of a piecewise-linear intensity curve (docs/METHOD.md §5, docs/METHOD.md §3):
 //! exact hat-function moments, the exact weights built from them, and the paper's rectangle rule
 //! kept for the accuracy report.
 
@@ -15,7 +15,7 @@ use crate::photometry::truncation::Window;
 /// `hat_k` is 1 at knot k, 0 at the other knots, linear in γ between them and 0 outside the
 /// knots' span, so the curve is `Σ_k I_k hat_k` exactly (a repeated angle is a step). Each segment
 /// is integrated by Gauss–Legendre in γ with `n = ceil(0.5 (L+2) h + 0.5 log2(L+2) + 8)` nodes
-/// (h in radians), which is exact to ~1e-15 · h (NUMERICS §2).
+/// (h in radians), which is exact to ~1e-15 · h (docs/METHOD.md §3).
 #[derive(Debug, Clone)]
 pub struct HatMoments {
     order: usize,

@@ -1,6 +1,6 @@
 //! The view: a [`Camera`] plus an image size, as world → clip → pixel transforms.
 //!
-//! World frame: metres, right-handed, z up (DESIGN §1). Camera frame: x right, y up, looking
+//! World frame: metres, right-handed, z up (docs/METHOD.md §1). Camera frame: x right, y up, looking
 //! down −z. The projection is a perspective with a vertical field of view, an infinite far
 //! plane and **reversed depth**: clip `w` is the distance along the view axis (m) and the NDC
 //! depth is `near / w`, so 1 is on the near plane, 0 at infinity, and a larger depth is nearer.

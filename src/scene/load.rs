@@ -34,7 +34,7 @@ pub const MAX_ORDER: i64 = 150;
 /// Default vertical field of view of the camera, degrees.
 pub const DEFAULT_FOV_DEG: f64 = 60.0;
 
-/// Loads and meshes the room file at `path` (DESIGN §5).
+/// Loads and meshes the room file at `path` (docs/ROOM_FILE.md).
 ///
 /// Relative `file` / `lid_file` paths are resolved against the room file's directory. Without a
 /// `[camera]`, the eye stands near the (0, 0) corner at 1.6 m (80 % of the height in rooms

@@ -1,6 +1,6 @@
 //! The loaded scene: surfaces, the two patch meshes, lights, camera and settings.
 //! Plain data; built by [`crate::scene::load`], read by transport, relight and render.
-//! World frame: metres, right-handed, z up (DESIGN §1).
+//! World frame: metres, right-handed, z up (docs/METHOD.md §1).
 
 use glam::DVec3;
 use std::path::PathBuf;
@@ -156,6 +156,17 @@ pub struct Light {
     pub color: [f64; 3],
 }
 
+impl From<&Light> for crate::photometry::LightState {
+    fn from(light: &Light) -> Self {
+        crate::photometry::LightState {
+            curve: light.curve.clone(),
+            aim: light.aim,
+            dimmer: light.dimmer,
+            color: light.color,
+        }
+    }
+}
+
 impl Light {
     /// True when the light's colour is not white-grey (all channels equal).
     pub fn is_coloured(&self) -> bool {
@@ -163,7 +174,7 @@ impl Light {
     }
 }
 
-/// The preview camera (DESIGN §1: vertical field of view; z up).
+/// The preview camera (docs/METHOD.md §1: vertical field of view; z up).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     /// Eye position (world, m).
@@ -174,7 +185,7 @@ pub struct Camera {
     pub fov_deg: f64,
 }
 
-/// How direct light is computed (DESIGN §3).
+/// How direct light is computed (docs/METHOD.md §5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum DirectMode {
     /// Hybrid (default): exact direct light per edit, SH basis only for the indirect.

@@ -1,4 +1,4 @@
-//! The room file schema (DESIGN §5, version 1) as serde types, and byte-span → place conversion.
+//! The room file schema (docs/ROOM_FILE.md, version 1) as serde types, and byte-span → place conversion.
 //!
 //! Every value a later check may reject is wrapped in [`Spanned`] so that the error names the
 //! line, the column and the field. Unknown fields are rejected. Lengths are metres in the world

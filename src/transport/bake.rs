@@ -1,4 +1,4 @@
-//! The bake (DESIGN §3, §4): per light, the indirect irradiance of every SH basis emitter on the
+//! The bake (docs/METHOD.md §5, §7): per light, the indirect irradiance of every SH basis emitter on the
 //! coarse patches, with interreflection solved to a certified tolerance, cached on disk per light.
 //!
 //! For light `i` with order N the basis has `K = (N + 1)²` emitters; column `k = sh_index(l, m)`

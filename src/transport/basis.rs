@@ -1,7 +1,7 @@
 //! Direct irradiance of a light's SH basis emitters on the coarse patches: the right-hand sides
-//! of the interreflection solve (DESIGN §3). Emitter `(l, m)` is a point source at the light's
+//! of the interreflection solve (docs/METHOD.md §5). Emitter `(l, m)` is a point source at the light's
 //! position with intensity `Y_lm(ω)` (cd, may be negative), optionally masked to the half-space in
-//! front of the light's mounting surface (NUMERICS §5). Values are patch averages (lx per unit
+//! front of the light's mounting surface (docs/METHOD.md §6). Values are patch averages (lx per unit
 //! coefficient): the emitter's flux onto the patch by solid-angle quadrature, divided by its area,
 //! so the flux is exact however close the light is.
 

@@ -1,6 +1,6 @@
 //! Exact direct illuminance from a point (or small disc) source with an axially symmetric curve.
 //!
-//! `E = I(γ) · cosθ / (r² + a²) · V` (NUMERICS §4): γ is the angle between the light's aim axis
+//! `E = I(γ) · cosθ / (r² + a²) · V` (docs/METHOD.md §5): γ is the angle between the light's aim axis
 //! and the direction to the receiver, θ the angle of incidence at the receiver, `a` the luminous
 //! radius (near-field softening) and V the visibility. Everything that does not depend on the
 //! curve or the aim is cached per (light, receiver) in [`DirectCache`], so an edit or a re-aim
@@ -268,7 +268,7 @@ mod tests {
 
     #[test]
     fn isotropic_flux_onto_a_centred_square_matches_the_closed_form() {
-        // NUMERICS §7: a = 6, h = 2 gives 3.05872871 sr; a = 4, h = 3 gives 1.25106689 sr.
+        // docs/METHOD.md §8: a = 6, h = 2 gives 3.05872871 sr; a = 4, h = 3 gives 1.25106689 sr.
         for (a, h, sr) in [(6.0, 2.0, 3.05872871), (4.0, 3.0, 1.25106689)] {
             let half: f64 = a / 2.0;
             let square = [

@@ -1,6 +1,5 @@
 //! Form factors: from a differential area (a point with a unit normal) to a planar polygon, and
-//! the dense coarse-patch matrix `F` the interreflection solve iterates with (DESIGN §3,
-//! NUMERICS §4 "Form-factor facts").
+//! the dense coarse-patch matrix `F` the interreflection solve iterates with (docs/METHOD.md §5).
 //!
 //! `F_ij` is the fraction of the light leaving patch `j` (Lambertian, uniform exitance) that
 //! arrives at the centroid of patch `i`, per unit exitance: irradiance at `i` is `Σ_j F_ij B_j`.
@@ -27,7 +26,7 @@ const DEGENERATE_EDGE: f64 = 1e-12;
 /// Differential area at `p` (unit normal `n`, world frame) to a planar polygon (world metres,
 /// any winding): the exact Lambert/Nusselt contour formula
 /// `F = (1/2π) Σ β_i n·(R_i×R_{i+1})/|R_i×R_{i+1}|`, `β_i = atan2(|R_i×R_{i+1}|, R_i·R_{i+1})`,
-/// `R_i` the unit vectors from `p` to the vertices (NUMERICS §4).
+/// `R_i` the unit vectors from `p` to the vertices (docs/METHOD.md §5).
 ///
 /// The polygon is first clipped to the half-space in front of `p` (`n·(x − p) ≥ 0`); degenerate
 /// edges (coincident or collinear with `p`) contribute 0. Dimensionless, in `[0, 1]`.
@@ -202,7 +201,7 @@ impl TargetPatch {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FormFactorOptions {
     /// Exact contour formula when the centroid distance is below this many patch sizes, the
-    /// differential formula beyond. Default 3 (NUMERICS §4); `f64::INFINITY` = exact everywhere.
+    /// differential formula beyond. Default 3 (docs/METHOD.md §5); `f64::INFINITY` = exact everywhere.
     pub near_field_ratio: f64,
     /// Visibility rays per patch pair are `visibility_samples_per_edge²` (to sample points spread
     /// over the target patch). Default 3. Ignored (no rays) when the visibility is [`Unoccluded`].
@@ -367,7 +366,7 @@ impl FormFactors {
         self.rays_cast
     }
 
-    /// Makes the collocation matrix conserve energy both ways (DESIGN §4: centre-to-polygon
+    /// Makes the collocation matrix conserve energy both ways (docs/METHOD.md §7: centre-to-polygon
     /// factors are not reciprocal, which shows as an energy surplus of a few % at high ρ).
     /// Alternating scalings (Sinkhorn) restore, to `1e-9`, each row's original sum (what a point
     /// receives: 1 in a closed room, which the furnace test needs) and each column's reciprocity

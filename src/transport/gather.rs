@@ -1,14 +1,13 @@
 //! Illuminance at arbitrary receivers (probe points, work-plane grids): exact direct light plus
 //! the indirect light gathered from the coarse patches' radiosity, `E_ind(p) = Σ_j B_j F_{p→j} V`
-//! (NUMERICS §4), with `B_j = ρ_j H_j` blended from the baked basis for the lights' current
+//! (docs/METHOD.md §5), with `B_j = ρ_j H_j` blended from the baked basis for the lights' current
 //! curves and aims. Gathering (rather than interpolating vertex values) stays accurate beside
-//! furniture, where interpolation across an occluder's shadow fails (DESIGN §4).
+//! furniture, where interpolation across an occluder's shadow fails (docs/METHOD.md §7).
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::photometry::ShBasis;
-use crate::relight::{LightState, light_coefficients};
+use crate::photometry::{LightState, ShBasis, light_coefficients};
 use crate::scene::{DirectMode, Scene};
 use crate::transport::bake::{Bake, patch_reflectance};
 use crate::transport::direct::{Receiver, illuminance_at, luminance_weight};

@@ -1,4 +1,4 @@
-//! Coarse patch values → fine vertex values, within one surface only (DESIGN §3 "Two
+//! Coarse patch values → fine vertex values, within one surface only (docs/METHOD.md §5 "Two
 //! resolutions"): indirect light is solved on coarse patches and shown on fine vertices.
 //!
 //! Two linear stages, both precomputed once as weights:
@@ -18,6 +18,7 @@
 use std::collections::HashMap;
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 
 use crate::scene::{Patch, PatchMesh};
 
@@ -112,16 +113,21 @@ impl InterpolationWeights {
             }
         }
         let mut fine = vec![0.0; self.fine_terms.len() * k];
-        for (v, out) in fine.chunks_mut(k.max(1)).enumerate().take(self.fine_terms.len()) {
-            for &(node, w) in self.fine_vertex_terms(v) {
-                for (o, &x) in out
-                    .iter_mut()
-                    .zip(&nodal[node as usize * k..(node as usize + 1) * k])
-                {
-                    *o += w * x;
+        // Each fine vertex is independent: parallel in chunks large enough that a 10k-vertex
+        // room stays on the calling thread (no pool wake-up on every edit).
+        fine.par_chunks_mut(k.max(1))
+            .with_min_len(16_384)
+            .enumerate()
+            .for_each(|(v, out)| {
+                for &(node, w) in self.fine_vertex_terms(v) {
+                    for (o, &x) in out
+                        .iter_mut()
+                        .zip(&nodal[node as usize * k..(node as usize + 1) * k])
+                    {
+                        *o += w * x;
+                    }
                 }
-            }
-        }
+            });
         fine
     }
 }

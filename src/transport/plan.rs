@@ -1,4 +1,4 @@
-//! The effect plan (DESIGN §4): inspect the scene and decide, with a reason for each, which effects
+//! The effect plan (docs/METHOD.md §7): inspect the scene and decide, with a reason for each, which effects
 //! the bake simulates — visibility, interreflection, colour channels, each light's SH order, window
 //! and emission mask, and whether direct light comes from the basis.
 
@@ -45,7 +45,7 @@ pub struct LightPlan {
     /// Why this window.
     pub window_reason: String,
     /// Inward normal of the mounting surface when basis emitters are masked to the half-space in
-    /// front of it (NUMERICS §5), else `None`.
+    /// front of it (docs/METHOD.md §6), else `None`.
     pub mask: Option<[f64; 3]>,
     /// Why (not) masked.
     pub mask_reason: String,
@@ -232,8 +232,8 @@ fn plan_light(scene: &Scene, light: &crate::scene::Light, paper: bool, options: 
     }
 }
 
-/// The lowest order whose series, as relighting will use it (windowed when it rings, NUMERICS
-/// §3.4), has a relative L2 error within `target`; `cap` when none does.
+/// The lowest order whose series, as relighting will use it (windowed when it rings, docs/METHOD.md
+/// §4.4), has a relative L2 error within `target`; `cap` when none does.
 fn choose_windowed_order(curve: &Curve, target: f64, cap: usize) -> (usize, String) {
     let full = ZonalWeights::exact(curve, cap);
     let mut last_error = f64::INFINITY;

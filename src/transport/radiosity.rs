@@ -1,5 +1,4 @@
-//! The certified interreflection solve for many right-hand sides at once (DESIGN §3,
-//! NUMERICS §4).
+//! The certified interreflection solve for many right-hand sides at once (docs/METHOD.md §5).
 //!
 //! Unknown: `H`, the irradiance (lux) incident on each coarse patch, for `K` emitters at once:
 //! `H = E + F·diag(ρ)·H`, with `E` the direct irradiance of each emitter (lux; may be negative
@@ -11,7 +10,7 @@
 //! the per-column Arnoldi work runs in parallel over columns. Collocation `F` is not symmetric,
 //! so CG does not apply; GMRES needs ~10–20 steps where Jacobi needs hundreds at ρ ≈ 0.95.
 //!
-//! Stopping rule per column (NUMERICS §4): with `q = max_i ρ_i Σ_j F_ij` (`= ρ_max` in a closed
+//! Stopping rule per column (docs/METHOD.md §5): with `q = max_i ρ_i Σ_j F_ij` (`= ρ_max` in a closed
 //! room), `‖(I − diag(ρ)F)⁻¹‖∞ ≤ 1/(1 − q)`, so the true residual `r = ρE − (I − diag(ρ)F)B̃`
 //! certifies `‖B̃ − B‖∞ ≤ ‖r‖∞/(1 − q)`. A column stops once `‖r‖∞ ≤ tol·(1 − q)·‖B̃‖∞`,
 //! i.e. once its error is at most `tol` relative to `‖B̃‖∞`.

@@ -16,13 +16,13 @@ use ratatui::style::Stylize;
 use ratatui::widgets::{Gauge, Paragraph};
 use ratatui_image::protocol::Protocol;
 
-use crate::cli::Graphics;
 use crate::error::{Error, Result};
 use crate::scene::{self, Scene};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::msg::{Effect, Msg};
 use crate::tui::renderer::{FrameRequest, PreviewFrame};
 use crate::tui::series::series_msg;
+use crate::tui::terminal::Graphics;
 use crate::tui::terminal::{TerminalSession, spawn_input_reader};
 use crate::tui::workers::{AppEvent, EncodeJob, RenderedFrame, spawn_encode_worker, spawn_render_worker};
 use crate::tui::{Model, PreviewArea, preview, save_room, update, view};

@@ -1,5 +1,5 @@
 //! Camera navigation for the preview: orbit, pan and dolly around the camera's target.
-//! World frame: metres, z up (DESIGN §1).
+//! World frame: metres, z up (docs/METHOD.md §1).
 
 use glam::{DQuat, DVec3};
 

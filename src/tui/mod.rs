@@ -1,4 +1,4 @@
-//! The terminal editor, in the Elm architecture (STYLE): [`model::Model`] holds the state,
+//! The terminal editor, in the Elm architecture (docs/ARCHITECTURE.md): [`model::Model`] holds the state,
 //! [`msg::Msg`] the events and worker results, [`update::update`] the only state transition
 //! (pure, tested without a terminal), [`view::view`] draws the state. The app loop (part 2)
 //! carries out the [`msg::Effect`]s and feeds results back as messages: [`app::run`] owns the
@@ -25,5 +25,6 @@ pub mod workers;
 pub use model::{LightEdit, Mode, Model, Window};
 pub use msg::{Effect, Msg};
 pub use save::save_room;
+pub use terminal::Graphics;
 pub use update::update;
 pub use view::{PreviewArea, preview_rect, view};

@@ -2,7 +2,7 @@
 //! selection, the mode, the camera, and what the workers last reported.
 //!
 //! Plain data; changed only by [`crate::tui::update::update`] (and by the app for the fields it
-//! documents as its own, such as [`Model::protocol`]). World frame: metres, z up (DESIGN §1).
+//! documents as its own, such as [`Model::protocol`]). World frame: metres, z up (docs/METHOD.md §1).
 
 use glam::DVec3;
 
@@ -15,10 +15,10 @@ use crate::tui::view::preview_rect;
 /// SH order shown for a light whose room file fixes none (the app replaces it with the plan's
 /// choice through [`Model::set_planned_order`]).
 pub const DEFAULT_ORDER: usize = 16;
-/// Highest SH order the editor offers (NUMERICS §1 shows the recurrence accurate to l = 150).
+/// Highest SH order the editor offers (docs/METHOD.md §2 shows the recurrence accurate to l = 150).
 pub const MAX_ORDER: usize = 150;
 
-/// The ringing window applied to a light's truncated series (NUMERICS §3). Not stored in the
+/// The ringing window applied to a light's truncated series (docs/METHOD.md §4). Not stored in the
 /// room file: it is a session choice (the plan decides it when `Auto`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Window {

@@ -1,4 +1,4 @@
-//! The preview image on the terminal: every ratatui-image call lives here (ECOSYSTEM §6: its
+//! The preview image on the terminal: every ratatui-image call lives here (docs/DECISIONS.md "Editor": its
 //! 12.0 will change the API). Picks the graphics protocol (asking the terminal, or as forced by
 //! `--graphics`), encodes rendered pixmaps into a [`Protocol`] and measures what a frame costs
 //! on the wire.
@@ -16,8 +16,8 @@ use ratatui_image::protocol::Protocol;
 use ratatui_image::{Image, Resize};
 use tiny_skia::Pixmap;
 
-use crate::cli::Graphics;
 use crate::error::{Error, Result};
+use crate::tui::terminal::Graphics;
 
 /// The environment variable OpenSSH sets in a remote session (turns on kitty compression).
 pub const SSH_ENV: &str = "SSH_CONNECTION";

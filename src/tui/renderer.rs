@@ -4,7 +4,7 @@
 //! and answers picks (the world point and the illuminance under a pixel).
 //!
 //! The render worker ([`crate::tui::workers`]) owns one [`PreviewRenderer`]; the bench drives it
-//! directly. World frame: metres, z up (DESIGN §1); pixels as in [`crate::render::camera`].
+//! directly. World frame: metres, z up (docs/METHOD.md §1); pixels as in [`crate::render::camera`].
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -1,4 +1,4 @@
-//! Saving the room file (DESIGN §5): rewrite only the values the user changed — a light's
+//! Saving the room file (docs/ROOM_FILE.md): rewrite only the values the user changed — a light's
 //! `lid`, `aim`/`aim_dir`, `position`, `dimmer`, `order` — keeping comments, order and layout of
 //! everything else (toml_edit), and replace the file atomically.
 

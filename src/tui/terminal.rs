@@ -12,10 +12,24 @@ use ratatui::crossterm::terminal::{BeginSynchronizedUpdate, EndSynchronizedUpdat
 use ratatui::{DefaultTerminal, Frame};
 use ratatui_image::picker::Picker;
 
-use crate::cli::Graphics;
 use crate::error::{Error, Result};
 use crate::tui::preview;
 use crate::tui::workers::AppEvent;
+
+/// Which inline image protocol the preview uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Graphics {
+    /// Ask the terminal, fall back to half-blocks.
+    Auto,
+    /// DEC sixel.
+    Sixel,
+    /// kitty graphics protocol.
+    Kitty,
+    /// iTerm2 inline images.
+    Iterm2,
+    /// Unicode half-blocks (works everywhere).
+    Halfblocks,
+}
 
 /// The terminal in full-screen mode and the graphics protocol it speaks. Dropping it restores
 /// the terminal.

@@ -70,7 +70,7 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             Vec::new()
         }
         Msg::Saved { message } => {
-            // A save writes every edited curve inline (DESIGN §5): it no longer comes from a file.
+            // A save writes every edited curve inline (docs/ROOM_FILE.md): it no longer comes from a file.
             for (light, saved) in model.lights.iter_mut().zip(&model.saved) {
                 if light.curve != saved.curve {
                     light.lid_source = LidSource::Inline;

@@ -1,4 +1,4 @@
-//! The editor's background threads and the one channel the app loop blocks on (STYLE: gitui's
+//! The editor's background threads and the one channel the app loop blocks on (docs/ARCHITECTURE.md: gitui's
 //! shape). The render worker owns the [`PreviewRenderer`] (relight + render + overlays); the
 //! encode worker turns frames into the terminal's image protocol. Both coalesce their queue:
 //! only the latest request is worked on.

@@ -1,6 +1,6 @@
 //! `haiko accuracy`: the error-against-time tables on a small room — errors vanish at the
 //! reference settings, fall as each knob is refined, the solver's true error stays within its
-//! certified bound, the rectangle rule errs as NUMERICS §2 measured, the JSON has every table —
+//! certified bound, the rectangle rule errs as docs/METHOD.md §3 measured, the JSON has every table —
 //! and `scene::remesh` reproduces the loader's meshes.
 
 use std::path::Path;
@@ -153,7 +153,7 @@ fn tables_on_a_small_room() {
     assert!(at_reference.errors.grid.max_rel < 1e-12 && at_reference.errors.vertices.max_rel < 1e-12);
 
     // 5. Quadrature: exact weights are the reference; the 5° rectangle rule errs by the order of
-    // magnitude NUMERICS §2 measured for l ≤ 10 (4e-3 batwing), and 1° errs far less (O(Δγ²)).
+    // magnitude docs/METHOD.md §3 measured for l ≤ 10 (4e-3 batwing), and 1° errs far less (O(Δγ²)).
     let w = |method: &str| {
         report
             .quadrature

@@ -1,4 +1,4 @@
-//! Exact direct light against the closed forms of NUMERICS §7.
+//! Exact direct light against the closed forms of docs/METHOD.md §8.
 
 use glam::DVec3;
 use haiko::photometry::Curve;
@@ -43,7 +43,12 @@ fn isotropic_source_over_a_plane() {
         (4.0, 22.360680),
     ] {
         let e = illuminance_at(LIGHT, 0.0, &curve, DOWN, 1.0, &floor_point(d), None);
-        assert_rel(e, lux, 2e-8, &format!("isotropic d={d} (NUMERICS value)"));
+        assert_rel(
+            e,
+            lux,
+            2e-8,
+            &format!("isotropic d={d} (docs/METHOD.md §8 value)"),
+        );
         let exact = 1000.0 * 2.0 / (4.0_f64 + d * d).powf(1.5);
         assert_rel(e, exact, 1e-13, &format!("isotropic d={d} (formula)"));
     }
@@ -154,7 +159,7 @@ fn receivers_facing_away_or_inside_the_luminaire_get_nothing() {
 
 #[test]
 fn flux_onto_a_disc_and_a_closed_box_equals_the_closed_forms() {
-    // Disc R = h = 2 under an isotropic source: 2πI(1 − h/√(h²+R²)) = 1.84030237 I (NUMERICS §7).
+    // Disc R = h = 2 under an isotropic source: 2πI(1 − h/√(h²+R²)) = 1.84030237 I (docs/METHOD.md §8).
     let disc: Vec<DVec3> = (0..4096)
         .map(|k| {
             let t = k as f64 / 4096.0 * std::f64::consts::TAU;

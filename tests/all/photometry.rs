@@ -1,4 +1,4 @@
-//! Photometry maths against closed forms (NUMERICS §1–3, §7): flux, Legendre weights, hat
+//! Photometry maths against closed forms (docs/METHOD.md §2–4, §8): flux, Legendre weights, hat
 //! moments, real SH and the addition theorem, the incremental editor, windows, order choice and
 //! the paper's rectangle rule.
 
@@ -78,7 +78,7 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Flux (NUMERICS §7)
+// Flux (docs/METHOD.md §8)
 
 #[test]
 fn isotropic_flux_is_four_pi_i() {
@@ -138,7 +138,7 @@ fn curve_starting_off_axis_integrates_only_its_span() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Legendre weights (NUMERICS §2, §7)
+// Legendre weights (docs/METHOD.md §3, §8)
 
 /// |w_l^PL − w_l| ≤ (2l+1)/2 · h²/8 · ∫_0^{π/2} |P_l| sin γ dγ ≤ (2l+1) h²/16 for I = cos γ.
 #[test]
@@ -264,7 +264,7 @@ fn hat_moments_match_closed_form_cosine_expansion() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Real SH (NUMERICS §1)
+// Real SH (docs/METHOD.md §2)
 
 #[test]
 fn sh_regression_constants() {
@@ -337,7 +337,7 @@ fn addition_theorem_and_unsold_at_l_60_and_150() {
             assert!(add.is_finite() && unsold.is_finite());
             worst = (worst.0.max(add), worst.1.max(unsold));
         }
-        // NUMERICS Table 1: ≤ 1.1e-13 at l = 150 (poles); 1.5e-13 for Unsöld.
+        // docs/METHOD.md §2: ≤ 1.1e-13 at l = 150 (poles); 1.5e-13 for Unsöld.
         assert!(worst.0 < 3e-13, "l = {l}: addition theorem error {:e}", worst.0);
         assert!(worst.1 < 3e-13, "l = {l}: Unsöld error {:e}", worst.1);
     }
@@ -397,7 +397,7 @@ fn aiming_down_reproduces_the_curve_in_world_directions() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Incremental editor (NUMERICS §2)
+// Incremental editor (docs/METHOD.md §3)
 
 fn realistic_curve() -> Curve {
     batwing(5.0)
@@ -485,7 +485,7 @@ fn invalid_edits_are_refused_and_change_nothing() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Windows and ringing (NUMERICS §3)
+// Windows and ringing (docs/METHOD.md §4)
 
 const ALL_WINDOWS: [Window; 4] = [Window::None, Window::Hann, Window::Lanczos, Window::Cesaro2];
 
@@ -538,7 +538,7 @@ fn hard_spot_rings_and_hann_suppresses_it() {
         let lobe = hann.min_cd / curve.peak_cd();
         assert!(lobe > -0.015, "N = {order}: Hann lobe {lobe}");
         assert_eq!(auto_window(&curve, &weights, order), Window::Hann);
-        // Gibbs overshoot does not decay (NUMERICS §3: +9 … +33 %).
+        // Gibbs overshoot does not decay (docs/METHOD.md §4: +9 … +33 %).
         assert!(none.overshoot > 0.05, "N = {order}: overshoot {}", none.overshoot);
     }
 }
@@ -624,7 +624,7 @@ fn choose_order_for_lambert_matches_numerics_table() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The paper's rectangle rule (NUMERICS §2)
+// The paper's rectangle rule (docs/METHOD.md §3)
 
 #[test]
 fn rectangle_rule_flux_of_isotropic_has_closed_form_error() {
@@ -650,7 +650,7 @@ fn rectangle_rule_error_is_second_order_and_of_the_tabulated_size() {
     let err = |step: f64, l: usize| {
         (ZonalWeights::rectangle_rule(&curve, 10, step).w[l] - exact.w[l]).abs() / scale
     };
-    // NUMERICS §2 (batwing, 5° knots): l = 0 ≈ 5.5e-4, l = 10 ≈ 4.2e-3.
+    // docs/METHOD.md §3 (batwing, 5° knots): l = 0 ≈ 5.5e-4, l = 10 ≈ 4.2e-3.
     let e0 = err(5.0, 0);
     assert!((1e-4..2e-3).contains(&e0), "l = 0 at 5°: {e0:e}");
     let e10 = err(5.0, 10);

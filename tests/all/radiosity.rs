@@ -1,5 +1,5 @@
 //! Form factors, the certified interreflection solve and coarse → fine interpolation, against
-//! closed forms (NUMERICS §7), conservation (closed-room row sums, the furnace) and a dense
+//! closed forms (docs/METHOD.md §8), conservation (closed-room row sums, the furnace) and a dense
 //! direct solve.
 
 use std::f64::consts::PI;
