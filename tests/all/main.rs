@@ -2,6 +2,7 @@
 
 mod direct;
 mod lidfiles;
+mod montecarlo;
 mod photometry;
 mod scene;
 
