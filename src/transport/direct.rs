@@ -162,8 +162,26 @@ pub fn polygon_quadrature(
     radius_m: f64,
     polygon: &[DVec3],
     normal: DVec3,
+    visit: impl FnMut(DVec3, f64, DVec3),
+) {
+    polygon_quadrature_split(position, radius_m, polygon, normal, FLUX_SPLIT, visit)
+}
+
+/// Pieces of [`polygon_quadrature`] are split until their longest edge is below this fraction of
+/// their distance to the source.
+pub const FLUX_SPLIT: f64 = 1.0 / 16.0;
+
+/// [`polygon_quadrature`] with pieces split until their longest edge is below `split ×` their
+/// distance to the source (coarser pieces: fewer samples, the same exact solid angle per piece).
+pub fn polygon_quadrature_split(
+    position: DVec3,
+    radius_m: f64,
+    polygon: &[DVec3],
+    normal: DVec3,
+    split: f64,
     mut visit: impl FnMut(DVec3, f64, DVec3),
 ) {
+    let split2 = split * split;
     if (polygon[0] - position).dot(normal) >= 0.0 {
         return; // the source is behind (or in the plane of) the polygon
     }
@@ -186,7 +204,7 @@ pub fn polygon_quadrature(
             .length_squared()
             .max((c - b).length_squared())
             .max((a - c).length_squared());
-        if longest2 > r2 / 256.0 && depth < MAX_SPLIT_DEPTH {
+        if longest2 > r2 * split2 && depth < MAX_SPLIT_DEPTH {
             let (ab, bc, ca) = ((a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0);
             for tri in [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]] {
                 stack.push((tri, depth + 1));

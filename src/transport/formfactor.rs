@@ -55,6 +55,11 @@ pub fn differential(p: DVec3, n: DVec3, centroid: DVec3, normal: DVec3, area: f6
 }
 
 /// [`point_to_polygon`] with a caller-owned scratch buffer for the clipped polygon.
+pub fn point_to_polygon_with(p: DVec3, n: DVec3, polygon: &[DVec3], scratch: &mut Vec<DVec3>) -> f64 {
+    contour_form_factor(p, n, polygon, scratch)
+}
+
+/// [`point_to_polygon`] with a caller-owned scratch buffer for the clipped polygon.
 fn contour_form_factor(p: DVec3, n: DVec3, polygon: &[DVec3], clipped: &mut Vec<DVec3>) -> f64 {
     clip_to_front(p, n, polygon, clipped);
     if clipped.len() < 3 {
@@ -147,7 +152,13 @@ impl TargetPatch {
         self.form_factor_with(p, n, near_field_ratio, &mut scratch)
     }
 
-    fn form_factor_with(&self, p: DVec3, n: DVec3, near_field_ratio: f64, scratch: &mut Vec<DVec3>) -> f64 {
+    pub(crate) fn form_factor_with(
+        &self,
+        p: DVec3,
+        n: DVec3,
+        near_field_ratio: f64,
+        scratch: &mut Vec<DVec3>,
+    ) -> f64 {
         if self.normal.dot(p - self.centroid) <= 0.0 {
             return 0.0;
         }

@@ -39,6 +39,23 @@ fn slab(b: &Aabb, o: DVec3, inv_d: DVec3, t0: f64, t1: f64) -> bool {
 struct TriangleBvh {
     triangles: Vec<Triangle>,
     bvh: Bvh2,
+    /// Bounds of all the triangles (world, m).
+    bounds: Aabb,
+}
+
+/// The occluders that can meet segments lying inside an axis-aligned region (the bounds of a
+/// shaft between two patches): a short list of boxes and whether the triangles can.
+#[derive(Debug, Clone, Default)]
+pub struct Shaft {
+    boxes: Vec<u32>,
+    triangles: bool,
+}
+
+impl Shaft {
+    /// True when nothing can block a segment inside the region.
+    pub fn is_empty(&self) -> bool {
+        self.boxes.is_empty() && !self.triangles
+    }
 }
 
 impl std::fmt::Debug for TriangleBvh {
@@ -78,7 +95,17 @@ impl Occluders {
                 BvhBuildParams::medium_build(),
                 &mut Duration::default(),
             );
-            TriangleBvh { triangles, bvh }
+            let (min, max) = triangles
+                .iter()
+                .flat_map(|t| [t.v0, t.v1, t.v2])
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(v.as_dvec3()), hi.max(v.as_dvec3()))
+                });
+            TriangleBvh {
+                triangles,
+                bvh,
+                bounds: Aabb { min, max },
+            }
         });
         Occluders {
             boxes: boxes.to_vec(),
@@ -96,6 +123,32 @@ impl Occluders {
         self.len() == 0
     }
 
+    /// The occluders whose bounds meet the region `[lo, hi]` (world, m): a segment inside it
+    /// can only be blocked by them (see [`Self::blocked_in`]).
+    pub fn shaft(&self, lo: DVec3, hi: DVec3) -> Shaft {
+        let meets = |b: &Aabb| b.min.cmplt(hi).all() && b.max.cmpgt(lo).all();
+        Shaft {
+            boxes: (0..self.boxes.len() as u32)
+                .filter(|&i| meets(&self.boxes[i as usize]))
+                .collect(),
+            triangles: self.triangles.as_ref().is_some_and(|t| meets(&t.bounds)),
+        }
+    }
+
+    /// [`Self::blocked`] for a segment inside the region of `shaft`, testing only its occluders.
+    pub fn blocked_in(&self, shaft: &Shaft, from: DVec3, to: DVec3) -> bool {
+        let d = to - from;
+        let inv_d = d.recip();
+        if shaft
+            .boxes
+            .iter()
+            .any(|&b| slab(&self.boxes[b as usize], from, inv_d, END_EPS, 1.0 - END_EPS))
+        {
+            return true;
+        }
+        shaft.triangles && self.blocked_by_triangles(from, to)
+    }
+
     /// True when any occluder meets the open segment `from → to`.
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
         let d = to - from;
@@ -107,6 +160,11 @@ impl Occluders {
         {
             return true;
         }
+        self.blocked_by_triangles(from, to)
+    }
+
+    fn blocked_by_triangles(&self, from: DVec3, to: DVec3) -> bool {
+        let d = to - from;
         let Some(tris) = &self.triangles else { return false };
         let len = d.length();
         let (t0, t1) = (TRIANGLE_END_M, len as f32 - TRIANGLE_END_M);

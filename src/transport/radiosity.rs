@@ -19,6 +19,42 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::transport::formfactor::FormFactors;
+use crate::transport::hierarchy::Operator;
+
+/// A form-factor operator the solve iterates with: the dense matrix or the hierarchical
+/// operator. `F_ij` is the irradiance at patch `i` per unit radiosity of patch `j`.
+pub trait Transfer: Sync {
+    /// Number of patches `n`.
+    fn n_patches(&self) -> usize;
+    /// `F·X` for a patch-major block `X` of `width` columns.
+    fn apply_block(&self, block: &[f64], width: usize) -> Vec<f64>;
+    /// `Σ_j F_ij` per patch.
+    fn row_sums(&self) -> Vec<f64>;
+}
+
+impl Transfer for FormFactors {
+    fn n_patches(&self) -> usize {
+        FormFactors::n_patches(self)
+    }
+    fn apply_block(&self, block: &[f64], width: usize) -> Vec<f64> {
+        multiply_block(self, block, width)
+    }
+    fn row_sums(&self) -> Vec<f64> {
+        FormFactors::row_sums(self)
+    }
+}
+
+impl Transfer for Operator {
+    fn n_patches(&self) -> usize {
+        self.n_leaves()
+    }
+    fn apply_block(&self, block: &[f64], width: usize) -> Vec<f64> {
+        Operator::apply_block(self, block, width)
+    }
+    fn row_sums(&self) -> Vec<f64> {
+        Operator::row_sums(self)
+    }
+}
 
 /// Reflectances at or above this are rejected: the solve becomes ill-conditioned and a closed
 /// room at ρ = 1 is singular.
@@ -131,13 +167,34 @@ pub struct Solution {
 /// sizes that do not match `form_factors` or rows of `F` so large that no bound exists
 /// (`q ≥ 1`) are internal errors. All-zero reflectance returns `H = E` (bitwise) with 0
 /// iterations; an all-zero column stays exactly zero.
-pub fn solve(
-    form_factors: &FormFactors,
+pub fn solve<T: Transfer + ?Sized>(
+    form_factors: &T,
     reflectance: &[f64],
     emission: &PatchColumns,
     options: &SolveOptions,
 ) -> Result<Solution> {
+    solve_from(form_factors, reflectance, emission, None, options)
+}
+
+/// [`solve`] starting from a previous radiosity `initial` (same shape as `emission`; a warm start
+/// after a small change of the emission needs only a few steps) instead of the first bounce. The
+/// stopping rule and its certificate are the same.
+pub fn solve_from<T: Transfer + ?Sized>(
+    form_factors: &T,
+    reflectance: &[f64],
+    emission: &PatchColumns,
+    initial: Option<&PatchColumns>,
+    options: &SolveOptions,
+) -> Result<Solution> {
     let n = form_factors.n_patches();
+    if let Some(x0) = initial
+        && (x0.n_patches != n || x0.n_columns != emission.n_columns)
+    {
+        return Err(Error::internal(format!(
+            "interreflection: a {}×{} starting radiosity for a {}×{} right-hand side",
+            x0.n_patches, x0.n_columns, n, emission.n_columns
+        )));
+    }
     check_inputs(n, reflectance, emission)?;
     let k = emission.n_columns;
     let row_sums = form_factors.row_sums();
@@ -155,7 +212,7 @@ pub fn solve(
     let mut columns: Vec<ColumnGmres> = (0..k)
         .map(|c| {
             let rhs: Vec<f64> = (0..n).map(|i| reflectance[i] * emission.get(i, c)).collect();
-            ColumnGmres::new(rhs)
+            ColumnGmres::new(rhs, initial.map(|x0| x0.column(c)))
         })
         .collect();
     let params = Params {
@@ -177,7 +234,7 @@ pub fn solve(
                 block[i * width + a] = v;
             }
         }
-        let product = multiply_block(form_factors, &block, width);
+        let product = form_factors.apply_block(&block, width);
         active.par_iter_mut().enumerate().for_each(|(a, column)| {
             let f_times_v: Vec<f64> = (0..n).map(|i| product[i * width + a]).collect();
             column.absorb(&f_times_v, &params);
@@ -226,8 +283,8 @@ fn check_inputs(n: usize, reflectance: &[f64], emission: &PatchColumns) -> Resul
 }
 
 /// `H = E + F·B`; columns whose radiosity is identically zero copy `E` bitwise.
-fn irradiance_from_radiosity(
-    form_factors: &FormFactors,
+fn irradiance_from_radiosity<T: Transfer + ?Sized>(
+    form_factors: &T,
     emission: &PatchColumns,
     radiosity: &PatchColumns,
     columns: &[ColumnGmres],
@@ -237,7 +294,7 @@ fn irradiance_from_radiosity(
     if columns.iter().all(|c| c.x.iter().all(|&b| b == 0.0)) {
         return irradiance;
     }
-    let indirect = multiply_block(form_factors, &radiosity.values, k);
+    let indirect = form_factors.apply_block(&radiosity.values, k);
     for (c, column) in columns.iter().enumerate() {
         if column.x.iter().all(|&b| b == 0.0) {
             continue;
@@ -327,10 +384,15 @@ struct ColumnGmres {
 }
 
 impl ColumnGmres {
-    /// Starts from the first bounce `x₀ = b`; a zero right-hand side is done at once (`x = 0`).
-    fn new(b: Vec<f64>) -> Self {
+    /// Starts from `x0`, else the first bounce `x₀ = b`; a zero right-hand side is done at once
+    /// (`x = 0`).
+    fn new(b: Vec<f64>, x0: Option<Vec<f64>>) -> Self {
         let zero = b.iter().all(|&v| v == 0.0);
-        let x = if zero { vec![0.0; b.len()] } else { b.clone() };
+        let x = if zero {
+            vec![0.0; b.len()]
+        } else {
+            x0.unwrap_or_else(|| b.clone())
+        };
         ColumnGmres {
             b,
             x,

@@ -396,6 +396,33 @@ pub fn errors_against_references(name: &'static str) -> RoomErrors {
     summarize(name, &refs, &lux)
 }
 
+/// The interreflection engine ([`Interreflection`]) with `options` against the references of
+/// `name`: exact direct light plus indirect light gathered from the engine's leaves.
+pub fn engine_errors(name: &'static str, options: &InterreflectionOptions) -> RoomErrors {
+    let scene = room(name);
+    let refs = read(name);
+    let receivers: Vec<Receiver> = refs
+        .iter()
+        .map(|r| Receiver {
+            point: r.point,
+            normal: r.normal,
+        })
+        .collect();
+    let p = plan(&scene, PlanOptions::default());
+    let engine = Interreflection::build(&scene, p.channels, p.visibility.on, options);
+    let b = engine
+        .scene_radiosity(&scene, 1e-5)
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let indirect = engine.gather(&b, &receivers);
+    let direct = scene_direct_at(&scene, &receivers);
+    let lux: Vec<f64> = direct
+        .iter()
+        .zip(&indirect)
+        .map(|(d, e)| d + luminance_weight(*e))
+        .collect();
+    summarize(name, &refs, &lux)
+}
+
 /// Median and worst relative error of `lux` against `refs`.
 pub fn summarize(name: &'static str, refs: &[Reference], lux: &[f64]) -> RoomErrors {
     let mut rel: Vec<(f64, usize)> = refs
@@ -455,4 +482,167 @@ fn print_errors() {
         .map(|&name| errors_against_references(name))
         .collect();
     println!("{}", format_errors(&rows));
+}
+
+/// Prints the interreflection engine's errors against every reference room.
+#[test]
+#[ignore = "a report, not a check: prints the engine's error table of every reference room"]
+fn print_engine_errors() {
+    let options = InterreflectionOptions::default();
+    let rows: Vec<RoomErrors> = ROOMS.iter().map(|&name| engine_errors(name, &options)).collect();
+    println!("{}", format_errors(&rows));
+}
+
+/// Prints the engine's errors for variations of its knobs (a study, not a check).
+#[test]
+#[ignore = "a study: prints the engine's errors for variations of its knobs"]
+fn print_engine_variants() {
+    let rooms: Vec<&'static str> = std::env::var("HAIKO_ROOMS")
+        .map(|v| {
+            v.split(',')
+                .filter_map(|n| ROOMS.iter().find(|r| **r == n.trim()).copied())
+                .collect()
+        })
+        .unwrap_or_else(|_| ROOMS.to_vec());
+    let mut base = InterreflectionOptions::default();
+    base.refine.lamp_ratio = 0.5;
+    base.refine.contact_min_m = 0.015;
+    base.direct_split = 1.0 / 32.0;
+    base.gather_eta = 0.25;
+    base.refine.contact_ratio = 0.5;
+    let mut variants: Vec<(&str, InterreflectionOptions)> = vec![("base", base)];
+    let mut v = base;
+    v.links.eta = 0.2;
+    variants.push(("links eta 0.2", v));
+    let mut v = base;
+    v.links.eta = 0.1;
+    variants.push(("links eta 0.1", v));
+    for (label, options) in variants {
+        let rows: Vec<RoomErrors> = rooms.iter().map(|&name| engine_errors(name, &options)).collect();
+        println!("{label}\n{}", format_errors(&rows));
+    }
+}
+
+#[test]
+#[ignore = "debug"]
+fn debug_point() {
+    let mut options = InterreflectionOptions::default();
+    options.refine.lamp_ratio = 0.5;
+    options.refine.contact_min_m = 0.015;
+    options.refine.contact_ratio = 0.5;
+    options.direct_split = 1.0 / 32.0;
+    options.gather_eta = 0.25;
+    options.links.eta = 0.2;
+    for &name in &["spots"] {
+        let scene = room(name);
+        let refs = read(name);
+        let receivers: Vec<Receiver> = refs
+            .iter()
+            .map(|r| Receiver {
+                point: r.point,
+                normal: r.normal,
+            })
+            .collect();
+        let p = plan(&scene, PlanOptions::default());
+        let engine = Interreflection::build(&scene, p.channels, p.visibility.on, &options);
+        let b = engine.scene_radiosity(&scene, 1e-5).unwrap();
+        let ind = engine.gather(&b, &receivers);
+        let direct = scene_direct_at(&scene, &receivers);
+        let rows = summarize(
+            name,
+            &refs,
+            &direct
+                .iter()
+                .zip(&ind)
+                .map(|(d, e)| d + luminance_weight(*e))
+                .collect::<Vec<_>>(),
+        );
+        println!("{}", format_errors(&[rows]).lines().nth(1).unwrap());
+        for (i, r) in refs.iter().enumerate() {
+            let e = direct[i] + luminance_weight(ind[i]);
+            let err = (e - r.lux) / r.lux;
+            if err.abs() > 0.025 {
+                println!(
+                    "  ({:.3},{:.3},{:.3}) n=({:.0},{:.0},{:.0}) ref {:.1} (direct {:.1}) haiko {:.1} (direct {:.1}) {:+.1}%",
+                    r.point.x,
+                    r.point.y,
+                    r.point.z,
+                    r.normal.x,
+                    r.normal.y,
+                    r.normal.z,
+                    r.lux,
+                    r.direct,
+                    e,
+                    direct[i],
+                    100.0 * err
+                );
+            }
+        }
+        println!(
+            "  leaves {}, links {}, row defect {:.4}",
+            engine.n_leaves(),
+            engine.stats.links,
+            engine.stats.row_defect
+        );
+    }
+}
+
+#[test]
+#[ignore = "debug"]
+fn debug_open_plan() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/rooms/open-plan.toml");
+    let t = std::time::Instant::now();
+    let scene = load(&path).unwrap();
+    println!(
+        "load {:.2} s, fine {} coarse {}",
+        t.elapsed().as_secs_f64(),
+        scene.fine.n_vertices(),
+        scene.coarse.patches.len()
+    );
+    for eta in [0.5, 0.35] {
+        let mut options = InterreflectionOptions::default();
+        options.refine.lamp_ratio = 0.5;
+        options.refine.contact_min_m = 0.015;
+        options.direct_split = 1.0 / 32.0;
+        options.links.eta = eta;
+        let t = std::time::Instant::now();
+        let engine = Interreflection::build(&scene, 1, true, &options);
+        println!(
+            "eta {eta}: build {:.2} s: {:?}",
+            t.elapsed().as_secs_f64(),
+            engine.stats
+        );
+        let t = std::time::Instant::now();
+        let cache = engine.direct_cache(&scene.lights[0]);
+        println!(
+            "  cache {:.3} s, {} samples, {} bytes",
+            t.elapsed().as_secs_f64(),
+            cache.n_samples(),
+            cache.bytes()
+        );
+        let state = haiko::photometry::LightState::from(&scene.lights[0]);
+        let t = std::time::Instant::now();
+        let sol = engine.solve_light(&cache, &state, None, 1e-3).unwrap();
+        println!(
+            "  cold solve {:.3} s, {} iterations",
+            t.elapsed().as_secs_f64(),
+            sol[0].columns[0].iterations
+        );
+        let mut edited = state.clone();
+        edited
+            .curve
+            .set_intensity(0, 0.9 * state.curve.intensities_cd()[0])
+            .unwrap();
+        let x0 = vec![sol[0].radiosity.clone()];
+        let t = std::time::Instant::now();
+        let warm = engine.solve_light(&cache, &edited, Some(&x0), 1e-3).unwrap();
+        println!(
+            "  warm solve {:.4} s, {} iterations",
+            t.elapsed().as_secs_f64(),
+            warm[0].columns[0].iterations
+        );
+        let t = std::time::Instant::now();
+        let _ = engine.operator.apply_block(&vec![1.0; engine.n_leaves()], 1);
+        println!("  one apply {:.4} s", t.elapsed().as_secs_f64());
+    }
 }

@@ -1,0 +1,598 @@
+//! The hierarchical transfer operator (docs/DECISIONS.md "Interreflection"): a cluster tree over
+//! the leaves (solver patches) of each planar surface, symmetric links between pairs of nodes at
+//! the coarsest level where their transfer is accurate ([`crate::transport::links`]), and the
+//! push–pull application of `F` to radiosity in O(nodes + links) (Hanrahan–Salzman–Aupperle 1991).
+//!
+//! A link couples nodes `R` and `S` with `G_RS = A_R F_RS = A_S F_SR` (m², symmetric, so
+//! reciprocity holds link by link), and per side the in-plane gradient of the factor over the
+//! receiving node. Applying `F` to leaf radiosity `x` (lm/m²): *pull* — a node's radiosity is the
+//! area-weighted mean of its leaves'; *gather* — a node receives `Σ_links (G/A_R) B_S` and the
+//! gradient `Σ_links ∇F B_S`; *push* — a child gets its parent's irradiance as a linear field
+//! (value at the child's centroid, and the gradient), so a leaf at the edge of a large receiving
+//! cluster does not get the cluster's mean (that error is first order in the cluster's size over
+//! its distance; with the gradient it is second order). Diagonal scalings on both sides ([`Operator::balance`]) restore each leaf's row sum
+//! (1 in a closed room: the furnace) and the area-weighted column sums (Sumpner's
+//! `Σ A·H = Φ/(1−ρ)`).
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::scene::PatchMesh;
+
+/// Marks a missing index (no parent, no children, not a leaf).
+pub const NONE: u32 = u32::MAX;
+
+/// A node of the cluster tree: one leaf, or the union of its two children (same surface and
+/// plane).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    /// Surface of its leaves.
+    pub surface: u32,
+    /// The two children, or [`NONE`] for a leaf.
+    pub children: [u32; 2],
+    /// The parent, or [`NONE`] for a root.
+    pub parent: u32,
+    /// The leaf (patch index) when a leaf, else [`NONE`].
+    pub leaf: u32,
+    /// Number of leaves below (1 for a leaf).
+    pub leaf_count: u32,
+    /// Total area of its leaves (m²).
+    pub area: f64,
+    /// Area-weighted centroid (world, m).
+    pub centroid: DVec3,
+    /// Unit normal (world) of its leaves.
+    pub normal: DVec3,
+    /// Bounds of its leaves' corners (world, m).
+    pub lo: DVec3,
+    pub hi: DVec3,
+    /// Diagonal of the bounds (m).
+    pub diameter: f64,
+    /// The leaf below whose centroid is nearest the node's centroid (a point surely on it).
+    pub representative: u32,
+    /// True when its leaves tile its bounds exactly (an axis-aligned rectangle with no holes):
+    /// its polygon is then the rectangle of its bounds.
+    pub full_rect: bool,
+    /// True when some leaf below lies next to a light (a possible hot spot): such a cluster is
+    /// never linked or gathered as a whole.
+    pub hot: bool,
+}
+
+impl Node {
+    /// True for a leaf.
+    pub fn is_leaf(&self) -> bool {
+        self.leaf != NONE
+    }
+}
+
+/// The cluster trees of all surfaces. Nodes are stored in preorder (a parent before its
+/// children), so pulls run backwards and pushes forwards.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tree {
+    /// All nodes.
+    pub nodes: Vec<Node>,
+    /// The roots (one per planar surface; one per leaf of a non-planar OBJ surface).
+    pub roots: Vec<u32>,
+    /// Per leaf (patch index), its node.
+    pub leaf_node: Vec<u32>,
+}
+
+impl Tree {
+    /// Builds the trees over the patches of `mesh`: per surface, recursive halving of the leaf
+    /// centroids' bounding box along its longest side. Surfaces whose patches do not all share
+    /// one normal (OBJ objects) get one root per leaf. `hot` marks leaves next to a light (may be
+    /// empty: none).
+    pub fn build(mesh: &PatchMesh, hot: &[bool]) -> Self {
+        let n_surfaces = mesh
+            .patches
+            .iter()
+            .map(|p| p.surface as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut by_surface: Vec<Vec<u32>> = vec![Vec::new(); n_surfaces];
+        for (i, p) in mesh.patches.iter().enumerate() {
+            by_surface[p.surface as usize].push(i as u32);
+        }
+        let mut tree = Tree {
+            nodes: Vec::with_capacity(2 * mesh.patches.len()),
+            roots: Vec::new(),
+            leaf_node: vec![NONE; mesh.patches.len()],
+        };
+        for leaves in by_surface.iter_mut().filter(|l| !l.is_empty()) {
+            let n0 = mesh.patches[leaves[0] as usize].normal;
+            let planar = leaves
+                .iter()
+                .all(|&l| mesh.patches[l as usize].normal.dot(n0) > 1.0 - 1e-12);
+            if planar {
+                let root = tree.subtree(mesh, hot, leaves, NONE);
+                tree.roots.push(root);
+            } else {
+                for &l in leaves.iter() {
+                    let root = tree.subtree(mesh, hot, &mut [l], NONE);
+                    tree.roots.push(root);
+                }
+            }
+        }
+        tree
+    }
+
+    /// Appends the subtree over `leaves` (preorder) and returns its root.
+    fn subtree(&mut self, mesh: &PatchMesh, hot: &[bool], leaves: &mut [u32], parent: u32) -> u32 {
+        let index = self.nodes.len() as u32;
+        if leaves.len() == 1 {
+            let leaf = leaves[0];
+            let patch = &mesh.patches[leaf as usize];
+            let (lo, hi) = patch
+                .vertex_ids()
+                .iter()
+                .map(|&v| mesh.positions[v as usize])
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q), hi.max(q))
+                });
+            self.nodes.push(Node {
+                surface: patch.surface,
+                children: [NONE, NONE],
+                parent,
+                leaf,
+                leaf_count: 1,
+                area: patch.area,
+                centroid: patch.centroid,
+                normal: patch.normal,
+                lo,
+                hi,
+                diameter: (hi - lo).length(),
+                representative: leaf,
+                full_rect: patch.n_vertices == 4
+                    && (flat_area(lo, hi, patch.normal) - patch.area).abs() <= 1e-9 * patch.area,
+                hot: hot.get(leaf as usize).copied().unwrap_or(false),
+            });
+            self.leaf_node[leaf as usize] = index;
+            return index;
+        }
+        // Halve the centroids' bounding box along its longest side (the median if one half
+        // would be empty).
+        let (clo, chi) = leaves
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &l| {
+                let c = mesh.patches[l as usize].centroid;
+                (lo.min(c), hi.max(c))
+            });
+        let axis = (chi - clo).max_position();
+        let mid = 0.5 * (clo[axis] + chi[axis]);
+        let mut split = partition(leaves, |&l| mesh.patches[l as usize].centroid[axis] < mid);
+        if split == 0 || split == leaves.len() {
+            leaves.sort_by(|a, b| {
+                let (ca, cb) = (
+                    mesh.patches[*a as usize].centroid,
+                    mesh.patches[*b as usize].centroid,
+                );
+                ca[axis].total_cmp(&cb[axis])
+            });
+            split = leaves.len() / 2;
+        }
+        self.nodes.push(Node {
+            surface: mesh.patches[leaves[0] as usize].surface,
+            children: [NONE, NONE],
+            parent,
+            leaf: NONE,
+            leaf_count: leaves.len() as u32,
+            area: 0.0,
+            centroid: DVec3::ZERO,
+            normal: mesh.patches[leaves[0] as usize].normal,
+            lo: DVec3::ZERO,
+            hi: DVec3::ZERO,
+            diameter: 0.0,
+            representative: NONE,
+            full_rect: false,
+            hot: false,
+        });
+        let (left, right) = leaves.split_at_mut(split);
+        let a = self.subtree(mesh, hot, left, index);
+        let b = self.subtree(mesh, hot, right, index);
+        let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
+        let hot_children = na.hot || nb.hot;
+        let area = na.area + nb.area;
+        let centroid = (na.centroid * na.area + nb.centroid * nb.area) / area;
+        let (lo, hi) = (na.lo.min(nb.lo), na.hi.max(nb.hi));
+        let representative = [na.representative, nb.representative]
+            .into_iter()
+            .min_by(|x, y| {
+                let dx = mesh.patches[*x as usize].centroid.distance_squared(centroid);
+                let dy = mesh.patches[*y as usize].centroid.distance_squared(centroid);
+                dx.total_cmp(&dy)
+            })
+            .unwrap_or(NONE);
+        let node = &mut self.nodes[index as usize];
+        node.children = [a, b];
+        node.area = area;
+        node.centroid = centroid;
+        node.lo = lo;
+        node.hi = hi;
+        node.diameter = (hi - lo).length();
+        node.representative = representative;
+        node.full_rect = (flat_area(lo, hi, node.normal) - area).abs() <= 1e-9 * area;
+        node.hot = hot_children;
+        index
+    }
+
+    /// Number of leaves.
+    pub fn n_leaves(&self) -> usize {
+        self.leaf_node.len()
+    }
+}
+
+/// Area (m²) of the bounds `[lo, hi]` of an axis-aligned planar set with unit normal `normal`
+/// (0 when the normal is not along an axis).
+fn flat_area(lo: DVec3, hi: DVec3, normal: DVec3) -> f64 {
+    let axis = normal.abs().max_position();
+    if normal.abs()[axis] < 1.0 - 1e-12 {
+        return 0.0;
+    }
+    let e = hi - lo;
+    e[(axis + 1) % 3] * e[(axis + 2) % 3]
+}
+
+impl Node {
+    /// The corners (world, m) of a [`Node::full_rect`] node's rectangle, in cyclic order.
+    pub fn rect_corners(&self) -> [DVec3; 4] {
+        let axis = self.normal.abs().max_position();
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        let corner = |a: f64, b: f64| {
+            let mut p = self.lo;
+            p[u] = a;
+            p[v] = b;
+            p
+        };
+        [
+            corner(self.lo[u], self.lo[v]),
+            corner(self.hi[u], self.lo[v]),
+            corner(self.hi[u], self.hi[v]),
+            corner(self.lo[u], self.hi[v]),
+        ]
+    }
+}
+
+/// Moves the elements satisfying `pred` to the front; returns how many there are.
+fn partition<T>(items: &mut [T], pred: impl Fn(&T) -> bool) -> usize {
+    let mut first = 0;
+    for i in 0..items.len() {
+        if pred(&items[i]) {
+            items.swap(first, i);
+            first += 1;
+        }
+    }
+    first
+}
+
+/// A symmetric link between two nodes: `g = G_RS = A_R F_RS = A_S F_SR` (m²), and the in-plane
+/// gradient (1/m, in the receiving node's plane coordinates, see [`plane_axes`]) of `F_{a←b}`
+/// over `a` and of `F_{b←a}` over `b` (zero for a leaf).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Link {
+    pub a: u32,
+    pub b: u32,
+    pub g: f32,
+    pub grad_a: [f32; 2],
+    pub grad_b: [f32; 2],
+}
+
+/// The two in-plane world axes of a node with this unit normal (the axis-aligned planes of rooms
+/// and boxes; a tilted OBJ leaf gets the two axes of its largest normal component, unused since
+/// leaves have no children).
+pub fn plane_axes(normal: DVec3) -> [usize; 2] {
+    let axis = normal.abs().max_position();
+    [(axis + 1) % 3, (axis + 2) % 3]
+}
+
+/// The hierarchical form-factor operator `F` on the leaves.
+#[derive(Debug, Clone)]
+pub struct Operator {
+    /// The cluster trees.
+    pub tree: Tree,
+    /// Directed transfers by receiving node: entries `offsets[r]..offsets[r + 1]` hold the
+    /// source nodes and `G/A_r`.
+    offsets: Vec<usize>,
+    sources: Vec<u32>,
+    coefficients: Vec<f32>,
+    /// Per entry, the in-plane gradient of the coefficient over the receiving node (1/m).
+    gradients: Vec<[f32; 2]>,
+    /// Per node, its centroid's in-plane offset from its parent's centroid (m).
+    offsets_to_parent: Vec<[f64; 2]>,
+    /// Number of symmetric links.
+    n_links: usize,
+    /// Per leaf: the row scaling (applied to what it receives) and the column scaling (applied
+    /// to what it sends) of [`Self::balance`]; 1 before balancing.
+    row_scale: Vec<f64>,
+    col_scale: Vec<f64>,
+}
+
+impl Operator {
+    /// The operator of `tree` with these links.
+    pub fn new(tree: Tree, links: &[Link]) -> Self {
+        let n_nodes = tree.nodes.len();
+        let mut counts = vec![0usize; n_nodes + 1];
+        for l in links {
+            counts[l.a as usize + 1] += 1;
+            counts[l.b as usize + 1] += 1;
+        }
+        for i in 0..n_nodes {
+            counts[i + 1] += counts[i];
+        }
+        let offsets = counts.clone();
+        let mut fill = counts;
+        let mut sources = vec![0u32; 2 * links.len()];
+        let mut coefficients = vec![0f32; 2 * links.len()];
+        let mut gradients = vec![[0f32; 2]; 2 * links.len()];
+        for l in links {
+            for (r, s, grad) in [(l.a, l.b, l.grad_a), (l.b, l.a, l.grad_b)] {
+                let slot = fill[r as usize];
+                fill[r as usize] += 1;
+                sources[slot] = s;
+                coefficients[slot] = (f64::from(l.g) / tree.nodes[r as usize].area) as f32;
+                gradients[slot] = grad;
+            }
+        }
+        let offsets_to_parent = tree
+            .nodes
+            .iter()
+            .map(|node| {
+                if node.parent == NONE {
+                    return [0.0; 2];
+                }
+                let d = node.centroid - tree.nodes[node.parent as usize].centroid;
+                let [u, v] = plane_axes(node.normal);
+                [d[u], d[v]]
+            })
+            .collect();
+        let n = tree.n_leaves();
+        Operator {
+            tree,
+            offsets,
+            sources,
+            coefficients,
+            gradients,
+            offsets_to_parent,
+            n_links: links.len(),
+            row_scale: vec![1.0; n],
+            col_scale: vec![1.0; n],
+        }
+    }
+
+    /// Number of leaves.
+    pub fn n_leaves(&self) -> usize {
+        self.tree.n_leaves()
+    }
+
+    /// Number of symmetric links.
+    pub fn n_links(&self) -> usize {
+        self.n_links
+    }
+
+    /// Bytes held by the links and the tree.
+    pub fn bytes(&self) -> usize {
+        self.sources.len() * 4
+            + self.coefficients.len() * 4
+            + self.gradients.len() * 8
+            + self.offsets_to_parent.len() * 16
+            + self.offsets.len() * 8
+            + self.tree.nodes.len() * std::mem::size_of::<Node>()
+            + (self.row_scale.len() + self.col_scale.len()) * 8
+    }
+
+    /// `F·X` for a leaf-major block `X` of `width` columns (lx per unit radiosity): pull, gather,
+    /// push, with the balancing scalings.
+    pub fn apply_block(&self, block: &[f64], width: usize) -> Vec<f64> {
+        self.apply_scaled(block, width, true)
+    }
+
+    fn apply_scaled(&self, block: &[f64], width: usize, scaled: bool) -> Vec<f64> {
+        let k = width;
+        let n = self.n_leaves();
+        let mut out = vec![0.0; n * k];
+        if k == 0 || n == 0 {
+            return out;
+        }
+        let nodes = &self.tree.nodes;
+        let mut b = vec![0.0; nodes.len() * k];
+        for (leaf, &node) in self.tree.leaf_node.iter().enumerate() {
+            let s = if scaled { self.col_scale[leaf] } else { 1.0 };
+            for c in 0..k {
+                b[node as usize * k + c] = s * block[leaf * k + c];
+            }
+        }
+        for (i, node) in nodes.iter().enumerate().rev() {
+            if node.is_leaf() {
+                continue;
+            }
+            let [c0, c1] = node.children.map(|c| c as usize);
+            let (w0, w1) = (nodes[c0].area / node.area, nodes[c1].area / node.area);
+            for c in 0..k {
+                b[i * k + c] = w0 * b[c0 * k + c] + w1 * b[c1 * k + c];
+            }
+        }
+        // Per node: k values then 2k gradient components (u, v per column).
+        let stride = 3 * k;
+        let mut h = vec![0.0; nodes.len() * stride];
+        h.par_chunks_mut(stride)
+            .enumerate()
+            .with_min_len(512)
+            .for_each(|(r, out)| {
+                let (value, grad) = out.split_at_mut(k);
+                for e in self.offsets[r]..self.offsets[r + 1] {
+                    let s = self.sources[e] as usize;
+                    let f = f64::from(self.coefficients[e]);
+                    let [gu, gv] = self.gradients[e].map(f64::from);
+                    for (c, &x) in b[s * k..(s + 1) * k].iter().enumerate() {
+                        value[c] += f * x;
+                        grad[2 * c] += gu * x;
+                        grad[2 * c + 1] += gv * x;
+                    }
+                }
+            });
+        // Push: a child gets its parent's linear field at its centroid, and the gradient.
+        for i in 0..nodes.len() {
+            let p = nodes[i].parent;
+            if p == NONE {
+                continue;
+            }
+            let [du, dv] = self.offsets_to_parent[i];
+            let (parent, child) = (p as usize * stride, i * stride);
+            for c in 0..k {
+                let (gu, gv) = (h[parent + k + 2 * c], h[parent + k + 2 * c + 1]);
+                h[child + c] += h[parent + c] + gu * du + gv * dv;
+                h[child + k + 2 * c] += gu;
+                h[child + k + 2 * c + 1] += gv;
+            }
+        }
+        for (leaf, &node) in self.tree.leaf_node.iter().enumerate() {
+            let s = if scaled { self.row_scale[leaf] } else { 1.0 };
+            for c in 0..k {
+                out[leaf * k + c] = s * h[node as usize * stride + c];
+            }
+        }
+        out
+    }
+
+    /// `Σ_j F_ij` per leaf (after balancing).
+    pub fn row_sums(&self) -> Vec<f64> {
+        self.apply_block(&vec![1.0; self.n_leaves()], 1)
+    }
+
+    /// Alternating diagonal scalings (Sinkhorn) until, to `1e-9`, each leaf's row sums to
+    /// `target` (or, with `None`, to its unbalanced sum) and every column conserves power:
+    /// `Σ_i A_i F_ij = A_j` (the column sums come from the transposed operator, since the
+    /// gradient terms make it unsymmetric). Returns the largest relative defect of the unbalanced
+    /// rows against the target and of the unbalanced area-weighted columns.
+    pub fn balance(&mut self, target: Option<f64>) -> (f64, f64) {
+        let n = self.n_leaves();
+        let areas = self.leaf_areas();
+        let ones = vec![1.0; n];
+        let raw = |v: &[f64]| self.apply_scaled(v, 1, false);
+        // Σ_i A_i v_i F_ij / A_j: the area-weighted column sums with row weights v.
+        let raw_columns = |v: &[f64]| {
+            let weighted: Vec<f64> = v.iter().zip(&areas).map(|(x, a)| x * a).collect();
+            let t = self.apply_transpose_raw(&weighted);
+            t.iter().zip(&areas).map(|(x, a)| x / a).collect::<Vec<f64>>()
+        };
+        let raw_rows = raw(&ones);
+        let targets: Vec<f64> = match target {
+            Some(t) => vec![t; n],
+            None => raw_rows.clone(),
+        };
+        let row_defect = raw_rows
+            .iter()
+            .zip(&targets)
+            .map(|(r, t)| (r - t).abs() / t.max(1e-300))
+            .fold(0.0, f64::max);
+        let column_defect = raw_columns(&ones)
+            .iter()
+            .map(|c| (c - 1.0).abs())
+            .fold(0.0, f64::max);
+        let mut row = vec![1.0; n];
+        let mut col = vec![1.0; n];
+        for _ in 0..200 {
+            let cd = raw_columns(&row);
+            for j in 0..n {
+                col[j] = if cd[j] > 0.0 { 1.0 / cd[j] } else { 1.0 };
+            }
+            let rd = raw(&col);
+            for i in 0..n {
+                row[i] = if rd[i] > 0.0 { targets[i] / rd[i] } else { 1.0 };
+            }
+            // Rows now hit their targets exactly; check the columns.
+            let cd = raw_columns(&row);
+            let worst = (0..n)
+                .filter(|&j| cd[j] > 0.0)
+                .map(|j| (col[j] * cd[j] - 1.0).abs())
+                .fold(0.0, f64::max);
+            if worst < 1e-9 {
+                break;
+            }
+        }
+        self.row_scale = row;
+        self.col_scale = col;
+        (row_defect, column_defect)
+    }
+
+    /// `Fᵀ y` of the unscaled operator (one column): the transposed push (a node collects its
+    /// leaves' values and their first moment about its centroid), the transposed links, the
+    /// transposed pull (a leaf gets its share `A_leaf/A_node` of each ancestor's value).
+    fn apply_transpose_raw(&self, y: &[f64]) -> Vec<f64> {
+        let nodes = &self.tree.nodes;
+        // Transposed push: per node the sum of its leaves' y and the in-plane moments
+        // Σ y (c_leaf − c_node), accumulated bottom-up.
+        let mut sum = vec![0.0; nodes.len()];
+        let mut moment = vec![[0.0; 2]; nodes.len()];
+        for (leaf, &node) in self.tree.leaf_node.iter().enumerate() {
+            sum[node as usize] = y[leaf];
+        }
+        for i in (0..nodes.len()).rev() {
+            let p = nodes[i].parent;
+            if p == NONE {
+                continue;
+            }
+            let [du, dv] = self.offsets_to_parent[i];
+            let (s_i, m_i) = (sum[i], moment[i]);
+            let p = p as usize;
+            sum[p] += s_i;
+            moment[p][0] += m_i[0] + s_i * du;
+            moment[p][1] += m_i[1] + s_i * dv;
+        }
+        // Transposed links: entry (r ← s) sends back coefficient × Σ_r y + gradient · moment_r.
+        let mut back = vec![0.0; nodes.len()];
+        for r in 0..nodes.len() {
+            for e in self.offsets[r]..self.offsets[r + 1] {
+                let [gu, gv] = self.gradients[e].map(f64::from);
+                back[self.sources[e] as usize] +=
+                    f64::from(self.coefficients[e]) * sum[r] + gu * moment[r][0] + gv * moment[r][1];
+            }
+        }
+        // Transposed pull: top-down, each node passes its value to its children by area share.
+        for i in 0..nodes.len() {
+            let p = nodes[i].parent;
+            if p != NONE {
+                back[i] += back[p as usize] * nodes[i].area / nodes[p as usize].area;
+            }
+        }
+        self.tree
+            .leaf_node
+            .iter()
+            .map(|&node| back[node as usize])
+            .collect()
+    }
+
+    /// Leaf areas (m²).
+    pub fn leaf_areas(&self) -> Vec<f64> {
+        self.tree
+            .leaf_node
+            .iter()
+            .map(|&n| self.tree.nodes[n as usize].area)
+            .collect()
+    }
+
+    /// The directed transfers into node `r`: (source node, `G/A_r`).
+    pub fn transfers_into(&self, r: u32) -> impl Iterator<Item = (u32, f32)> + '_ {
+        let range = self.offsets[r as usize]..self.offsets[r as usize + 1];
+        self.sources[range.clone()]
+            .iter()
+            .copied()
+            .zip(self.coefficients[range].iter().copied())
+    }
+}
+
+#[cfg(test)]
+impl Operator {
+    /// Row sums before balancing (for tests).
+    pub(crate) fn raw_row_sums(&self) -> Vec<f64> {
+        self.apply_scaled(&vec![1.0; self.n_leaves()], 1, false)
+    }
+
+    /// `F·x` before balancing (for tests).
+    pub(crate) fn apply_raw(&self, x: &[f64], width: usize) -> Vec<f64> {
+        self.apply_scaled(x, width, false)
+    }
+
+    /// `Fᵀ·y` before balancing (for tests).
+    pub(crate) fn apply_transpose_for_test(&self, y: &[f64]) -> Vec<f64> {
+        self.apply_transpose_raw(y)
+    }
+}

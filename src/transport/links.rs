@@ -1,0 +1,481 @@
+//! Building the links of the hierarchical operator ([`crate::transport::hierarchy`]).
+//!
+//! Every pair of tree roots that can see each other is refined recursively: two nodes are linked
+//! directly when they are *admissible* — the larger diameter is at most `eta ×` the distance
+//! between their centroids — and otherwise the larger node is split. Two leaves that are not
+//! admissible are linked with the exact contour formula. So links grow about linearly with the
+//! leaves, and every link's geometric error is bounded by its admissibility.
+//!
+//! * Far links: `G = Σ_a Σ_b A_a A_b cosθ_a cosθ_b / (π r_ab²)` over up to four pieces of each
+//!   node (its grandchildren, or a 2 × 2 split of a leaf): a midpoint rule whose error is about a
+//!   quarter of the single-point rule's.
+//! * Near links (two leaves): `G = A_R F̄_{R→S}` from the smaller leaf `R` (both ways averaged
+//!   when their sizes are alike), `F̄` the exact point-to-polygon factor averaged over a grid of
+//!   up to 4 × 4 points of `R` (denser when the leaves are close).
+//! * Visibility: none when no occluder's bounds meet the bounds of the two nodes (the shaft);
+//!   otherwise the unblocked fraction of 16 rays between points spread over both nodes. A
+//!   partially visible link whose larger form factor exceeds `visibility_refine` is refined
+//!   (split the larger node); between two leaves a partial result is re-estimated with 64 rays
+//!   (8 × 8 points each), so shadow lines are resolved where they matter.
+
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::scene::PatchMesh;
+use crate::transport::formfactor::{TargetPatch, point_to_polygon_with};
+use crate::transport::hierarchy::{Link, NONE, Node, Tree, plane_axes};
+use crate::transport::occlusion::Occluders;
+
+/// Lift (m) of sample points off their surface.
+const LIFT_M: f64 = 1e-6;
+/// Rays per link between nodes, and between two leaves once partially visible.
+const RAYS: usize = 16;
+const LEAF_RAYS: usize = 64;
+
+/// How links are made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkOptions {
+    /// Link two nodes when the larger diameter is at most this many times their centroid
+    /// distance. Default 0.5.
+    pub eta: f64,
+    /// Refine a partially visible link whose larger form factor exceeds this. Default 0.002.
+    pub visibility_refine: f64,
+}
+
+impl Default for LinkOptions {
+    fn default() -> Self {
+        LinkOptions {
+            eta: 0.5,
+            visibility_refine: 0.002,
+        }
+    }
+}
+
+/// The links and what making them cost.
+#[derive(Debug, Clone, Default)]
+pub struct Links {
+    /// The links.
+    pub links: Vec<Link>,
+    /// Visibility rays cast.
+    pub rays: u64,
+    /// Links between two leaves with the exact contour formula.
+    pub near: usize,
+}
+
+/// Up to four (area, centroid) pieces of a node for the far-field midpoint rule.
+type Pieces = ([(f64, DVec3); 4], usize);
+
+/// What links and gathers need of every node: the leaves' polygons and each node's pieces.
+#[derive(Debug, Clone)]
+pub struct NodeGeometry {
+    /// Per leaf, its polygon as a form-factor target.
+    pub targets: Vec<TargetPatch>,
+    pieces: Vec<Pieces>,
+}
+
+impl NodeGeometry {
+    /// The geometry of `tree` over the leaves of `mesh`.
+    pub fn new(mesh: &PatchMesh, tree: &Tree) -> Self {
+        let targets: Vec<TargetPatch> = mesh.patches.iter().map(|p| TargetPatch::new(mesh, p)).collect();
+        let pieces = tree
+            .nodes
+            .iter()
+            .map(|node| node_pieces(tree, &targets, node))
+            .collect();
+        NodeGeometry { targets, pieces }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.targets.len() * std::mem::size_of::<TargetPatch>()
+            + self.pieces.len() * std::mem::size_of::<Pieces>()
+    }
+
+    /// Far-field form factor from a point `p` (unit normal `n`) to node `i` of normal `normal`:
+    /// the midpoint rule over the node's pieces.
+    pub fn far_from_point(&self, i: u32, normal: DVec3, p: DVec3, n: DVec3) -> f64 {
+        let (pieces, k) = &self.pieces[i as usize];
+        let mut f = 0.0;
+        for &(a, c) in &pieces[..*k] {
+            let d = c - p;
+            let d2 = d.length_squared();
+            if d2 == 0.0 {
+                continue;
+            }
+            let inv = d2.sqrt().recip();
+            let (cos_p, cos_s) = (n.dot(d) * inv, -normal.dot(d) * inv);
+            if cos_p > 0.0 && cos_s > 0.0 {
+                f += a * cos_p * cos_s / (PI * d2);
+            }
+        }
+        f
+    }
+
+    /// Form factor from a point `p` (unit normal `n`) to node `i`: the exact contour formula on
+    /// a leaf's polygon or a full rectangle cluster, the pieces' midpoint rule otherwise. Zero
+    /// when `p` is behind the node.
+    pub fn node_factor(&self, tree: &Tree, i: u32, p: DVec3, n: DVec3, scratch: &mut Vec<DVec3>) -> f64 {
+        let node = &tree.nodes[i as usize];
+        if node.is_leaf() {
+            return self.targets[node.leaf as usize].form_factor_with(p, n, f64::INFINITY, scratch);
+        }
+        if node.normal.dot(p - node.centroid) <= 0.0 {
+            return 0.0;
+        }
+        if node.full_rect {
+            point_to_polygon_with(p, n, &node.rect_corners(), scratch)
+        } else {
+            self.far_from_point(i, node.normal, p, n)
+        }
+    }
+
+    /// `count` points (a power of four) on the surface of a node, lifted off it: a grid on a
+    /// leaf; on a cluster, the representative points of as many sub-clusters.
+    pub fn spread_points(&self, tree: &Tree, node: &Node, count: usize) -> Vec<DVec3> {
+        let per_edge = (count as f64).sqrt().round() as usize;
+        if node.is_leaf() {
+            return self.targets[node.leaf as usize].sample_points(per_edge);
+        }
+        // Split the largest frontier node until there are `count` of them (or only leaves).
+        let mut frontier = vec![node];
+        while frontier.len() < count {
+            let Some((i, _)) = frontier
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| !n.is_leaf())
+                .max_by(|a, b| a.1.area.total_cmp(&b.1.area))
+            else {
+                break;
+            };
+            let n = frontier.swap_remove(i);
+            frontier.extend(n.children.map(|c| &tree.nodes[c as usize]));
+        }
+        let mut points: Vec<DVec3> = Vec::with_capacity(count);
+        if frontier.len() >= count {
+            for n in frontier.iter().take(count) {
+                let leaf = if n.is_leaf() { n.leaf } else { n.representative };
+                debug_assert!(leaf != NONE);
+                let t = &self.targets[leaf as usize];
+                points.push(t.centroid + t.normal * LIFT_M);
+            }
+        } else {
+            // Few leaves: several points on each.
+            let each = count.div_ceil(frontier.len());
+            let k = ((each as f64).sqrt().ceil() as usize).max(1);
+            for n in &frontier {
+                points.extend(self.targets[n.leaf as usize].sample_points(k));
+            }
+            points.truncate(count);
+            let mut i = 0;
+            while points.len() < count {
+                points.push(points[i]);
+                i += 1;
+            }
+        }
+        points
+    }
+}
+
+struct Context<'a> {
+    tree: &'a Tree,
+    geometry: &'a NodeGeometry,
+    occluders: Option<&'a Occluders>,
+    options: LinkOptions,
+    rays: AtomicU64,
+}
+
+/// Makes the links of `tree`, whose leaf polygons and pieces are `geometry`, with visibility
+/// against `occluders` where given (in parallel; deterministic output order).
+pub fn build(
+    tree: &Tree,
+    geometry: &NodeGeometry,
+    occluders: Option<&Occluders>,
+    options: LinkOptions,
+) -> Links {
+    let ctx = Context {
+        tree,
+        geometry,
+        occluders,
+        options,
+        rays: AtomicU64::new(0),
+    };
+    let roots = &tree.roots;
+    let pairs: Vec<(u32, u32)> = (0..roots.len())
+        .flat_map(|i| (i + 1..roots.len()).map(move |j| (roots[i], roots[j])))
+        .collect();
+    let per_pair: Vec<Vec<Link>> = pairs
+        .par_iter()
+        .map(|&(r, s)| {
+            let mut out = Vec::new();
+            ctx.refine(r, s, &mut out);
+            out
+        })
+        .collect();
+    let links: Vec<Link> = per_pair.into_iter().flatten().collect();
+    let near = links
+        .iter()
+        .filter(|l| tree.nodes[l.a as usize].is_leaf() && tree.nodes[l.b as usize].is_leaf())
+        .count();
+    Links {
+        links,
+        rays: ctx.rays.load(Ordering::Relaxed),
+        near,
+    }
+}
+
+/// The pieces of a node: its grandchildren (children that are leaves count as themselves), or
+/// for a leaf a 2 × 2 split (four sub-triangles of a triangle).
+fn node_pieces(tree: &Tree, targets: &[TargetPatch], node: &Node) -> Pieces {
+    let mut out = [(0.0, DVec3::ZERO); 4];
+    let mut n = 0;
+    if node.is_leaf() {
+        let t = &targets[node.leaf as usize];
+        let c = t.corners();
+        if c.len() == 4 {
+            for (u, v) in [(0.25, 0.25), (0.75, 0.25), (0.75, 0.75), (0.25, 0.75)] {
+                let q = c[0] * ((1.0 - u) * (1.0 - v))
+                    + c[1] * (u * (1.0 - v))
+                    + c[2] * (u * v)
+                    + c[3] * ((1.0 - u) * v);
+                out[n] = (t.area / 4.0, q);
+                n += 1;
+            }
+        } else {
+            let m = [(c[0] + c[1]) / 2.0, (c[1] + c[2]) / 2.0, (c[2] + c[0]) / 2.0];
+            for tri in [[c[0], m[0], m[2]], [m[0], c[1], m[1]], [m[2], m[1], c[2]], m] {
+                out[n] = (t.area / 4.0, (tri[0] + tri[1] + tri[2]) / 3.0);
+                n += 1;
+            }
+        }
+        return (out, n);
+    }
+    for child in node.children {
+        let c = &tree.nodes[child as usize];
+        if c.is_leaf() {
+            out[n] = (c.area, c.centroid);
+            n += 1;
+        } else {
+            for g in c.children {
+                let g = &tree.nodes[g as usize];
+                out[n] = (g.area, g.centroid);
+                n += 1;
+            }
+        }
+    }
+    (out, n)
+}
+
+/// The in-plane gradient (1/m, along world axes `axes`) of a factor known at the pieces
+/// `(area, centroid, value)` of a node with centroid `centre`: area-weighted least squares of
+/// `value ≈ mean + ∇·(c − centre)`, only along the directions the pieces span.
+fn fit_gradient(pieces: &[(f64, DVec3, f64)], centre: DVec3, axes: [usize; 2]) -> [f32; 2] {
+    let total: f64 = pieces.iter().map(|p| p.0).sum();
+    if total <= 0.0 {
+        return [0.0; 2];
+    }
+    let mean = pieces.iter().map(|p| p.0 * p.2).sum::<f64>() / total;
+    let (mut m, mut rhs) = ([[0.0; 2]; 2], [0.0; 2]);
+    for &(a, c, f) in pieces {
+        let d = [c[axes[0]] - centre[axes[0]], c[axes[1]] - centre[axes[1]]];
+        for i in 0..2 {
+            rhs[i] += a * d[i] * (f - mean);
+            for j in 0..2 {
+                m[i][j] += a * d[i] * d[j];
+            }
+        }
+    }
+    let scale = m[0][0] + m[1][1];
+    if scale <= 0.0 {
+        return [0.0; 2];
+    }
+    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    if det.abs() > 1e-9 * scale * scale {
+        let gu = (rhs[0] * m[1][1] - rhs[1] * m[0][1]) / det;
+        let gv = (rhs[1] * m[0][0] - rhs[0] * m[1][0]) / det;
+        return [gu as f32, gv as f32];
+    }
+    // Collinear pieces: the gradient along the line they span only.
+    let (i, j) = if m[0][0] >= m[1][1] { (0, 1) } else { (1, 0) };
+    let mut out = [0.0; 2];
+    out[i] = (rhs[i] / m[i][i]) as f32;
+    out[j] = 0.0;
+    out
+}
+
+/// True when some part of `node` lies strictly in front of the plane of `of`.
+fn in_front(node: &Node, of: &Node) -> bool {
+    let n = of.normal;
+    // The largest n·x over the box [lo, hi].
+    let top = (0..3)
+        .map(|i| (n[i] * node.lo[i]).max(n[i] * node.hi[i]))
+        .sum::<f64>();
+    top - n.dot(of.centroid) > 1e-9
+}
+
+impl Context<'_> {
+    fn node(&self, i: u32) -> &Node {
+        &self.tree.nodes[i as usize]
+    }
+
+    fn refine(&self, r: u32, s: u32, out: &mut Vec<Link>) {
+        let (nr, ns) = (self.node(r), self.node(s));
+        if !in_front(ns, nr) || !in_front(nr, ns) {
+            return;
+        }
+        let dist = nr.centroid.distance(ns.centroid);
+        let both_leaves = nr.is_leaf() && ns.is_leaf();
+        // A cluster holding a possible hot spot is never linked as a whole: its mean radiosity
+        // and area-sampled visibility would misplace the spot.
+        let whole = |n: &Node| n.is_leaf() || !n.hot;
+        let admissible = nr.diameter.max(ns.diameter) <= self.options.eta * dist && whole(nr) && whole(ns);
+        if admissible || both_leaves {
+            let (g, grad_a, grad_b) = if admissible {
+                self.far(r, s)
+            } else {
+                (self.near(nr.leaf, ns.leaf, dist), [0.0; 2], [0.0; 2])
+            };
+            if g <= 0.0 {
+                return;
+            }
+            let v = self.visibility(nr, ns, RAYS);
+            let partial = v > 0.0 && v < 1.0;
+            let important = g / nr.area.min(ns.area) > self.options.visibility_refine;
+            if partial && !both_leaves && important {
+                return self.split(r, s, out);
+            }
+            let v = if partial && both_leaves {
+                self.visibility(nr, ns, LEAF_RAYS)
+            } else {
+                v
+            };
+            if v > 0.0 {
+                out.push(Link {
+                    a: r,
+                    b: s,
+                    g: (g * v) as f32,
+                    grad_a: grad_a.map(|x| (f64::from(x) * v) as f32),
+                    grad_b: grad_b.map(|x| (f64::from(x) * v) as f32),
+                });
+            }
+            return;
+        }
+        self.split(r, s, out);
+    }
+
+    /// Splits the larger of the two (a leaf is never split; a hot cluster first) and refines
+    /// both halves.
+    fn split(&self, r: u32, s: u32, out: &mut Vec<Link>) {
+        let (nr, ns) = (self.node(r), self.node(s));
+        let split_r = if nr.hot != ns.hot && !nr.is_leaf() && !ns.is_leaf() {
+            nr.hot
+        } else {
+            !nr.is_leaf() && (ns.is_leaf() || nr.diameter >= ns.diameter)
+        };
+        let (big, other) = if split_r { (nr, s) } else { (ns, r) };
+        let [c0, c1] = big.children;
+        if big.leaf_count > 512 {
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            rayon::join(
+                || self.refine(c0, other, &mut a),
+                || self.refine(c1, other, &mut b),
+            );
+            out.append(&mut a);
+            out.append(&mut b);
+        } else {
+            self.refine(c0, other, out);
+            self.refine(c1, other, out);
+        }
+    }
+
+    /// Far-field `G`: `½ (Σ_a A_a F(a → S) + Σ_b A_b F(b → R))` over the pieces `a` of `R` and
+    /// `b` of `S`, each `F` exact on the other node's polygon where it is a rectangle; and the
+    /// in-plane gradients of `F(· → S)` over `R` and of `F(· → R)` over `S` fitted to the pieces.
+    fn far(&self, r: u32, s: u32) -> (f64, [f32; 2], [f32; 2]) {
+        let mut scratch = Vec::with_capacity(6);
+        let mut one_way = |from: u32, to: u32| {
+            let node = self.node(from);
+            let normal = node.normal;
+            let (pieces, k) = &self.geometry.pieces[from as usize];
+            let values: Vec<(f64, DVec3, f64)> = pieces[..*k]
+                .iter()
+                .map(|&(a, c)| {
+                    let f =
+                        self.geometry
+                            .node_factor(self.tree, to, c + normal * LIFT_M, normal, &mut scratch);
+                    (a, c, f)
+                })
+                .collect();
+            let g: f64 = values.iter().map(|(a, _, f)| a * f).sum();
+            let gradient = if node.is_leaf() || node.area <= 0.0 {
+                [0.0; 2]
+            } else {
+                let axes = plane_axes(normal);
+                let grad = fit_gradient(&values, node.centroid, axes);
+                // Keep the linear field non-negative over the node's bounds.
+                let reach = axes.map(|k| (node.centroid[k] - node.lo[k]).max(node.hi[k] - node.centroid[k]));
+                let mean = g / node.area;
+                let swing = f64::from(grad[0]).abs() * reach[0] + f64::from(grad[1]).abs() * reach[1];
+                if swing > mean && swing > 0.0 {
+                    grad.map(|x| (f64::from(x) * mean / swing) as f32)
+                } else {
+                    grad
+                }
+            };
+            (g, gradient)
+        };
+        let (g_r, grad_r) = one_way(r, s);
+        let (g_s, grad_s) = one_way(s, r);
+        (0.5 * (g_r + g_s), grad_r, grad_s)
+    }
+
+    /// Near `G` of two leaves: the exact contour factor averaged over points of the receiving
+    /// leaf, `A_R F̄_{R→S}`, from the smaller leaf (whose factor to the other varies least over
+    /// it), averaged both ways when their sizes are alike.
+    fn near(&self, a: u32, b: u32, dist: f64) -> f64 {
+        let (ta, tb) = (
+            &self.geometry.targets[a as usize],
+            &self.geometry.targets[b as usize],
+        );
+        let mut scratch = Vec::with_capacity(6);
+        let mut one_way = |from: &TargetPatch, to: &TargetPatch| {
+            let k = ((2.0 * from.size / dist).ceil() as usize).clamp(1, 4);
+            let points = from.sample_points(k);
+            let sum: f64 = points
+                .iter()
+                .map(|&p| to.form_factor_with(p, from.normal, f64::INFINITY, &mut scratch))
+                .sum();
+            from.area * sum / points.len() as f64
+        };
+        if ta.size > 2.0 * tb.size {
+            one_way(tb, ta)
+        } else if tb.size > 2.0 * ta.size {
+            one_way(ta, tb)
+        } else {
+            0.5 * (one_way(ta, tb) + one_way(tb, ta))
+        }
+    }
+
+    /// Unblocked fraction of `rays` rays between points spread over both nodes (1 without
+    /// occluders in the shaft).
+    fn visibility(&self, a: &Node, b: &Node, rays: usize) -> f64 {
+        let Some(occ) = self.occluders else { return 1.0 };
+        let pad = DVec3::splat(LIFT_M * 2.0);
+        let shaft = occ.shaft(a.lo.min(b.lo) - pad, a.hi.max(b.hi) + pad);
+        if shaft.is_empty() {
+            return 1.0;
+        }
+        let pa = self.geometry.spread_points(self.tree, a, rays);
+        let pb = self.geometry.spread_points(self.tree, b, rays);
+        // Pair point j of `a` with a permuted point of `b` (the multiplier is odd, so coprime
+        // with the power-of-two count).
+        let stride = if rays == LEAF_RAYS { 27 } else { 7 };
+        let seen = (0..rays)
+            .filter(|&j| !occ.blocked_in(&shaft, pa[j], pb[(j * stride + 3) % rays]))
+            .count();
+        self.rays.fetch_add(rays as u64, Ordering::Relaxed);
+        seen as f64 / rays as f64
+    }
+}

@@ -1,0 +1,785 @@
+//! Graded refinement of the solver mesh (docs/DECISIONS.md "Interreflection"): the coarse patches
+//! of a scene are split where a piecewise-constant radiosity would miss what matters for the
+//! indirect light next to them.
+//!
+//! * **Near lights**: a patch is halved across its longer side while that side exceeds
+//!   `lamp_ratio ×` its distance to a light in front of it (down to `lamp_min_m`). A lamp hung
+//!   0.2 m below a ceiling lights a hot spot of a few decimetres there, which acts as a second
+//!   source for everything around it; a 0.5 m patch would smear it.
+//! * **Along box contacts**: where a box stands on the floor (or on another box, or against a
+//!   wall or the ceiling), the patches of the supporting surface and of the box's faces that meet
+//!   along the contact edge are halved across the edge while their width across it exceeds
+//!   `contact_ratio ×` their distance to it, down to strips of `contact_min_m`. Light next to a
+//!   contact changes over centimetres (the dark strip of a box face by the floor, the floor in the
+//!   box's shadow), along the edge only over the box's size, so the strips are anisotropic. A strip
+//!   near the edge that a light's shadow line crosses (the box's own shadow next to its base,
+//!   a few centimetres wide beside a bright pool) is halved further, down to `shadow_min_m`.
+//!   The room's own edges near a light hung close to a room surface (a wall-washer under the
+//!   ceiling) are graded the same way.
+//!
+//! Splits are binary and axis-aligned on the room's and boxes' rectangles (so leaves stay
+//! rectangles of one surface) and 1 → 4 by edge midpoints on OBJ triangles (near lights only).
+//! Leaves keep the surface of their coarse patch; vertices are shared within a surface where they
+//! coincide (T-junctions are allowed). World frame: metres, z up.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use crate::scene::mesher::AxisRect;
+use crate::scene::{Aabb, Patch, PatchMesh, Scene, SurfaceKind};
+use crate::transport::occlusion::Occluders;
+use crate::transport::visibility::Visibility;
+
+/// How the solver mesh is graded. `Default` is what the bake uses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RefineOptions {
+    /// Halve a patch while its longer side exceeds this many times its distance to a light in
+    /// front of it; 0 turns the rule off. Default 1.
+    pub lamp_ratio: f64,
+    /// Shortest side (m) the light rule makes. Default 0.03 m.
+    pub lamp_min_m: f64,
+    /// Halve a patch across a box contact edge while its width across the edge exceeds this
+    /// many times its distance to the edge; 0 turns the rule off. Default 1.
+    pub contact_ratio: f64,
+    /// Narrowest strip (m) along a contact edge. Default 0.06 m.
+    pub contact_min_m: f64,
+    /// A strip along a contact edge that a light's shadow line crosses (some points of it see
+    /// the light, others not) is halved across the edge down to this width (m); 0 turns it off.
+    /// Default 0.01 m.
+    pub shadow_min_m: f64,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        RefineOptions {
+            lamp_ratio: 1.0,
+            lamp_min_m: 0.03,
+            contact_ratio: 1.0,
+            contact_min_m: 0.06,
+            shadow_min_m: 0.01,
+        }
+    }
+}
+
+impl RefineOptions {
+    /// No refinement at all: the solver mesh is the coarse mesh.
+    pub fn none() -> Self {
+        RefineOptions {
+            lamp_ratio: 0.0,
+            contact_ratio: 0.0,
+            shadow_min_m: 0.0,
+            ..RefineOptions::default()
+        }
+    }
+}
+
+/// What the refinement did near one light.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LampRefinement {
+    /// The light's index in the scene.
+    pub light: usize,
+    /// Distance (m) to the nearest room or box surface in front of it, and that surface's name.
+    pub distance_m: f64,
+    pub surface: String,
+    /// Coarse patches split because of this light, and the leaves they became.
+    pub patches_split: usize,
+    pub leaves: usize,
+}
+
+/// The graded solver mesh.
+#[derive(Debug, Clone)]
+pub struct SolverMesh {
+    /// The leaves (patches the interreflection is solved on).
+    pub mesh: PatchMesh,
+    /// Per leaf, the coarse patch it came from.
+    pub coarse_patch: Vec<u32>,
+    /// Per leaf, true when it was split off because a light is close: its direct light can be a
+    /// hot spot that must not be averaged with its surroundings.
+    pub near_lamp: Vec<bool>,
+    /// Per light that caused splits, what it did.
+    pub lamps: Vec<LampRefinement>,
+    /// Box contact edges graded towards, and the leaves made along them (beyond the coarse
+    /// patches they replaced).
+    pub contacts: usize,
+    pub contact_leaves_added: usize,
+}
+
+impl SolverMesh {
+    /// One line per refinement decision, for the plan ("refined near light L0: 0.20 m below
+    /// the ceiling", "graded along 4 box contacts"); empty when nothing was refined.
+    pub fn notes(&self, scene: &Scene) -> Vec<String> {
+        let mut notes: Vec<String> = self
+            .lamps
+            .iter()
+            .map(|l| {
+                format!(
+                    "refined near light {}: {:.2} m from the {}; {} coarse patches → {} patches",
+                    scene.lights[l.light].name, l.distance_m, l.surface, l.patches_split, l.leaves
+                )
+            })
+            .collect();
+        if self.contacts > 0 && self.contact_leaves_added > 0 {
+            notes.push(format!(
+                "graded along {} box contact edges: +{} patches",
+                self.contacts, self.contact_leaves_added
+            ));
+        }
+        notes
+    }
+}
+
+/// A contact edge: an axis-aligned segment where a box meets a supporting surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Contact {
+    /// The segment as a degenerate box (zero extent in two axes).
+    segment: Aabb,
+}
+
+/// An axis-aligned rectangle cell of a surface, in its plane's `(u, v)` coordinates.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    rect: AxisRect,
+}
+
+impl Cell {
+    fn extent(&self, k: usize) -> f64 {
+        self.rect.max[k] - self.rect.min[k]
+    }
+
+    /// The cell as a flat 3D box.
+    fn bounds(&self) -> Aabb {
+        let a = self.rect.point(self.rect.min[0], self.rect.min[1]);
+        let b = self.rect.point(self.rect.max[0], self.rect.max[1]);
+        Aabb {
+            min: a.min(b),
+            max: a.max(b),
+        }
+    }
+
+    fn halves(&self, k: usize) -> [Cell; 2] {
+        let mid = 0.5 * (self.rect.min[k] + self.rect.max[k]);
+        let mut lo = *self;
+        let mut hi = *self;
+        lo.rect.max[k] = mid;
+        hi.rect.min[k] = mid;
+        [lo, hi]
+    }
+}
+
+/// Distance (m) between two axis-aligned boxes (0 when they touch or overlap).
+fn box_distance(a: &Aabb, b: &Aabb) -> f64 {
+    let gap = (a.min - b.max).max(b.min - a.max).max(DVec3::ZERO);
+    gap.length()
+}
+
+/// Distance (m) from a point to an axis-aligned box.
+fn point_box_distance(p: DVec3, b: &Aabb) -> f64 {
+    p.distance(p.clamp(b.min, b.max))
+}
+
+/// A strip is split at a light's shadow line while it lies within this many of its widths of the
+/// contact edge.
+const SHADOW_REACH: f64 = 4.0;
+
+/// A light this close (m) to a room surface grades the room's edges near it like box contacts
+/// (a wall-washer's grazing light makes the wall/ceiling corner next to it change over
+/// centimetres), within `CORNER_REACH_FACTOR ×` that distance (plus `CORNER_REACH_M`) of it.
+const CORNER_LAMP_M: f64 = 0.5;
+const CORNER_REACH_FACTOR: f64 = 6.0;
+const CORNER_REACH_M: f64 = 0.3;
+
+/// What the recursive splits need.
+struct Splitter<'a> {
+    scene: &'a Scene,
+    options: &'a RefineOptions,
+    contacts: Vec<Contact>,
+    occluders: Option<Occluders>,
+}
+
+/// Refines the coarse mesh of `scene`.
+pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
+    let contacts = if options.contact_ratio > 0.0 {
+        contact_edges(scene)
+    } else {
+        Vec::new()
+    };
+    let splitter = Splitter {
+        scene,
+        options,
+        occluders: (!contacts.is_empty() && options.shadow_min_m > 0.0)
+            .then(|| Occluders::of_scene(scene))
+            .flatten(),
+        contacts,
+    };
+    let mut out = Builder::default();
+    let mut lamp_split = vec![(0usize, 0usize); scene.lights.len()];
+    let mut contact_added = 0usize;
+    for (index, patch) in scene.coarse.patches.iter().enumerate() {
+        let surface = &scene.surfaces[patch.surface as usize];
+        if matches!(surface.kind, SurfaceKind::Mesh { .. }) || patch.n_vertices != 4 {
+            let corners = [0, 1, 2].map(|k| scene.coarse.positions[patch.vertices[k] as usize]);
+            let (leaves, lamp) = split_triangle(scene, options, corners, patch);
+            if let Some(light) = lamp {
+                lamp_split[light].0 += 1;
+                lamp_split[light].1 += leaves.len();
+            }
+            for tri in leaves {
+                out.triangle(patch, index, tri, lamp.is_some());
+            }
+            continue;
+        }
+        let cell = cell_of(&scene.coarse, patch);
+        let mut leaves = Vec::new();
+        let mut first_lamp = None;
+        let mut by_contact = false;
+        splitter.split(cell, &mut leaves, &mut first_lamp, &mut by_contact);
+        if let Some(light) = first_lamp {
+            lamp_split[light].0 += 1;
+            lamp_split[light].1 += leaves.len();
+        } else if by_contact {
+            contact_added += leaves.len() - 1;
+        }
+        for leaf in leaves {
+            out.rect(patch, index, &leaf, first_lamp.is_some());
+        }
+    }
+    let lamps = lamp_split
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.0 > 0)
+        .map(|(light, &(patches_split, leaves))| {
+            let (distance_m, surface) = nearest_surface(scene, scene.lights[light].position);
+            LampRefinement {
+                light,
+                distance_m,
+                surface,
+                patches_split,
+                leaves,
+            }
+        })
+        .collect();
+    SolverMesh {
+        mesh: out.mesh,
+        coarse_patch: out.coarse_patch,
+        near_lamp: out.near_lamp,
+        lamps,
+        contacts: splitter.contacts.len(),
+        contact_leaves_added: contact_added,
+    }
+}
+
+/// The nearest room surface or box face to `p` (distance, name).
+fn nearest_surface(scene: &Scene, p: DVec3) -> (f64, String) {
+    let s = scene.room_size;
+    let mut best = [
+        (p.z, "floor".to_string()),
+        (s.z - p.z, "ceiling".to_string()),
+        (p.x, "wall x = 0".to_string()),
+        (s.x - p.x, "wall x = max".to_string()),
+        (p.y, "wall y = 0".to_string()),
+        (s.y - p.y, "wall y = max".to_string()),
+    ]
+    .into_iter()
+    .min_by(|a, b| a.0.total_cmp(&b.0))
+    .unwrap_or((f64::INFINITY, String::new()));
+    for (i, b) in scene.boxes.iter().enumerate() {
+        let d = point_box_distance(p, b);
+        if d < best.0 {
+            best = (d, format!("box {i}"));
+        }
+    }
+    best
+}
+
+/// The cell of an axis-aligned quad patch.
+fn cell_of(mesh: &PatchMesh, patch: &Patch) -> Cell {
+    let axis = patch.normal.abs().max_position();
+    let facing_positive = patch.normal[axis] > 0.0;
+    let [u, v] = AxisRect::in_plane_axes(axis, facing_positive);
+    let corners = patch.vertex_ids().iter().map(|&i| mesh.positions[i as usize]);
+    let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| {
+        (lo.min(q), hi.max(q))
+    });
+    Cell {
+        rect: AxisRect {
+            axis,
+            offset: patch.centroid[axis],
+            facing_positive,
+            min: [lo[u], lo[v]],
+            max: [hi[u], hi[v]],
+        },
+    }
+}
+
+impl Splitter<'_> {
+    /// Splits a rectangle cell recursively (see the module docs), appending the leaves.
+    fn split(
+        &self,
+        cell: Cell,
+        leaves: &mut Vec<Cell>,
+        first_lamp: &mut Option<usize>,
+        by_contact: &mut bool,
+    ) {
+        let axis = self.lamp_axis(&cell, first_lamp).or_else(|| {
+            let axis = self.contact_axis(&cell);
+            *by_contact |= axis.is_some();
+            axis
+        });
+        match axis {
+            None => leaves.push(cell),
+            Some(k) => {
+                for half in cell.halves(k) {
+                    self.split(half, leaves, first_lamp, by_contact);
+                }
+            }
+        }
+    }
+
+    /// The longer side, when the cell is larger than `lamp_ratio ×` its distance to a light in
+    /// front of it (recording the first such light).
+    fn lamp_axis(&self, cell: &Cell, first_lamp: &mut Option<usize>) -> Option<usize> {
+        let options = self.options;
+        let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
+        if options.lamp_ratio <= 0.0 || cell.extent(longer) <= 2.0 * options.lamp_min_m {
+            return None;
+        }
+        let bounds = cell.bounds();
+        let normal = cell.rect.normal();
+        let centre = (bounds.min + bounds.max) / 2.0;
+        let (i, _) = self.scene.lights.iter().enumerate().find(|(_, light)| {
+            normal.dot(light.position - centre) > 0.0
+                && cell.extent(longer) > options.lamp_ratio * point_box_distance(light.position, &bounds)
+        })?;
+        first_lamp.get_or_insert(i);
+        Some(longer)
+    }
+
+    /// The axis across a contact edge in the cell's plane, when the cell is wider across it than
+    /// `contact_ratio ×` its distance to it, or when it touches the edge and a light's shadow line
+    /// runs through it.
+    fn contact_axis(&self, cell: &Cell) -> Option<usize> {
+        let options = self.options;
+        if options.contact_ratio <= 0.0 {
+            return None;
+        }
+        let bounds = cell.bounds();
+        let [ua, va] = AxisRect::in_plane_axes(cell.rect.axis, cell.rect.facing_positive);
+        for contact in &self.contacts {
+            let seg = &contact.segment;
+            // The contact must lie in the cell's plane.
+            let a = cell.rect.axis;
+            if (seg.min[a] - cell.rect.offset).abs() > 1e-9 || (seg.max[a] - cell.rect.offset).abs() > 1e-9 {
+                continue;
+            }
+            // Across the edge: the in-plane axis along which the segment has no extent.
+            let across = if (seg.max[ua] - seg.min[ua]).abs() < 1e-12 {
+                0
+            } else {
+                1
+            };
+            let world_across = [ua, va][across];
+            if (seg.max[world_across] - seg.min[world_across]).abs() > 1e-12 {
+                continue;
+            }
+            let width = cell.extent(across);
+            let distance = box_distance(&bounds, seg);
+            if width > 2.0 * options.contact_min_m && width > options.contact_ratio * distance {
+                return Some(across);
+            }
+            // The shadow rule reaches a few strip widths from the edge: the box's shadow line
+            // beside its base, where the nearest receivers still see it at a steep angle.
+            if distance <= SHADOW_REACH * width
+                && width > 2.0 * options.shadow_min_m
+                && self.shadow_line_crosses(cell, across)
+            {
+                return Some(across);
+            }
+        }
+        None
+    }
+
+    /// True when some light in front of the cell sees part of its edges parallel to the contact
+    /// (three points on each, lifted off the surface) and not the rest.
+    fn shadow_line_crosses(&self, cell: &Cell, across: usize) -> bool {
+        let Some(occ) = &self.occluders else { return false };
+        let along = 1 - across;
+        let r = &cell.rect;
+        let normal = r.normal();
+        let mut points = Vec::with_capacity(6);
+        for side in [r.min[across], r.max[across]] {
+            for t in [1.0 / 6.0, 0.5, 5.0 / 6.0] {
+                let mut uv = [0.0; 2];
+                uv[across] = side;
+                uv[along] = r.min[along] + t * (r.max[along] - r.min[along]);
+                points.push(r.point(uv[0], uv[1]) + normal * 1e-6);
+            }
+        }
+        self.scene.lights.iter().any(|light| {
+            let in_front: Vec<&DVec3> = points
+                .iter()
+                .filter(|p| normal.dot(light.position - **p) > 0.0)
+                .collect();
+            let seen = in_front
+                .iter()
+                .filter(|&&&p| occ.visible(light.position, p))
+                .count();
+            seen > 0 && seen < in_front.len()
+        })
+    }
+}
+
+/// Splits an OBJ triangle 1 → 4 while its longest edge exceeds `lamp_ratio ×` its distance to a
+/// light in front of it; returns the pieces and the first light that caused a split.
+fn split_triangle(
+    scene: &Scene,
+    options: &RefineOptions,
+    corners: [DVec3; 3],
+    patch: &Patch,
+) -> (Vec<[DVec3; 3]>, Option<usize>) {
+    let mut out = Vec::new();
+    let mut first = None;
+    let mut stack = vec![corners];
+    while let Some(t) = stack.pop() {
+        let longest = (0..3).map(|e| t[e].distance(t[(e + 1) % 3])).fold(0.0, f64::max);
+        let centre = (t[0] + t[1] + t[2]) / 3.0;
+        let near = (options.lamp_ratio > 0.0 && longest > 2.0 * options.lamp_min_m)
+            .then(|| {
+                scene.lights.iter().position(|l| {
+                    patch.normal.dot(l.position - centre) > 0.0
+                        && longest
+                            > options.lamp_ratio * (l.position.distance(centre) - longest / 2.0).max(0.0)
+                })
+            })
+            .flatten();
+        match near {
+            Some(i) => {
+                first.get_or_insert(i);
+                let m = [(t[0] + t[1]) / 2.0, (t[1] + t[2]) / 2.0, (t[2] + t[0]) / 2.0];
+                stack.extend([
+                    [t[0], m[0], m[2]],
+                    [m[0], t[1], m[1]],
+                    [m[2], m[1], t[2]],
+                    [m[0], m[1], m[2]],
+                ]);
+            }
+            None => out.push(t),
+        }
+    }
+    (out, first)
+}
+
+/// The edges where a box rests on (or against) a room surface or the top of another box,
+/// clipped to the support, leaving out edges that lie on the room's own edges; and the room's own
+/// edges within reach of a light close to a room surface.
+fn contact_edges(scene: &Scene) -> Vec<Contact> {
+    let size = scene.room_size;
+    let eps = 1e-9 * (1.0 + size.max_element());
+    let mut out = Vec::new();
+    let mut push_rect_edges =
+        |axis: usize, offset: f64, lo: DVec3, hi: DVec3, support_lo: DVec3, support_hi: DVec3| {
+            // The rectangle [lo, hi] in the plane coordinate[axis] = offset, clipped to the support.
+            let lo = lo.max(support_lo);
+            let hi = hi.min(support_hi);
+            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+            if hi[a] - lo[a] <= eps || hi[b] - lo[b] <= eps {
+                return;
+            }
+            for (fixed, along) in [(a, b), (b, a)] {
+                for value in [lo[fixed], hi[fixed]] {
+                    // Edges on the support's own boundary are not contacts with its visible part.
+                    if (value - support_lo[fixed]).abs() <= eps || (value - support_hi[fixed]).abs() <= eps {
+                        continue;
+                    }
+                    let mut min = DVec3::ZERO;
+                    let mut max = DVec3::ZERO;
+                    min[axis] = offset;
+                    max[axis] = offset;
+                    min[fixed] = value;
+                    max[fixed] = value;
+                    min[along] = lo[along];
+                    max[along] = hi[along];
+                    out.push(Contact {
+                        segment: Aabb { min, max },
+                    });
+                }
+            }
+        };
+    for b in &scene.boxes {
+        // Room faces: (axis, the box face's coordinate, the room face's coordinate).
+        for axis in 0..3 {
+            for (box_side, room_side) in [(b.min[axis], 0.0), (b.max[axis], size[axis])] {
+                if (box_side - room_side).abs() <= eps {
+                    push_rect_edges(axis, room_side, b.min, b.max, DVec3::ZERO, size);
+                }
+            }
+        }
+        // Resting on top of another box.
+        for other in &scene.boxes {
+            if std::ptr::eq(b, other) || (b.min.z - other.max.z).abs() > eps {
+                continue;
+            }
+            let lo = DVec3::new(other.min.x, other.min.y, other.max.z);
+            let hi = DVec3::new(other.max.x, other.max.y, other.max.z);
+            push_rect_edges(2, other.max.z, b.min, b.max, lo, hi);
+        }
+    }
+    // The room's edges near lights close to a room surface.
+    for light in &scene.lights {
+        let p = light.position;
+        let near = p.min(size - p).min_element();
+        if near > CORNER_LAMP_M {
+            continue;
+        }
+        let reach = CORNER_REACH_FACTOR * near + CORNER_REACH_M;
+        // Each room edge runs along `along` at fixed values of the other two coordinates.
+        for along in 0..3 {
+            let (a, b) = ((along + 1) % 3, (along + 2) % 3);
+            for va in [0.0, size[a]] {
+                for vb in [0.0, size[b]] {
+                    let gap = (p[a] - va).hypot(p[b] - vb);
+                    if gap > reach {
+                        continue;
+                    }
+                    let half = (reach * reach - gap * gap).sqrt();
+                    let (lo, hi) = ((p[along] - half).max(0.0), (p[along] + half).min(size[along]));
+                    if hi - lo <= eps {
+                        continue;
+                    }
+                    let mut min = DVec3::ZERO;
+                    min[a] = va;
+                    min[b] = vb;
+                    let mut max = min;
+                    min[along] = lo;
+                    max[along] = hi;
+                    out.push(Contact {
+                        segment: Aabb { min, max },
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Collects leaves into a mesh, sharing vertices within a surface.
+#[derive(Default)]
+struct Builder {
+    mesh: PatchMesh,
+    coarse_patch: Vec<u32>,
+    near_lamp: Vec<bool>,
+    ids: HashMap<(u32, [u64; 3]), u32>,
+}
+
+impl Builder {
+    fn vertex(&mut self, surface: u32, p: DVec3, normal: DVec3) -> u32 {
+        let key = (surface, p.to_array().map(|x| (x + 0.0).to_bits()));
+        let mesh = &mut self.mesh;
+        *self.ids.entry(key).or_insert_with(|| {
+            mesh.positions.push(p);
+            mesh.normals.push(normal);
+            mesh.vertex_surface.push(surface);
+            (mesh.positions.len() - 1) as u32
+        })
+    }
+
+    fn rect(&mut self, parent: &Patch, index: usize, cell: &Cell, near_lamp: bool) {
+        let r = &cell.rect;
+        let corners = [
+            r.point(r.min[0], r.min[1]),
+            r.point(r.max[0], r.min[1]),
+            r.point(r.max[0], r.max[1]),
+            r.point(r.min[0], r.max[1]),
+        ];
+        let vertices = corners.map(|c| self.vertex(parent.surface, c, parent.normal));
+        self.mesh.patches.push(Patch {
+            vertices,
+            n_vertices: 4,
+            surface: parent.surface,
+            normal: parent.normal,
+            area: cell.extent(0) * cell.extent(1),
+            centroid: r.point(0.5 * (r.min[0] + r.max[0]), 0.5 * (r.min[1] + r.max[1])),
+        });
+        self.coarse_patch.push(index as u32);
+        self.near_lamp.push(near_lamp);
+    }
+
+    fn triangle(&mut self, parent: &Patch, index: usize, t: [DVec3; 3], near_lamp: bool) {
+        let v = t.map(|c| self.vertex(parent.surface, c, parent.normal));
+        self.mesh.patches.push(Patch {
+            vertices: [v[0], v[1], v[2], v[2]],
+            n_vertices: 3,
+            surface: parent.surface,
+            normal: parent.normal,
+            area: 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length(),
+            centroid: (t[0] + t[1] + t[2]) / 3.0,
+        });
+        self.coarse_patch.push(index as u32);
+        self.near_lamp.push(near_lamp);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(text: &str) -> Scene {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let path = dir.path().join("room.toml");
+        std::fs::write(&path, text).expect("the room file is written");
+        crate::scene::load(&path).expect("the test room is valid")
+    }
+
+    const EMPTY: &str = r#"
+version = 1
+[room]
+size = [4.0, 3.0, 2.5]
+[room.reflectance]
+floor = 0.2
+walls = 0.5
+ceiling = 0.7
+[[light]]
+name = "l"
+position = [2.0, 1.5, 1.2]
+lid = [[0, 100], [90, 0]]
+[settings]
+solver_patch_size = 0.5
+"#;
+
+    fn total_area(mesh: &PatchMesh) -> f64 {
+        mesh.patches.iter().map(|p| p.area).sum()
+    }
+
+    /// A light far from every surface and no boxes: nothing to refine, the coarse mesh is kept
+    /// patch for patch, and there are no notes.
+    #[test]
+    fn a_scene_that_does_not_call_for_it_gets_no_refinement() {
+        let s = scene(EMPTY);
+        let solver = refine(&s, &RefineOptions::default());
+        assert_eq!(solver.mesh.patches.len(), s.coarse.patches.len());
+        assert!(solver.notes(&s).is_empty(), "{:?}", solver.notes(&s));
+        for (a, b) in solver.mesh.patches.iter().zip(&s.coarse.patches) {
+            assert_eq!(a.area, b.area);
+            assert_eq!(a.centroid, b.centroid);
+        }
+    }
+
+    /// A lamp 0.2 m below the ceiling: the ceiling patches around it are split until no leaf is
+    /// longer than its distance to the lamp; the area is kept and leaves stay on their surface.
+    #[test]
+    fn patches_near_a_lamp_are_no_larger_than_their_distance_to_it() {
+        let s = scene(&EMPTY.replace("[2.0, 1.5, 1.2]", "[2.0, 1.5, 2.3]"));
+        let solver = refine(&s, &RefineOptions::default());
+        assert!(solver.mesh.patches.len() > s.coarse.patches.len());
+        assert!((total_area(&solver.mesh) - total_area(&s.coarse)).abs() < 1e-9);
+        let lamp = s.lights[0].position;
+        let mut smallest = f64::INFINITY;
+        for p in &solver.mesh.patches {
+            let corners: Vec<DVec3> = p
+                .vertex_ids()
+                .iter()
+                .map(|&v| solver.mesh.positions[v as usize])
+                .collect();
+            let lo = corners.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+            let hi = corners.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
+            let longest = (hi - lo).max_element();
+            let d = point_box_distance(lamp, &Aabb { min: lo, max: hi });
+            if p.normal.dot(lamp - p.centroid) > 0.0 {
+                assert!(longest <= d.max(2.0 * 0.03) + 1e-12, "{longest} at distance {d}");
+            }
+            smallest = smallest.min(longest);
+            assert_eq!(solver.mesh.vertex_surface[p.vertices[0] as usize], p.surface);
+        }
+        assert!(
+            smallest < 0.2,
+            "the ceiling above the lamp is refined: {smallest}"
+        );
+        let notes = solver.notes(&s);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("refined near light l: 0.20 m from the ceiling"),
+            "{notes:?}"
+        );
+    }
+
+    /// A box on the floor: floor strips and the box sides' bottom strips are graded to 6.25 cm
+    /// at the contact (anisotropically: longer along the edge, graded towards the box's corners), the four edges are
+    /// counted, and the far floor is untouched.
+    #[test]
+    fn box_contacts_are_graded_with_strips() {
+        // The light is on the +x side: the floor strip beside the box's x = 2 face is not in its
+        // shadow.
+        let text = EMPTY.replace("[2.0, 1.5, 1.2]", "[3.2, 1.5, 1.5]").replace(
+            "[[light]]",
+            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 2.0, 0.8]\nreflectance = 0.4\n[[light]]",
+        );
+        let s = scene(&text);
+        let solver = refine(&s, &RefineOptions::default());
+        assert_eq!(solver.contacts, 4);
+        assert!(solver.contact_leaves_added > 0);
+        assert!((total_area(&solver.mesh) - total_area(&s.coarse)).abs() < 1e-9);
+        let floor = s
+            .surfaces
+            .iter()
+            .position(|x| x.kind == SurfaceKind::Floor)
+            .unwrap() as u32;
+        // The floor leaf touching the box's x = 2 face at y = 1.5: a strip 0.0625 wide across.
+        let strip = solver
+            .mesh
+            .patches
+            .iter()
+            .find(|p| {
+                p.surface == floor
+                    && (p.centroid.x - 2.03125).abs() < 1e-9
+                    && (p.centroid.y - 1.375).abs() < 1e-9
+            })
+            .expect("a strip beside the box");
+        // Halfway along the face it is 0.25 m long (its distance to the box's corner edges,
+        // 0.375 m, bounds its length); next to a corner it is square.
+        assert!((strip.area - 0.0625 * 0.25).abs() < 1e-12, "{}", strip.area);
+        let corner = solver
+            .mesh
+            .patches
+            .iter()
+            .find(|p| p.surface == floor && p.centroid.distance(DVec3::new(2.03125, 1.03125, 0.0)) < 1e-9)
+            .expect("a leaf at the box's corner");
+        assert!((corner.area - 0.0625 * 0.0625).abs() < 1e-12, "{}", corner.area);
+        // A box side's bottom strip.
+        let side = s.surfaces.iter().position(|x| x.name == "box0-x1").unwrap() as u32;
+        let lowest = solver
+            .mesh
+            .patches
+            .iter()
+            .filter(|p| p.surface == side)
+            .map(|p| p.centroid.z)
+            .fold(f64::INFINITY, f64::min);
+        // 0.8 m halved while wider than twice the 6 cm minimum: a 0.1 m strip at the floor.
+        assert!((lowest - 0.05).abs() < 1e-12, "{lowest}");
+        // Far from the box the floor keeps its 0.5 m patches.
+        assert!(
+            solver
+                .mesh
+                .patches
+                .iter()
+                .any(|p| p.surface == floor && p.centroid.x > 3.5 && (p.area - 0.25).abs() < 1e-12)
+        );
+        assert!(
+            solver
+                .notes(&s)
+                .iter()
+                .any(|n| n.contains("graded along 4 box contact edges"))
+        );
+    }
+
+    /// The refinement can be turned off.
+    #[test]
+    fn refinement_off_keeps_the_coarse_mesh() {
+        let text = EMPTY.replace("[2.0, 1.5, 1.2]", "[2.1, 1.4, 2.3]").replace(
+            "[[light]]",
+            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 2.0, 0.8]\nreflectance = 0.4\n[[light]]",
+        );
+        let s = scene(&text);
+        let solver = refine(&s, &RefineOptions::none());
+        assert_eq!(solver.mesh.patches.len(), s.coarse.patches.len());
+    }
+}
