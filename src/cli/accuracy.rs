@@ -421,7 +421,7 @@ fn at_order(scene: &Scene, order: usize) -> Scene {
 fn bake_with(scene: &Scene, tolerance: Option<f64>) -> Result<Bake> {
     let options = BakeOptions {
         plan: PlanOptions::default(),
-        cache_dir: None,
+        cache: None,
         tolerance,
         form_factors: None,
     };

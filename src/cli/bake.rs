@@ -109,7 +109,7 @@ pub fn progress_printer() -> impl FnMut(Progress) {
 /// Bakes with the user's cache and the command-line progress bar; prints cache notices.
 pub fn bake_for_cli(scene: &scene::Scene) -> Result<Bake> {
     let options = BakeOptions {
-        cache_dir: Some(cache::default_dir()),
+        cache: Some(cache::BakeCache::user()),
         ..BakeOptions::default()
     };
     let result = bake(scene, &options, &mut progress_printer())?;

@@ -17,7 +17,7 @@ pub mod weights;
 pub use aim::{aimed_coefficients, eval_aimed};
 pub use curve::{Curve, CurveError};
 pub use edit::IncrementalWeights;
-pub use emission::{LightState, light_coefficients};
+pub use emission::{LightState, coefficients_from_weights, light_coefficients};
 pub use ies::write_ies;
 pub use legendre::{legendre_series, legendre_table};
 pub use lidfile::{LidFile, LidFormat, read_lid_file};

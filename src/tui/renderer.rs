@@ -267,7 +267,7 @@ pub fn baked_relighter(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Relighter> {
     let options = BakeOptions {
-        cache_dir: cache_dir.map(Path::to_path_buf),
+        cache: cache_dir.map(crate::transport::cache::BakeCache::in_dir),
         ..BakeOptions::default()
     };
     let bake = bake(scene, &options, progress)?;
