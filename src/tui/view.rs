@@ -71,7 +71,7 @@ pub fn preview_rect(area: Rect) -> Rect {
 }
 
 /// The preview pixel under terminal cell `cell`, for an image of `width × height` pixels
-/// covering `image_area` (docs/DECISIONS.md "Editor"): the cell's centre scaled to pixels,
+/// covering `image_area` (pixel centres as in docs/METHOD.md §1): the cell's centre scaled to pixels,
 /// `(col − x0 + ½) / cols · width`, in exact integer arithmetic.
 pub fn cell_to_pixel(cell: Position, image_area: Rect, width: u32, height: u32) -> Option<(u32, u32)> {
     let scale = |offset: u16, cells: u16, pixels: u32| {

@@ -153,7 +153,7 @@ fn tables_on_a_small_room() {
     assert!(at_reference.errors.grid.max_rel < 1e-12 && at_reference.errors.vertices.max_rel < 1e-12);
 
     // 5. Quadrature: exact weights are the reference; the 5° rectangle rule errs by the order of
-    // magnitude docs/METHOD.md §3 measured for l ≤ 10 (4e-3 batwing), and 1° errs far less (O(Δγ²)).
+    // magnitude docs/METHOD.md §3 measured for l ≤ 10 (5e-3 batwing), and 1° errs far less (O(Δγ²)).
     let w = |method: &str| {
         report
             .quadrature

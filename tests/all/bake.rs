@@ -1,5 +1,5 @@
 //! The bake: conservation (Sumpner, zero-flux basis emitters), linearity of the blend, the plan's
-//! decisions and that they change no answer, and the cache's integrity (docs/METHOD.md §8).
+//! decisions and that they change no answer, and the cache's integrity (docs/METHOD.md §7, §8).
 
 use std::path::Path;
 
