@@ -216,6 +216,27 @@ impl Relighter {
         self.update(i);
     }
 
+    /// Sets light `i`'s curve (with its Legendre weights, as for
+    /// [`Self::set_curve_with_weights`]), aim (world; normalised here), dimmer and window at once:
+    /// one recomputation for any number of changes.
+    pub fn set_light(
+        &mut self,
+        i: usize,
+        curve: &Curve,
+        weights: &ZonalWeights,
+        aim: DVec3,
+        dimmer: f64,
+        window: Option<Window>,
+    ) {
+        let light = &mut self.lights[i];
+        light.state.curve.clone_from(curve);
+        light.weights.w.clone_from(&weights.w);
+        light.state.aim = aim.normalize();
+        light.state.dimmer = dimmer;
+        light.window = window;
+        self.update(i);
+    }
+
     /// Re-aims light `i` along `aim` (world; normalised here).
     pub fn set_aim(&mut self, i: usize, aim: DVec3) {
         self.lights[i].state.aim = aim.normalize();

@@ -4,6 +4,7 @@ pub mod load;
 pub mod mesher;
 pub mod model;
 pub mod obj;
+pub mod points;
 pub mod remesh;
 pub mod room_file;
 

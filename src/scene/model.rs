@@ -235,6 +235,15 @@ impl Aabb {
     }
 }
 
+/// A point that receives light: position (world, m) and unit normal of its surface side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Receiver {
+    /// Position (world, m).
+    pub point: DVec3,
+    /// Unit normal (world) on the side that receives light.
+    pub normal: DVec3,
+}
+
 /// A loaded, meshed room.
 #[derive(Debug, Clone)]
 pub struct Scene {

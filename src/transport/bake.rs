@@ -458,8 +458,9 @@ impl Transport {
 }
 
 impl BakedLight {
-    /// A light in a room that reflects nothing: no columns stored.
-    fn without_indirect(plan: &LightPlan) -> Self {
+    /// A light with no stored basis (a room that reflects nothing, or a light whose bake is
+    /// still to come).
+    pub fn without_indirect(plan: &LightPlan) -> Self {
         BakedLight {
             plan: plan.clone(),
             n_columns: plan.columns,

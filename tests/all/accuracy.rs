@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use haiko::cli::accuracy::{AccuracyOptions, AccuracyReport, ErrorStats, accuracy, format_report};
+use haiko::accuracy::{AccuracyOptions, AccuracyReport, ErrorStats, accuracy};
+use haiko::cli::accuracy::format_report;
 use haiko::scene::remesh::remesh;
 use haiko::scene::{Scene, load};
 
