@@ -80,6 +80,35 @@ fn key_to_pixmap(c: &mut Criterion) {
     });
 }
 
+/// One 0.1 m move of light 0 (alternating back and forth), as the editor completes it: the
+/// command (its direct cache rebuilt), that light's bake on the shared transport (the other
+/// lights are not solved again), the bake installed, the light recomputed.
+fn light_move(c: &mut Criterion) {
+    let mut group = c.benchmark_group("editor/light_move");
+    for name in ["paper", "office"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("rooms/{name}.toml"));
+        let scene = haiko::scene::load(&path).expect("a bundled room loads");
+        let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+        session.relight();
+        let start = session.lights()[0].position;
+        let mut forth = true;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let offset = if forth { 0.1 } else { 0.0 };
+                forth = !forth;
+                let position = start + glam::DVec3::new(offset, 0.0, 0.0);
+                session
+                    .apply(haiko::session::Command::Move { light: 0, position })
+                    .expect("a valid move");
+                session.relight();
+                session.run_bake_jobs(&mut |_| {}).expect("the light bakes");
+                black_box(session.relight())
+            })
+        });
+    }
+    group.finish();
+}
+
 /// Heap allocations of one key press (after the first frame), printed: the frame buffers are
 /// reused, so what is left is a few small vectors.
 fn allocations_per_key(_: &mut Criterion) {
@@ -149,6 +178,6 @@ fn configured() -> Criterion {
 criterion_group! {
     name = benches;
     config = configured();
-    targets = key_to_pixmap, allocations_per_key, bytes_per_frame
+    targets = key_to_pixmap, light_move, allocations_per_key, bytes_per_frame
 }
 criterion_main!(benches);

@@ -8,6 +8,7 @@
 //! [`accuracy`] turn the lit room into design numbers and error-versus-time tables.
 
 pub mod accuracy;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
 pub mod metrics;
@@ -17,6 +18,7 @@ pub mod render;
 pub mod scene;
 pub mod session;
 pub mod transport;
+#[cfg(feature = "cli")]
 pub mod tui;
 
 pub use error::{Error, Result};

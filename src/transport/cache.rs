@@ -222,30 +222,40 @@ pub fn read(path: &Path, key: u64) -> CacheLoad {
     }
 }
 
-fn check(data: &[u8], key: u64) -> Result<(), String> {
+/// Why a cache file is not valid for a key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+enum Defect {
+    #[error("not a Haiko bake file (truncated header or wrong magic)")]
+    NotABakeFile,
+    #[error("format version {0}, this Haiko writes {FORMAT_VERSION}")]
+    Version(u32),
+    #[error("made for different inputs (key mismatch)")]
+    Key,
+    #[error("payload is {actual} bytes, header says {stated} (truncated?)")]
+    Length { actual: u64, stated: u64 },
+    #[error("checksum mismatch (corrupted)")]
+    Checksum,
+}
+
+fn check(data: &[u8], key: u64) -> Result<(), Defect> {
     if data.len() < HEADER_LEN || &data[..8] != MAGIC {
-        return Err("not a Haiko bake file (truncated header or wrong magic)".into());
+        return Err(Defect::NotABakeFile);
     }
     let u32_at = |o: usize| u32::from_le_bytes(data[o..o + 4].try_into().expect("4 bytes"));
     let u64_at = |o: usize| u64::from_le_bytes(data[o..o + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
     if version != FORMAT_VERSION {
-        return Err(format!(
-            "format version {version}, this Haiko writes {FORMAT_VERSION}"
-        ));
+        return Err(Defect::Version(version));
     }
     if u64_at(16) != key {
-        return Err("made for different inputs (key mismatch)".into());
+        return Err(Defect::Key);
     }
-    let len = u64_at(24);
-    if len != (data.len() - HEADER_LEN) as u64 {
-        return Err(format!(
-            "payload is {} bytes, header says {len} (truncated?)",
-            data.len() - HEADER_LEN
-        ));
+    let (stated, actual) = (u64_at(24), (data.len() - HEADER_LEN) as u64);
+    if stated != actual {
+        return Err(Defect::Length { actual, stated });
     }
     if Fnv64::default().bytes(&data[HEADER_LEN..]).finish() != u64_at(32) {
-        return Err("checksum mismatch (corrupted)".into());
+        return Err(Defect::Checksum);
     }
     Ok(())
 }

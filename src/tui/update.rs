@@ -11,7 +11,7 @@ use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
 use ratatui::layout::{Position, Rect};
 
 use crate::scene::{Camera, LidSource};
-use crate::session::Command;
+use crate::session::{Change as Changed, Command, LightStatus};
 use crate::tui::camera_nav;
 use crate::tui::edits::{self, EditError};
 use crate::tui::history::Change;
@@ -265,6 +265,17 @@ fn run(model: &mut Model, command: Command, record: bool) -> Vec<Effect> {
     match command.apply(&mut model.lights, &mut model.camera, &model.bounds) {
         Ok(applied) if applied.inverse == command => Vec::new(),
         Ok(applied) => {
+            match applied.change {
+                Changed::Inserted { at } => {
+                    model.series.insert(at, None);
+                    model.light_status.insert(at, LightStatus::Updating);
+                }
+                Changed::Removed { at } => {
+                    model.series.remove(at);
+                    model.light_status.remove(at);
+                }
+                _ => {}
+            }
             if record && let Some(light) = command.light() {
                 model.history.record(Change {
                     light,

@@ -8,6 +8,7 @@ use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
 
+use crate::session::LightStatus;
 use crate::tui::keys::{self, ModeKind};
 use crate::tui::model::{LightEdit, Mode, Model};
 use crate::tui::polar::{self, PolarDiagram};
@@ -241,6 +242,16 @@ fn status_line(model: &Model) -> Line<'static> {
     }
     if let Some((done, total)) = model.bake {
         parts.push(format!("baking {done}/{total}"));
+    }
+    let updating: Vec<&str> = model
+        .lights
+        .iter()
+        .zip(&model.light_status)
+        .filter(|(_, status)| **status == LightStatus::Updating)
+        .map(|(light, _)| light.name.as_str())
+        .collect();
+    if !updating.is_empty() {
+        parts.push(format!("updating {}", updating.join(", ")));
     }
     if let Some(picked) = model.picked {
         parts.push(format!("E {:.0} lx", picked.lux));

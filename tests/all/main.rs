@@ -1,9 +1,11 @@
 //! One integration-test binary for the whole crate (fast to build): each area is a module.
 
 mod direct;
+mod layering;
 mod lidfiles;
 mod photometry;
 mod scene;
+mod session;
 
 fn main() {}
 mod accuracy;
