@@ -63,6 +63,7 @@ mod tests {
             radius: 0.05,
             dimmer: 0.5,
             color: [1.0; 3],
+            luminous: None,
         });
         edit.window = window;
         edit
