@@ -6,9 +6,11 @@
 
 pub mod cli;
 pub mod error;
+pub mod metrics;
 pub mod photometry;
 pub mod relight;
 pub mod render;
+pub mod report;
 pub mod scene;
 pub mod transport;
 pub mod tui;
