@@ -15,6 +15,7 @@ pub mod metrics;
 pub mod photometry;
 pub mod relight;
 pub mod render;
+pub mod report;
 pub mod scene;
 pub mod session;
 pub mod transport;

@@ -26,7 +26,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::metrics::grid::WorkPlane;
+use crate::metrics::work_plane::WorkPlane;
 use crate::photometry::{Curve, ZonalWeights, auto_window};
 use crate::relight::{Relighter, fine_receivers};
 use crate::scene::remesh::remesh;

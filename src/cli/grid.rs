@@ -1,5 +1,5 @@
 //! `haiko grid ROOM --height H --spacing S`: a horizontal work-plane grid
-//! ([`crate::metrics::grid`]) lit through the session, as text or JSON.
+//! ([`crate::metrics::work_plane`]) lit through the session, as text or JSON.
 
 use std::path::Path;
 
@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use crate::cli::open_session;
 use crate::error::{Error, Result};
-use crate::metrics::grid::{GridStats, WorkPlane};
+use crate::metrics::work_plane::{GridStats, WorkPlane};
 use crate::scene::{self, DirectMode};
 
 #[derive(Serialize)]

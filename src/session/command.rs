@@ -516,6 +516,7 @@ mod tests {
             window: WindowChoice::Auto,
             radius_m: 0.05,
             color: [1.0; 3],
+            luminous: None,
         }
     }
 

@@ -345,6 +345,7 @@ mod tests {
             window: crate::session::WindowChoice::Auto,
             radius_m: 0.0,
             color: [1.0; 3],
+            luminous: None,
         };
         // z falls 2.5 m over 2.5 m of x: the floor at (3.5, 1, 0), before the wall x = 6.
         let end = aim_target(&light, DVec3::new(6.0, 4.0, 2.7));

@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use crate::photometry::{self, Curve};
+use crate::photometry::{self, Curve, LuminousShape};
 use crate::scene::{AimSpec, LidSource, Light};
 
 /// SH order used for a light whose room file fixes none, until the plan's choice replaces it.
@@ -89,6 +89,8 @@ pub struct LightEdit {
     pub radius_m: f64,
     /// Linear RGB colour multipliers, from the room file.
     pub color: [f64; 3],
+    /// The luminous area (for glare ratings), from the room file or the photometric file.
+    pub luminous: Option<LuminousShape>,
 }
 
 impl LightEdit {
@@ -106,6 +108,7 @@ impl LightEdit {
             window: WindowChoice::Auto,
             radius_m: light.radius,
             color: light.color,
+            luminous: light.luminous,
         }
     }
 
@@ -122,6 +125,7 @@ impl LightEdit {
             radius: self.radius_m,
             dimmer: self.dimmer,
             color: self.color,
+            luminous: self.luminous,
         }
     }
 

@@ -11,6 +11,7 @@ fn main() {}
 mod accuracy;
 mod bake;
 mod cli;
+mod design;
 mod radiosity;
 mod render;
 mod render_rooms;

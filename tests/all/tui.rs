@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 use haiko::photometry::Curve;
+use haiko::scene::design::Design;
 use haiko::scene::{AimSpec, Camera, LidSource, Light, PatchMesh, Scene, Settings};
 use haiko::session::{Command, Series};
 use haiko::tui::keys::{self, BINDINGS, ModeKind};
@@ -36,6 +37,7 @@ fn light(name: &str, position: DVec3, aim_spec: AimSpec, lid: &[(f64, f64)], sou
         radius: 0.05,
         dimmer: 1.0,
         color: [1.0; 3],
+        luminous: None,
     }
 }
 
@@ -76,6 +78,7 @@ fn scene() -> Scene {
             fov_deg: 60.0,
         },
         settings: Settings::default(),
+        design: Design::default_for(DVec3::new(6.0, 4.0, 2.7)),
     }
 }
 
