@@ -10,7 +10,9 @@ pub mod schedule;
 pub mod stats;
 pub mod work_plane;
 
-pub use evaluate::{SurfaceResult, check_surfaces, glare, surface_grids, surface_results};
+pub use evaluate::{
+    SurfaceResult, SurfaceSummary, eye_receivers, glare_with, surface_grids, surface_results,
+};
 pub use glare::{GlareSource, ObserverGlare, SourceGlare, SourceStatus, UgrStatus, observer_glare};
 pub use grid::{CalcGrid, GridIndex, GridPart};
 pub use schedule::{ScheduleRow, luminaire_schedule};

@@ -176,6 +176,22 @@ pub enum Change {
     Camera,
 }
 
+impl Change {
+    /// The light whose state changed (`None` for an inserted or removed light and the camera).
+    pub fn light(self) -> Option<usize> {
+        match self {
+            Change::Point { light, .. }
+            | Change::Curve { light }
+            | Change::Aim { light }
+            | Change::Dimmer { light }
+            | Change::Order { light }
+            | Change::Window { light }
+            | Change::Moved { light } => Some(light),
+            Change::Inserted { .. } | Change::Removed { .. } | Change::Camera => None,
+        }
+    }
+}
+
 /// A command that was applied: what it changed and the command that undoes it exactly.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Applied {

@@ -3,6 +3,7 @@
 mod direct;
 mod layering;
 mod lidfiles;
+mod numbers;
 mod photometry;
 mod scene;
 mod session;
