@@ -17,11 +17,14 @@ use ratatui::widgets::{Gauge, Paragraph};
 use ratatui_image::protocol::Protocol;
 
 use crate::error::{Error, Result};
+use crate::photometry::{read_lid_file, write_ies};
 use crate::render::DisplayMode;
-use crate::scene;
+use crate::scene::{self, LidSource};
 use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
-use crate::tui::msg::{Effect, Msg};
+use crate::tui::luminaires::{self, LidInfo};
+use crate::tui::msg::{CurveSave, Effect, Msg};
+use crate::tui::save::write_atomically;
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
 use crate::tui::workers::{
     AppEvent, EncodeJob, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
@@ -63,6 +66,7 @@ impl App {
         for (i, light) in planned.iter().enumerate() {
             model.set_planned_order(i, light.order);
         }
+        model.lid_files = luminaires::read_lid_infos(&model.lights);
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
         let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
@@ -152,7 +156,9 @@ impl App {
                         preview_px: self.model.preview_px,
                         aim,
                     }),
-                    Effect::Save => queue.push_back(self.save()),
+                    Effect::Save(curves) => queue.push_back(self.save(curves)),
+                    Effect::LoadLid(typed) => queue.push_back(self.load_lid(&typed)),
+                    Effect::Report => self.outbox.push(EngineRequest::Report(report_path(&self.room))),
                     Effect::Quit => self.quit = true,
                 }
             }
@@ -160,15 +166,61 @@ impl App {
         Ok(())
     }
 
-    fn save(&self) -> Msg {
-        let saved = fs::read_to_string(&self.room)
-            .map_err(|e| Error::unreadable(&self.room, &e))
-            .and_then(|text| save_room(&self.room, &text, &self.model));
-        match saved {
-            Ok(message) => Msg::Saved { message },
-            Err(e) => Msg::Failed {
-                message: e.to_string(),
-            },
+    /// Saves the room file; an edited file curve is written as a new IES file next to the
+    /// room (and the light pointed at it) or inline, as `curves` says.
+    fn save(&self, curves: CurveSave) -> Msg {
+        let mut model = self.model.clone();
+        let mut written: Vec<PathBuf> = Vec::new();
+        let mut saved = || -> Result<String> {
+            for i in luminaires::edited_file_curves(&model) {
+                let light = &mut model.lights[i];
+                light.lid_source = match curves {
+                    CurveSave::NewFiles => {
+                        let path = luminaires::edited_curve_path(&self.room, &light.name, |p| {
+                            p.exists() || written.iter().any(|w| w == p)
+                        });
+                        write_atomically(&path, &write_ies(&light.curve, &light.name))?;
+                        written.push(path.clone());
+                        LidSource::File { path, asymmetry: 0.0 }
+                    }
+                    CurveSave::Inline => LidSource::Inline,
+                };
+            }
+            let text = fs::read_to_string(&self.room).map_err(|e| Error::unreadable(&self.room, &e))?;
+            save_room(&self.room, &text, &model)
+        };
+        match saved() {
+            Ok(mut message) => {
+                if !written.is_empty() {
+                    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+                    message.push_str(&format!("; edited curves written to {}", names.join(", ")));
+                }
+                Msg::Saved {
+                    message,
+                    sources: model.lights.iter().map(|l| l.lid_source.clone()).collect(),
+                }
+            }
+            Err(e) => {
+                // The room file was not changed: the new curve files would name nothing.
+                for path in &written {
+                    fs::remove_file(path).ok();
+                }
+                Msg::Failed {
+                    message: e.to_string(),
+                }
+            }
+        }
+    }
+
+    /// Reads the photometric file the user typed.
+    fn load_lid(&self, typed: &str) -> Msg {
+        let home = std::env::var_os("HOME").map(PathBuf::from);
+        let path = luminaires::resolve_typed_path(&self.room, typed, home.as_deref());
+        Msg::LidLoaded {
+            result: read_lid_file(&path)
+                .map(|lid| std::sync::Arc::new(LidInfo::of(lid)))
+                .map_err(|e| e.to_string()),
+            path,
         }
     }
 
@@ -213,6 +265,14 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
             _ => None,
         },
     })
+}
+
+/// Where the editor writes the report: `ROOM-report.html` next to the room file.
+pub fn report_path(room: &Path) -> PathBuf {
+    let stem = room
+        .file_stem()
+        .map_or_else(|| "room".into(), |s| s.to_string_lossy().into_owned());
+    room.with_file_name(format!("{stem}-report.html"))
 }
 
 fn worker_stopped() -> Error {
