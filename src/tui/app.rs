@@ -5,7 +5,6 @@
 //! written, quitting.
 
 use std::collections::VecDeque;
-use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, Sender};
 
@@ -17,19 +16,19 @@ use ratatui::widgets::{Gauge, Paragraph};
 use ratatui_image::protocol::Protocol;
 
 use crate::error::{Error, Result};
-use crate::photometry::{read_lid_file, write_ies};
+use crate::photometry::read_lid_file;
 use crate::render::DisplayMode;
-use crate::scene::{self, LidSource};
+use crate::scene;
 use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::luminaires::{self, LidInfo};
 use crate::tui::msg::{CurveSave, Effect, Msg};
-use crate::tui::save::write_atomically;
+use crate::tui::save::save_with_curves;
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
 use crate::tui::workers::{
     AppEvent, EncodeJob, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
 };
-use crate::tui::{Mode, Model, PreviewArea, preview, save_room, update, view};
+use crate::tui::{Mode, Model, PreviewArea, preview, update, view};
 
 /// Runs the editor on the room file `room` with the `graphics` protocol choice. A bad room
 /// fails before the terminal is touched; the terminal is restored however the editor ends.
@@ -166,49 +165,13 @@ impl App {
         Ok(())
     }
 
-    /// Saves the room file; an edited file curve is written as a new IES file next to the
-    /// room (and the light pointed at it) or inline, as `curves` says.
+    /// Saves the room file ([`save_with_curves`]).
     fn save(&self, curves: CurveSave) -> Msg {
-        let mut model = self.model.clone();
-        let mut written: Vec<PathBuf> = Vec::new();
-        let mut saved = || -> Result<String> {
-            for i in luminaires::edited_file_curves(&model) {
-                let light = &mut model.lights[i];
-                light.lid_source = match curves {
-                    CurveSave::NewFiles => {
-                        let path = luminaires::edited_curve_path(&self.room, &light.name, |p| {
-                            p.exists() || written.iter().any(|w| w == p)
-                        });
-                        write_atomically(&path, &write_ies(&light.curve, &light.name))?;
-                        written.push(path.clone());
-                        LidSource::File { path, asymmetry: 0.0 }
-                    }
-                    CurveSave::Inline => LidSource::Inline,
-                };
-            }
-            let text = fs::read_to_string(&self.room).map_err(|e| Error::unreadable(&self.room, &e))?;
-            save_room(&self.room, &text, &model)
-        };
-        match saved() {
-            Ok(mut message) => {
-                if !written.is_empty() {
-                    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-                    message.push_str(&format!("; edited curves written to {}", names.join(", ")));
-                }
-                Msg::Saved {
-                    message,
-                    sources: model.lights.iter().map(|l| l.lid_source.clone()).collect(),
-                }
-            }
-            Err(e) => {
-                // The room file was not changed: the new curve files would name nothing.
-                for path in &written {
-                    fs::remove_file(path).ok();
-                }
-                Msg::Failed {
-                    message: e.to_string(),
-                }
-            }
+        match save_with_curves(&self.room, &self.model, curves) {
+            Ok((message, sources)) => Msg::Saved { message, sources },
+            Err(e) => Msg::Failed {
+                message: e.to_string(),
+            },
         }
     }
 

@@ -4,14 +4,17 @@
 
 use std::fs::{self, File};
 use std::io::{self, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use toml_edit::{Array, DocumentMut, Item, Key, Table, Value};
 
 use crate::error::{Error, Result};
-use crate::scene::AimSpec;
+use crate::photometry::write_ies_with_area;
 use crate::scene::light_tables::align_light_tables;
+use crate::scene::{AimSpec, LidSource};
+use crate::tui::luminaires;
 use crate::tui::model::{LightEdit, Model};
+use crate::tui::msg::CurveSave;
 
 pub use crate::scene::light_tables::{SIGNIFICANT_DIGITS, number, round_significant, vector};
 
@@ -22,6 +25,56 @@ pub struct EditedRoom {
     pub text: String,
     /// Names of the lights whose `lid_file` was replaced by an inline `lid`.
     pub inlined: Vec<String>,
+}
+
+/// Saves `model` into the room file `room` (read from disk now): each light whose curve came
+/// from a photometric file and was edited ([`luminaires::edited_file_curves`]) is first written
+/// as a new IES file next to the room (with its luminous area) and pointed at, or made inline,
+/// as `curves` says. Returns the status message and every light's photometric source as
+/// written. On failure nothing is left behind: new IES files are removed again.
+///
+/// Errors: the room file unreadable or refused by the save (bad input), a file not writable.
+pub fn save_with_curves(room: &Path, model: &Model, curves: CurveSave) -> Result<(String, Vec<LidSource>)> {
+    let mut model = model.clone();
+    let mut written: Vec<PathBuf> = Vec::new();
+    let mut save = || -> Result<String> {
+        for i in luminaires::edited_file_curves(&model) {
+            let light = &mut model.lights[i];
+            light.lid_source = match curves {
+                CurveSave::NewFiles => {
+                    let path = luminaires::edited_curve_path(room, &light.name, |p| {
+                        p.exists() || written.iter().any(|w| w == p)
+                    });
+                    let text = write_ies_with_area(&light.curve, &light.name, light.luminous.as_ref());
+                    write_atomically(&path, &text)?;
+                    written.push(path.clone());
+                    LidSource::File { path, asymmetry: 0.0 }
+                }
+                CurveSave::Inline => LidSource::Inline,
+            };
+        }
+        let text = fs::read_to_string(room).map_err(|e| Error::unreadable(room, &e))?;
+        save_room(room, &text, &model)
+    };
+    match save() {
+        Ok(mut message) => {
+            if !written.is_empty() {
+                let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+                message.push_str(&format!("; edited curves written to {}", names.join(", ")));
+            }
+            Ok((
+                message,
+                model.lights.iter().map(|l| l.lid_source.clone()).collect(),
+            ))
+        }
+        Err(e) => {
+            // The room file was not changed: the new curve files would name nothing.
+            for path in &written {
+                fs::remove_file(path).ok();
+            }
+            Err(e)
+        }
+    }
 }
 
 /// Writes `model`'s changes (against [`Model::saved`]) into the room file at `path`, whose

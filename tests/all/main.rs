@@ -1,6 +1,7 @@
 //! One integration-test binary for the whole crate (fast to build): each area is a module.
 
 mod direct;
+mod editor_design;
 mod layering;
 mod lidfiles;
 mod numbers;
@@ -13,6 +14,7 @@ mod accuracy;
 mod bake;
 mod cli;
 mod design;
+mod design_e2e;
 mod radiosity;
 mod render;
 mod render_rooms;
