@@ -1,7 +1,8 @@
 //! Design numbers (docs/ROOM_FILE.md, "Design numbers"): calculation grids laid out by
-//! EN 12464-1 (and the plain work-plane grid of `haiko grid`), maintained illuminance statistics against targets, the CIE 117 glare rating at
-//! observers, and the luminaire schedule. Sits above [`crate::transport`] (it asks for
-//! illuminance at receivers) and below the session.
+//! EN 12464-1 (and the plain work-plane grid of `haiko grid`), maintained illuminance statistics
+//! against targets, the CIE 117 glare rating at observers, and the luminaire schedule. It lays out
+//! receivers and turns their illuminance — computed by the session (docs/ARCHITECTURE.md,
+//! "Numbers") — into statistics; it sits above [`crate::transport`] and below the session.
 
 pub mod evaluate;
 pub mod glare;

@@ -1,7 +1,8 @@
 //! End to end on the office, as the issue's "must show" asks: the real `haiko edit` in tmux
 //! shows the work plane's Ē in its numbers panel; a typed dimmer of 24 % on one light sets 0.24
-//! and changes Ē; after saving, `haiko check --json` on the saved room gives the same Ē within
-//! 0.5 % (the panel rounds to whole lux).
+//! and changes Ē; the report key writes the report with that state; after saving,
+//! `haiko check --json` on the saved room gives the same Ē within 0.5 % (the panel rounds to
+//! whole lux).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -70,6 +71,14 @@ fn office_panel_follows_a_typed_dimmer_and_matches_check() {
     });
     let after = panel_mean(&screen).unwrap();
     assert!(after < before, "dimming lowers Ē: {before} → {after}");
+
+    // The report key writes the current state next to the room file.
+    session.send("R");
+    session.wait_for("the report", |s| s.contains("report written to"));
+    let report = std::fs::read_to_string(dir.path().join("office-report.html")).unwrap();
+    assert_eq!(report.matches("src=\"data:image/png;base64,").count(), 3);
+    assert!(report.contains("<td class=\"n\">24.0 %</td>"), "d11's dimmer in the schedule");
+    assert!(report.contains(&format!("<td class=\"n\">{after:.0}")), "the panel's Ē in the table");
 
     session.send("s");
     session.wait_for("the save", |s| s.contains("saved "));
