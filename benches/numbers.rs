@@ -41,7 +41,7 @@ fn numbers(c: &mut Criterion) {
     group.bench_function("dimmer_edit/office", |b| {
         b.iter(|| {
             step += 1;
-            let dimmer = if step % 2 == 0 { 0.35 } else { 0.24 };
+            let dimmer = if step.is_multiple_of(2) { 0.35 } else { 0.24 };
             session
                 .apply(Command::SetDimmer { light: 0, dimmer })
                 .expect("a dimmer");
@@ -53,7 +53,7 @@ fn numbers(c: &mut Criterion) {
     group.bench_function("point_edit/office", |b| {
         b.iter(|| {
             step += 1;
-            let candela = if step % 2 == 0 { first } else { 0.9 * first };
+            let candela = if step.is_multiple_of(2) { first } else { 0.9 * first };
             let edit = Command::SetIntensity {
                 light: 0,
                 point: 0,
@@ -75,7 +75,7 @@ fn numbers(c: &mut Criterion) {
     group.bench_function("cursor_dimmer_edit/office", |b| {
         b.iter(|| {
             step += 1;
-            let dimmer = if step % 2 == 0 { 0.35 } else { 0.24 };
+            let dimmer = if step.is_multiple_of(2) { 0.35 } else { 0.24 };
             session
                 .apply(Command::SetDimmer { light: 0, dimmer })
                 .expect("a dimmer");
