@@ -7,15 +7,21 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::error::Result;
 use crate::photometry::Window;
+use crate::scene::Scene;
+use crate::session::{Session, SessionOptions};
 use crate::tui::Graphics;
 
 pub mod accuracy;
 pub mod bake;
+pub mod cache;
+pub mod check;
+pub mod glare;
 pub mod grid;
 pub mod lid;
 pub mod pick;
 pub mod probe;
 pub mod render;
+pub mod report;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -98,6 +104,42 @@ pub enum Command {
         #[arg(long)]
         direct_only: bool,
     },
+    /// Design check: every calculation surface's maintained Ē, E_min, E_max, U0, g2 against its targets.
+    Check {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON (with every grid point's new illuminance).
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
+    },
+    /// Glare: UGR (CIE 117) at every observer, with each luminaire's luminance, solid angle and position index.
+    Glare {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no background luminance: UGR undefined).
+        #[arg(long)]
+        direct_only: bool,
+    },
+    /// Client report: one self-contained HTML file (views, surfaces, glare, schedule, settings) for A4.
+    Report {
+        /// The room file.
+        room: PathBuf,
+        /// Output HTML file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Width of each view, pixels.
+        #[arg(long, default_value_t = 1200)]
+        width: u32,
+        /// Height of each view, pixels.
+        #[arg(long, default_value_t = 800)]
+        height: u32,
+    },
     /// Headless preview: render the room's camera view to a PNG, with per-stage timings.
     Render {
         /// The room file.
@@ -134,6 +176,9 @@ pub enum Command {
         /// Also print the unit aim vector that points this light at the picked point.
         #[arg(long, value_name = "LIGHT")]
         aim: Option<String>,
+        /// The illuminance at the picked point by direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
     },
     /// What accuracy costs in time: error against time for each knob (docs/ACCURACY.md).
     Accuracy {
@@ -143,6 +188,21 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The bake cache: where it is and what it holds (`list`, the default), or empty it (`clear`).
+    Cache {
+        /// What to do.
+        #[arg(value_enum, default_value_t = CacheAction::List)]
+        action: CacheAction,
+    },
+}
+
+/// `haiko cache` actions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CacheAction {
+    /// List the entries, their sizes and when they were last used.
+    List,
+    /// Remove every entry.
+    Clear,
 }
 
 /// `--graphics` values.
@@ -229,6 +289,22 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
             direct_only,
         } => grid::run(&room, height, spacing, margin, json, direct_only),
+        Command::Check {
+            room,
+            json,
+            direct_only,
+        } => check::run(&room, json, direct_only),
+        Command::Glare {
+            room,
+            json,
+            direct_only,
+        } => glare::run(&room, json, direct_only),
+        Command::Report {
+            room,
+            output,
+            width,
+            height,
+        } => report::run(&room, &output, width, height),
         Command::Render {
             room,
             output,
@@ -243,9 +319,30 @@ pub fn run(cli: Cli) -> Result<()> {
             height,
             json,
             aim,
-        } => pick::run(&room, pixel, width, height, json, aim.as_deref()),
+            direct_only,
+        } => pick::run(&room, pixel, width, height, json, aim.as_deref(), direct_only),
         Command::Accuracy { room, json } => accuracy::run(&room, json),
+        Command::Cache { action } => match action {
+            CacheAction::List => cache::run_list(),
+            CacheAction::Clear => cache::run_clear(),
+        },
     }
+}
+
+/// Opens a session on `scene` for a command: the user's bake cache, the progress bar on
+/// standard error, cache notices printed; `indirect` false for direct light only (no bake).
+///
+/// Errors: the bake failing (internal).
+pub fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
+    let options = SessionOptions {
+        indirect,
+        ..SessionOptions::with_user_cache()
+    };
+    let session = Session::new(scene, options, &mut bake::progress_printer())?;
+    for notice in session.bake().map_or(&[][..], |b| &b.notices[..]) {
+        eprintln!("haiko: {notice}");
+    }
+    Ok(session)
 }
 
 impl From<WindowArg> for Window {
