@@ -568,24 +568,10 @@ impl Operator {
             .map(|&n| self.tree.nodes[n as usize].area)
             .collect()
     }
-
-    /// The directed transfers into node `r`: (source node, `G/A_r`).
-    pub fn transfers_into(&self, r: u32) -> impl Iterator<Item = (u32, f32)> + '_ {
-        let range = self.offsets[r as usize]..self.offsets[r as usize + 1];
-        self.sources[range.clone()]
-            .iter()
-            .copied()
-            .zip(self.coefficients[range].iter().copied())
-    }
 }
 
 #[cfg(test)]
 impl Operator {
-    /// Row sums before balancing (for tests).
-    pub(crate) fn raw_row_sums(&self) -> Vec<f64> {
-        self.apply_scaled(&vec![1.0; self.n_leaves()], 1, false)
-    }
-
     /// `F·x` before balancing (for tests).
     pub(crate) fn apply_raw(&self, x: &[f64], width: usize) -> Vec<f64> {
         self.apply_scaled(x, width, false)

@@ -39,7 +39,7 @@ const LEAF_RAYS: usize = 64;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LinkOptions {
     /// Link two nodes when the larger diameter is at most this many times their centroid
-    /// distance. Default 0.5.
+    /// distance. Default 0.1 (docs/ACCURACY.md "After": 0.5 leaves 7 % beside furniture).
     pub eta: f64,
     /// Refine a partially visible link whose larger form factor exceeds this. Default 0.002.
     pub visibility_refine: f64,
@@ -48,7 +48,7 @@ pub struct LinkOptions {
 impl Default for LinkOptions {
     fn default() -> Self {
         LinkOptions {
-            eta: 0.5,
+            eta: 0.1,
             visibility_refine: 0.002,
         }
     }

@@ -18,7 +18,7 @@ use crate::transport::direct::polygon_quadrature_split;
 use crate::transport::visibility::Visibility;
 
 /// Default piece size relative to the distance to the light.
-pub const DEFAULT_SPLIT: f64 = 1.0 / 8.0;
+pub const DEFAULT_SPLIT: f64 = 1.0 / 32.0;
 
 /// Patches per rayon task when evaluating a cache.
 const MIN_PATCHES_PER_TASK: usize = 256;

@@ -4,6 +4,7 @@
 //! gives `H = M/(1−ρ)` everywhere in a closed room, beside boxes and OBJ solids too). The committed
 //! references and the comparison of Haiko against them are in [`references`].
 
+pub mod engine;
 pub mod references;
 pub mod tracer;
 

@@ -423,6 +423,46 @@ pub fn engine_errors(name: &'static str, options: &InterreflectionOptions) -> Ro
     summarize(name, &refs, &lux)
 }
 
+/// What the interreflection engine reaches with its default options on each reference room
+/// (docs/ACCURACY.md "After"): (room, median bound, worst bound). Every median is within 0.5 %
+/// and every worst within 3.5 % except `spots`, whose worst point (the floor 2 cm from a box face
+/// in its shadow, next to a bright pool) is 5.6 % high: the 5 % is not reached there.
+const ENGINE_BOUNDS: [(&str, f64, f64); 8] = [
+    ("hotspot-box", 0.005, 0.035),
+    ("lamp-near-box", 0.005, 0.030),
+    ("wall-washers", 0.005, 0.020),
+    ("spots", 0.005, 0.060),
+    ("white-room", 0.005, 0.020),
+    ("empty", 0.005, 0.015),
+    ("office", 0.005, 0.035),
+    ("hall", 0.005, 0.030),
+];
+
+/// The engine's total illuminance (exact direct light plus the indirect light gathered from its
+/// graded, hierarchical solve) against the Monte-Carlo references of every room: medians and
+/// worst errors within the bounds of [`ENGINE_BOUNDS`].
+#[test]
+fn engine_meets_its_bounds_on_every_reference_room() {
+    let options = InterreflectionOptions::default();
+    let mut failures = Vec::new();
+    let mut rows = Vec::new();
+    for (name, median, worst) in ENGINE_BOUNDS {
+        let e = engine_errors(name, &options);
+        if e.median > median || e.worst > worst {
+            failures.push(format!(
+                "{name}: median {:.2} % (bound {:.1} %), worst {:.2} % (bound {:.1} %)",
+                100.0 * e.median,
+                100.0 * median,
+                100.0 * e.worst,
+                100.0 * worst
+            ));
+        }
+        rows.push(e);
+    }
+    println!("{}", format_errors(&rows));
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Median and worst relative error of `lux` against `refs`.
 pub fn summarize(name: &'static str, refs: &[Reference], lux: &[f64]) -> RoomErrors {
     let mut rel: Vec<(f64, usize)> = refs
@@ -493,10 +533,41 @@ fn print_engine_errors() {
     println!("{}", format_errors(&rows));
 }
 
-/// Prints the engine's errors for variations of its knobs (a study, not a check).
+/// Options of the engine from `HAIKO_ENGINE` (comma-separated `knob=value`; knobs: `eta`,
+/// `lamp_ratio`, `lamp_min`, `contact_ratio`, `contact_min`, `shadow_min`, `split`,
+/// `gather_eta`, `gather_uniformity`, `visibility_refine`), over the defaults.
+fn engine_options_from_env() -> InterreflectionOptions {
+    let mut o = InterreflectionOptions::default();
+    for pair in std::env::var("HAIKO_ENGINE").unwrap_or_default().split(',') {
+        let Some((k, v)) = pair.split_once('=') else {
+            continue;
+        };
+        let v: f64 = v
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("HAIKO_ENGINE: {pair}"));
+        match k.trim() {
+            "eta" => o.links.eta = v,
+            "visibility_refine" => o.links.visibility_refine = v,
+            "lamp_ratio" => o.refine.lamp_ratio = v,
+            "lamp_min" => o.refine.lamp_min_m = v,
+            "contact_ratio" => o.refine.contact_ratio = v,
+            "contact_min" => o.refine.contact_min_m = v,
+            "shadow_min" => o.refine.shadow_min_m = v,
+            "split" => o.direct_split = v,
+            "gather_eta" => o.gather_eta = v,
+            "gather_uniformity" => o.gather_uniformity = v,
+            other => panic!("HAIKO_ENGINE: unknown knob {other}"),
+        }
+    }
+    o
+}
+
+/// Prints the engine's errors with the knobs of `HAIKO_ENGINE` on the rooms of `HAIKO_ROOMS`
+/// (comma-separated; all by default), with its sizes and build time: a study, not a check.
 #[test]
-#[ignore = "a study: prints the engine's errors for variations of its knobs"]
-fn print_engine_variants() {
+#[ignore = "a study: prints the engine's errors for the knobs in HAIKO_ENGINE"]
+fn print_engine_variant() {
     let rooms: Vec<&'static str> = std::env::var("HAIKO_ROOMS")
         .map(|v| {
             v.split(',')
@@ -504,145 +575,82 @@ fn print_engine_variants() {
                 .collect()
         })
         .unwrap_or_else(|_| ROOMS.to_vec());
-    let mut base = InterreflectionOptions::default();
-    base.refine.lamp_ratio = 0.5;
-    base.refine.contact_min_m = 0.015;
-    base.direct_split = 1.0 / 32.0;
-    base.gather_eta = 0.25;
-    base.refine.contact_ratio = 0.5;
-    let mut variants: Vec<(&str, InterreflectionOptions)> = vec![("base", base)];
-    let mut v = base;
-    v.links.eta = 0.2;
-    variants.push(("links eta 0.2", v));
-    let mut v = base;
-    v.links.eta = 0.1;
-    variants.push(("links eta 0.1", v));
-    for (label, options) in variants {
-        let rows: Vec<RoomErrors> = rooms.iter().map(|&name| engine_errors(name, &options)).collect();
-        println!("{label}\n{}", format_errors(&rows));
-    }
-}
-
-#[test]
-#[ignore = "debug"]
-fn debug_point() {
-    let mut options = InterreflectionOptions::default();
-    options.refine.lamp_ratio = 0.5;
-    options.refine.contact_min_m = 0.015;
-    options.refine.contact_ratio = 0.5;
-    options.direct_split = 1.0 / 32.0;
-    options.gather_eta = 0.25;
-    options.links.eta = 0.2;
-    for &name in &["spots"] {
+    let options = engine_options_from_env();
+    println!("{options:?}");
+    let rows: Vec<RoomErrors> = rooms.iter().map(|&name| engine_errors(name, &options)).collect();
+    println!("{}", format_errors(&rows));
+    for &name in &rooms {
         let scene = room(name);
-        let refs = read(name);
-        let receivers: Vec<Receiver> = refs
-            .iter()
-            .map(|r| Receiver {
-                point: r.point,
-                normal: r.normal,
-            })
-            .collect();
         let p = plan(&scene, PlanOptions::default());
+        let t = std::time::Instant::now();
         let engine = Interreflection::build(&scene, p.channels, p.visibility.on, &options);
-        let b = engine.scene_radiosity(&scene, 1e-5).unwrap();
-        let ind = engine.gather(&b, &receivers);
-        let direct = scene_direct_at(&scene, &receivers);
-        let rows = summarize(
-            name,
-            &refs,
-            &direct
-                .iter()
-                .zip(&ind)
-                .map(|(d, e)| d + luminance_weight(*e))
-                .collect::<Vec<_>>(),
-        );
-        println!("{}", format_errors(&[rows]).lines().nth(1).unwrap());
-        for (i, r) in refs.iter().enumerate() {
-            let e = direct[i] + luminance_weight(ind[i]);
-            let err = (e - r.lux) / r.lux;
-            if err.abs() > 0.025 {
-                println!(
-                    "  ({:.3},{:.3},{:.3}) n=({:.0},{:.0},{:.0}) ref {:.1} (direct {:.1}) haiko {:.1} (direct {:.1}) {:+.1}%",
-                    r.point.x,
-                    r.point.y,
-                    r.point.z,
-                    r.normal.x,
-                    r.normal.y,
-                    r.normal.z,
-                    r.lux,
-                    r.direct,
-                    e,
-                    direct[i],
-                    100.0 * err
-                );
-            }
-        }
         println!(
-            "  leaves {}, links {}, row defect {:.4}",
-            engine.n_leaves(),
+            "{name}: {} coarse → {} leaves, {} links, build {:.2} s",
+            engine.stats.coarse_patches,
+            engine.stats.leaves,
             engine.stats.links,
-            engine.stats.row_defect
+            t.elapsed().as_secs_f64()
         );
     }
 }
 
+/// Measures the engine on the open-plan floor of `benches/rooms/open-plan.toml` with the knobs of
+/// `HAIKO_ENGINE`: build, one light's direct cache, cold and warm solves (a study, not a check).
 #[test]
-#[ignore = "debug"]
-fn debug_open_plan() {
+#[ignore = "a study: prints the engine's sizes and times on the open-plan floor"]
+fn print_open_plan_costs() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/rooms/open-plan.toml");
     let t = std::time::Instant::now();
-    let scene = load(&path).unwrap();
+    let scene = load(&path).expect("the open-plan room loads");
     println!(
-        "load {:.2} s, fine {} coarse {}",
+        "load {:.2} s, fine vertices {}, coarse patches {}",
         t.elapsed().as_secs_f64(),
         scene.fine.n_vertices(),
         scene.coarse.patches.len()
     );
-    for eta in [0.5, 0.35] {
-        let mut options = InterreflectionOptions::default();
-        options.refine.lamp_ratio = 0.5;
-        options.refine.contact_min_m = 0.015;
-        options.direct_split = 1.0 / 32.0;
-        options.links.eta = eta;
-        let t = std::time::Instant::now();
-        let engine = Interreflection::build(&scene, 1, true, &options);
-        println!(
-            "eta {eta}: build {:.2} s: {:?}",
-            t.elapsed().as_secs_f64(),
-            engine.stats
-        );
-        let t = std::time::Instant::now();
-        let cache = engine.direct_cache(&scene.lights[0]);
-        println!(
-            "  cache {:.3} s, {} samples, {} bytes",
-            t.elapsed().as_secs_f64(),
-            cache.n_samples(),
-            cache.bytes()
-        );
-        let state = haiko::photometry::LightState::from(&scene.lights[0]);
-        let t = std::time::Instant::now();
-        let sol = engine.solve_light(&cache, &state, None, 1e-3).unwrap();
-        println!(
-            "  cold solve {:.3} s, {} iterations",
-            t.elapsed().as_secs_f64(),
-            sol[0].columns[0].iterations
-        );
-        let mut edited = state.clone();
-        edited
-            .curve
-            .set_intensity(0, 0.9 * state.curve.intensities_cd()[0])
-            .unwrap();
-        let x0 = vec![sol[0].radiosity.clone()];
-        let t = std::time::Instant::now();
-        let warm = engine.solve_light(&cache, &edited, Some(&x0), 1e-3).unwrap();
-        println!(
-            "  warm solve {:.4} s, {} iterations",
-            t.elapsed().as_secs_f64(),
-            warm[0].columns[0].iterations
-        );
-        let t = std::time::Instant::now();
-        let _ = engine.operator.apply_block(&vec![1.0; engine.n_leaves()], 1);
-        println!("  one apply {:.4} s", t.elapsed().as_secs_f64());
-    }
+    let options = engine_options_from_env();
+    let t = std::time::Instant::now();
+    let engine = Interreflection::build(&scene, 1, true, &options);
+    println!("build {:.2} s: {:?}", t.elapsed().as_secs_f64(), engine.stats);
+    let t = std::time::Instant::now();
+    let caches: Vec<_> = scene.lights.iter().map(|l| engine.direct_cache(l)).collect();
+    let bytes: usize = caches.iter().map(|c| c.bytes()).sum();
+    println!(
+        "direct caches of {} lights {:.2} s, {} bytes",
+        caches.len(),
+        t.elapsed().as_secs_f64(),
+        bytes
+    );
+    let state = haiko::photometry::LightState::from(&scene.lights[0]);
+    let t = std::time::Instant::now();
+    let sol = engine
+        .solve_light(&caches[0], &state, None, 1e-3)
+        .expect("solves");
+    println!(
+        "cold solve of one light {:.3} s, {} iterations",
+        t.elapsed().as_secs_f64(),
+        sol[0].columns[0].iterations
+    );
+    let mut edited = state.clone();
+    edited.dimmer = 0.8;
+    let x0 = vec![sol[0].radiosity.clone()];
+    let t = std::time::Instant::now();
+    let warm = engine
+        .solve_light(&caches[0], &edited, Some(&x0), 1e-3)
+        .expect("solves");
+    println!(
+        "warm solve after a dimmer edit {:.4} s, {} iterations",
+        t.elapsed().as_secs_f64(),
+        warm[0].columns[0].iterations
+    );
+    let t = std::time::Instant::now();
+    let _ = engine.operator.apply_block(&vec![1.0; engine.n_leaves()], 1);
+    println!("one operator application {:.4} s", t.elapsed().as_secs_f64());
+    let t = std::time::Instant::now();
+    let all = engine.scene_radiosity(&scene, 1e-3).expect("solves");
+    println!(
+        "all lights solved {:.2} s ({} leaves)",
+        t.elapsed().as_secs_f64(),
+        all.len()
+    );
 }
