@@ -6,6 +6,7 @@
 
 pub mod cli;
 pub mod error;
+pub mod fsio;
 pub mod photometry;
 pub mod relight;
 pub mod render;

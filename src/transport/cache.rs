@@ -15,42 +15,7 @@ const MAGIC: &[u8; 8] = b"HAIKOBAK";
 pub const FORMAT_VERSION: u32 = 1;
 const HEADER_LEN: usize = 8 + 4 + 4 + 8 + 8 + 8;
 
-/// FNV-1a 64-bit: a stable hash (unlike `std`'s `DefaultHasher`) for cache keys and checksums.
-#[derive(Debug, Clone, Copy)]
-pub struct Fnv64(u64);
-
-impl Default for Fnv64 {
-    fn default() -> Self {
-        Fnv64(0xcbf2_9ce4_8422_2325)
-    }
-}
-
-impl Fnv64 {
-    /// Hashes raw bytes.
-    pub fn bytes(&mut self, data: &[u8]) -> &mut Self {
-        for &b in data {
-            self.0 ^= u64::from(b);
-            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        self
-    }
-    /// Hashes an f64 by its bit pattern (so −0.0 ≠ 0.0; inputs come from files, not arithmetic).
-    pub fn f64(&mut self, v: f64) -> &mut Self {
-        self.bytes(&v.to_le_bytes())
-    }
-    /// Hashes a u64.
-    pub fn u64(&mut self, v: u64) -> &mut Self {
-        self.bytes(&v.to_le_bytes())
-    }
-    /// Hashes a string with its length (so concatenations differ).
-    pub fn str(&mut self, s: &str) -> &mut Self {
-        self.u64(s.len() as u64).bytes(s.as_bytes())
-    }
-    /// The hash value.
-    pub fn finish(&self) -> u64 {
-        self.0
-    }
-}
+pub use crate::fsio::Fnv64;
 
 /// Where cache files live: `$HAIKO_CACHE_DIR`, else `$XDG_CACHE_HOME/haiko`, else
 /// `$HOME/.cache/haiko`, else `haiko-cache` in the system temporary directory.
@@ -226,13 +191,6 @@ impl<'a> PayloadReader<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn fnv_matches_the_reference_vectors() {
-        assert_eq!(Fnv64::default().finish(), 0xcbf29ce484222325);
-        assert_eq!(Fnv64::default().bytes(b"a").finish(), 0xaf63dc4c8601ec8c);
-        assert_eq!(Fnv64::default().bytes(b"foobar").finish(), 0x85944171f73967e8);
-    }
 
     #[test]
     fn round_trip_and_every_kind_of_damage_is_caught() {
