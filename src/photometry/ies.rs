@@ -18,10 +18,11 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, quoted};
 use crate::photometry::Curve;
 use crate::photometry::lidfile::{
-    CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid,
+    CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid, check_scale,
+    check_scaled_intensity,
 };
 
 /// The version reported for a file without a version line.
@@ -30,8 +31,10 @@ const VERSION_1986: &str = "LM-63-1986";
 /// Two angles closer than this (degrees) count as equal when classifying the C range.
 const ANGLE_TOLERANCE_DEG: f64 = 1e-6;
 
-/// Reads the text of an IES LM-63 file; `path` is only used in error messages.
-pub(crate) fn parse_ies(path: &Path, text: &str) -> Result<LidFile> {
+/// Parses the text of an IES LM-63 file; `path` is only used in error messages. Nothing of the
+/// file is quoted in an error before its `TILT=` line has shown it to be an IES file, and after
+/// that only the offending token ([`crate::error::quoted`]).
+pub fn parse_ies(path: &Path, text: &str) -> Result<LidFile> {
     let lines: Vec<&str> = text.lines().collect();
     if text.trim().is_empty() {
         return Err(Error::input(path, "line 1", "the file is empty"));
@@ -70,8 +73,8 @@ pub(crate) fn parse_ies(path: &Path, text: &str) -> Result<LidFile> {
             path,
             format!("line {tilt_line}"),
             format!(
-                "TILT file {:?} is not supported, use TILT=INCLUDE (copy the tilt table into the IES file)",
-                shorten(tilt_value)
+                "TILT file {} is not supported, use TILT=INCLUDE (copy the tilt table into the IES file)",
+                quoted(tilt_value)
             ),
         ));
     };
@@ -185,6 +188,12 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
         1.0
     };
     numbers.number(&|| "input watts".into(), |_| None)?;
+    let scale = check_scale(
+        numbers.path,
+        &format!("line {}", numbers.tokens[numbers.count_read - 1].line),
+        multiplier * ballast_factor * ballast_lamp_factor,
+        "the candela multiplier and the ballast factors",
+    )?;
 
     let (gamma_deg, gamma_lines) = numbers.list(n_vertical, |k| format!("vertical angle {k}"))?;
     check_gamma_grid(numbers.path, &gamma_deg, |k| {
@@ -195,7 +204,6 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
     check_c_angles(numbers.path, &c_deg, c_place)?;
     let symmetry = classify_c_range(numbers.path, &c_deg, c_place)?;
 
-    let scale = multiplier * ballast_factor * ballast_lamp_factor;
     let candela_start = numbers.count_read;
     let mut planes = Vec::with_capacity(n_horizontal);
     for &c in &c_deg {
@@ -204,7 +212,7 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
             let index = numbers.count_read - candela_start + 1;
             let value = numbers.number(
                 &|| format!("value {index} (candela for C={c}°, γ={g}°)"),
-                |v| (v < 0.0).then(|| "candela cannot be negative".into()),
+                |v| check_scaled_intensity(v, scale),
             )?;
             values.push(value * scale);
         }
@@ -303,11 +311,11 @@ impl<'a> Numbers<'a> {
         let value = match token.text.parse::<f64>() {
             Ok(v) if v.is_finite() => v,
             Ok(_) => {
-                let message = format!("{:?} is not a finite number", shorten(token.text));
+                let message = format!("{} is not a finite number", quoted(token.text));
                 return Err(Error::input(self.path, place(), message));
             }
             Err(_) => {
-                let message = format!("{:?} is not a number", shorten(token.text));
+                let message = format!("{} is not a number", quoted(token.text));
                 return Err(Error::input(self.path, place(), message));
             }
         };
@@ -345,19 +353,14 @@ impl<'a> Numbers<'a> {
                 self.path,
                 format!("line {}", token.line),
                 format!(
-                    "{} unexpected value(s) after the candela table, starting with {:?} (do the \
+                    "{} unexpected value(s) after the candela table, starting with {} (do the \
                      numbers of vertical and horizontal angles match the data?)",
                     self.tokens.len() - self.count_read,
-                    shorten(token.text)
+                    quoted(token.text)
                 ),
             )),
         }
     }
-}
-
-/// At most 40 characters of `text`, for error messages.
-fn shorten(text: &str) -> String {
-    text.chars().take(40).collect()
 }
 
 /// Writes `curve` as an IES LM-63-2002 file: `TILT=NONE`, absolute photometry (lumens/lamp −1,
