@@ -4,8 +4,10 @@ pub mod load;
 pub mod mesher;
 pub mod model;
 pub mod obj;
+pub mod points;
 pub mod remesh;
 pub mod room_file;
+pub mod save;
 
-pub use load::load;
+pub use load::{RoomText, load, read_room};
 pub use model::*;
