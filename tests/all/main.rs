@@ -7,10 +7,12 @@ mod scene;
 
 fn main() {}
 mod accuracy;
+mod badinput;
 mod bake;
 mod cli;
 mod radiosity;
 mod render;
 mod render_rooms;
+mod save;
 mod tui;
 mod tui_e2e;
