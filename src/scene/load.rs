@@ -15,7 +15,8 @@ use toml::Spanned;
 use crate::error::{Error, Result, printable, quoted};
 use crate::fsio::{self, FileKind};
 use crate::photometry::lidfile::MAX_ANGLES;
-use crate::photometry::{Curve, read_lid_file};
+use crate::photometry::{Curve, LuminousShape, read_lid_file};
+use crate::scene::design::Design;
 use crate::scene::mesher::{self, Geometry, Shape, TriangleSurface};
 use crate::scene::model::{
     Aabb, AimSpec, Camera, DirectMode, LidSource, Light, Reflectance, Scene, Settings, Surface, SurfaceKind,
@@ -25,6 +26,8 @@ use crate::scene::room_file::{
     self, BoxSpec, CameraSpec, DirectSpec, LightSpec, MeshSpec, ReflectanceSpec, RoomFile, SettingsSpec,
     Vec3Spec,
 };
+
+mod design;
 
 /// The most fine (or coarse) vertices a room may have; more is refused with advice to raise
 /// the patch size (or to simplify the OBJ meshes when they alone exceed it).
@@ -54,6 +57,9 @@ pub const MAX_COORDINATE_M: f64 = 1e6;
 /// The smallest `patch_size` / `solver_patch_size`, metres (the largest is the largest room
 /// dimension, [`MAX_ROOM_SIZE_M`]).
 pub const MIN_PATCH_SIZE_M: f64 = 0.001;
+
+/// The smallest spacing of a calculation grid (`[[surface]] spacing`), metres.
+pub const MIN_GRID_SPACING_M: f64 = 0.001;
 
 /// The largest dimmer factor (the curve's intensities times this stay within 1e11 cd).
 pub const MAX_DIMMER: f64 = 100.0;
@@ -154,6 +160,7 @@ pub struct CheckedRoom {
     lights: Vec<Light>,
     camera: Camera,
     settings: Settings,
+    design: Design,
     /// Where `patch_size` and `solver_patch_size` are (or would be) in the file, for errors.
     size_places: [String; 2],
 }
@@ -239,6 +246,7 @@ impl CheckedRoom {
             lights: self.lights,
             camera: self.camera,
             settings: self.settings,
+            design: self.design,
         })
     }
 }
@@ -257,22 +265,37 @@ struct Loader<'a> {
     text: &'a str,
 }
 
-/// A number's allowed range, both ends included.
+/// A number's allowed range: `lo` (excluded when `lo_open`) to `hi` (included).
 #[derive(Debug, Clone, Copy)]
 struct Bounds {
     lo: f64,
+    lo_open: bool,
     hi: f64,
 }
 
 impl Bounds {
+    /// `lo ≤ x ≤ hi`.
     const fn closed(lo: f64, hi: f64) -> Self {
-        Bounds { lo, hi }
+        Bounds {
+            lo,
+            lo_open: false,
+            hi,
+        }
+    }
+    /// `lo < x ≤ hi`.
+    const fn above(lo: f64, hi: f64) -> Self {
+        Bounds {
+            lo,
+            lo_open: true,
+            hi,
+        }
     }
     fn contains(self, x: f64) -> bool {
-        (self.lo..=self.hi).contains(&x)
+        (if self.lo_open { x > self.lo } else { x >= self.lo }) && x <= self.hi
     }
     fn describe(self) -> String {
-        format!("a number ≥ {} and ≤ {}", shown(self.lo), shown(self.hi))
+        let relation = if self.lo_open { ">" } else { "≥" };
+        format!("a number {relation} {} and ≤ {}", shown(self.lo), shown(self.hi))
     }
 }
 
@@ -347,6 +370,17 @@ impl Loader<'_> {
         };
         let lights = self.lights(&file.lights, &solids)?;
         let settings = self.settings(&file.settings)?;
+        let bounds = design::RoomBounds {
+            size: room_size,
+            boxes: &boxes,
+            mesh_bounds: &mesh_bounds,
+        };
+        let design = self.design(
+            &file.surfaces,
+            &file.observers,
+            &file.settings.maintenance_factor,
+            &bounds,
+        )?;
         let camera = match &file.camera {
             Some(spec) => self.camera(spec)?,
             None => default_camera(room_size),
@@ -368,6 +402,7 @@ impl Loader<'_> {
                 self.setting_place(&file.settings.patch_size, "patch_size"),
                 self.setting_place(&file.settings.solver_patch_size, "solver_patch_size"),
             ],
+            design,
         })
     }
 
@@ -571,7 +606,7 @@ impl Loader<'_> {
         let spec = spec.get_ref();
         let position = self.light_position(&spec.position, &at("position"), solids)?;
         let (aim, aim_spec) = self.aim(spec, position, &field)?;
-        let (curve, lid_source) = match (&spec.lid, &spec.lid_file) {
+        let (curve, lid_source, file_luminous) = match (&spec.lid, &spec.lid_file) {
             (Some(_), Some(file)) => {
                 let message = "give either `lid` or `lid_file`, not both";
                 return Err(self.error(&file.span(), &at("lid_file"), message));
@@ -580,7 +615,7 @@ impl Loader<'_> {
                 let message = "the light needs a curve: `lid = [[γ°, cd], …]` or `lid_file`";
                 return Err(self.error(&table, &field, message));
             }
-            (Some(points), None) => (self.inline_curve(points, &at("lid"))?, LidSource::Inline),
+            (Some(points), None) => (self.inline_curve(points, &at("lid"))?, LidSource::Inline, None),
             (None, Some(file)) => self.lid_file(file, &at("lid_file"))?,
         };
         let order = match &spec.order {
@@ -608,6 +643,10 @@ impl Loader<'_> {
             }
             None => [1.0; 3],
         };
+        let luminous = match &spec.luminous_size {
+            Some(size) => Some(self.luminous_size(size, &at("luminous_size"))?),
+            None => file_luminous,
+        };
         Ok(Light {
             name: spec.name.get_ref().clone(),
             position,
@@ -619,6 +658,7 @@ impl Loader<'_> {
             radius,
             dimmer,
             color,
+            luminous,
         })
     }
 
@@ -692,8 +732,13 @@ impl Loader<'_> {
         }
     }
 
-    /// A curve from a photometric file, resolved against the room file's directory.
-    fn lid_file(&self, file: &Spanned<String>, field: &str) -> Result<(Curve, LidSource)> {
+    /// A curve from a photometric file, resolved against the room file's directory, and the
+    /// file's luminous area.
+    fn lid_file(
+        &self,
+        file: &Spanned<String>,
+        field: &str,
+    ) -> Result<(Curve, LidSource, Option<LuminousShape>)> {
         let written = file.get_ref();
         let resolved = self.resolve(written);
         let lid = read_lid_file(&resolved)
@@ -702,7 +747,7 @@ impl Loader<'_> {
             path: resolved,
             asymmetry: lid.asymmetry,
         };
-        Ok((lid.curve, source))
+        Ok((lid.curve, source, lid.luminous))
     }
 
     fn settings(&self, spec: &SettingsSpec) -> Result<Settings> {

@@ -1,5 +1,7 @@
 //! The scene: room file (TOML, version 1), OBJ meshes, meshing into fine and coarse patches.
 
+pub mod calc_spec;
+pub mod design;
 pub mod load;
 pub mod mesher;
 pub mod model;

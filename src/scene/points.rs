@@ -12,6 +12,7 @@ use glam::DVec3;
 
 use crate::error::{Error, Result, quoted};
 use crate::fsio::{self, FileKind};
+use crate::scene::Receiver;
 
 /// The header the points file must start with.
 pub const POINTS_HEADER: &str = "x,y,z,nx,ny,nz";
@@ -22,23 +23,14 @@ pub const MAX_POINTS: usize = 1_000_000;
 /// The largest coordinate magnitude of a point, metres.
 pub const MAX_COORDINATE_M: f64 = 1e6;
 
-/// A receiver point: where, and which way the receiving side faces.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ProbePoint {
-    /// Position (world, m).
-    pub point: DVec3,
-    /// Unit normal (world) of the receiving side.
-    pub normal: DVec3,
-}
-
 /// Reads a points file through [`crate::fsio`] and parses it with [`parse_points`].
-pub fn read_points(path: &Path) -> Result<Vec<ProbePoint>> {
+pub fn read_points(path: &Path) -> Result<Vec<Receiver>> {
     let text = fsio::read_text(path, FileKind::Points)?;
     parse_points(&text, path)
 }
 
 /// Parses points CSV text; `file` names it in errors.
-pub fn parse_points(text: &str, file: &Path) -> Result<Vec<ProbePoint>> {
+pub fn parse_points(text: &str, file: &Path) -> Result<Vec<Receiver>> {
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let Some((header_index, header)) = lines.next() else {
         return Err(Error::input(
@@ -99,7 +91,7 @@ pub fn parse_points(text: &str, file: &Path) -> Result<Vec<ProbePoint>> {
         if largest == 0.0 {
             return Err(Error::input(file, place, "the normal (nx, ny, nz) is zero"));
         }
-        points.push(ProbePoint {
+        points.push(Receiver {
             point: DVec3::new(v[0], v[1], v[2]),
             normal: (normal / largest).normalize(),
         });

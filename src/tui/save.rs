@@ -27,21 +27,6 @@ pub fn edit_room_text(file: &Path, original_text: &str, model: &Model) -> Result
 
 /// The model's saved and current lights as scene lights (the values a save compares).
 fn scene_lights(model: &Model) -> (Vec<Light>, Vec<Light>) {
-    let convert = |lights: &[LightEdit]| lights.iter().map(scene_light).collect();
+    let convert = |lights: &[LightEdit]| lights.iter().map(LightEdit::to_light).collect();
     (convert(&model.saved), convert(&model.lights))
-}
-
-fn scene_light(edit: &LightEdit) -> Light {
-    Light {
-        name: edit.name.clone(),
-        position: edit.position,
-        aim: edit.aim,
-        aim_spec: edit.aim_spec,
-        curve: edit.curve.clone(),
-        lid_source: edit.lid_source.clone(),
-        order: Some(edit.order),
-        radius: 0.0,
-        dimmer: edit.dimmer,
-        color: [1.0; 3],
-    }
 }

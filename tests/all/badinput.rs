@@ -167,6 +167,18 @@ fn arrays_of_the_wrong_length_name_the_field() {
             "mesh[0].translate",
             "line 14",
         ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[surface]]\nmin = [1, 1, 0]\nmax = [2, 2]",
+            "surface[0].min",
+            "line 16",
+        ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[observer]]\neye = [1, 1, 1.2, 0]\nview_dir = [0, 1, 0]",
+            "observer[0].eye",
+            "line 16",
+        ),
     ];
     for (from, to, field, line) in cases {
         write(dir.path(), "bad.toml", &room_with(from, to));
@@ -246,6 +258,24 @@ fn numbers_out_of_range_name_the_field_and_the_limit() {
             "[camera]\neye = [0.5, 0.5, 1.6]\ntarget = [2, 2, 1]\nfov_deg = 1e-300\n[settings]".to_string(),
             "camera.fov_deg",
             "≥ 1",
+        ),
+        (
+            light,
+            format!("{light}\nluminous_size = 1e308"),
+            "light[0].luminous_size",
+            "100 m",
+        ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[surface]]\nspacing = 1e-9".to_string(),
+            "surface[0].spacing",
+            "≥ 0.001",
+        ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[surface]]\ntarget_lux = 1e308".to_string(),
+            "surface[0].target_lux",
+            "≤ 1000000",
         ),
     ];
     for (from, to, field, limit) in cases {
