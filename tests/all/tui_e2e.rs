@@ -88,6 +88,15 @@ fn aim_title(screen: &str) -> Option<String> {
     Some(screen[start..=end].to_string())
 }
 
+/// True once the save has finished: the status reports "saved PATH" and the room is no longer
+/// marked "● unsaved" (a plain `contains("saved ")` also matches that marker).
+fn shows_saved(screen: &str) -> bool {
+    !screen.contains("unsaved")
+        && screen
+            .match_indices("saved ")
+            .any(|(i, _)| !screen[..i].ends_with("un"))
+}
+
 fn wait_for_file(path: &Path) -> String {
     let start = Instant::now();
     while start.elapsed() < STEP_TIMEOUT {
@@ -162,7 +171,7 @@ fn edit_aim_save_and_quit_in_tmux() {
     });
 
     session.send("s");
-    session.wait_for("the save", |s| s.contains("saved "));
+    session.wait_for("the save", shows_saved);
     session.send("q");
     assert_eq!(wait_for_file(&exit_file).trim(), "EXIT=0");
 
@@ -234,7 +243,7 @@ fn a_move_in_tmux_finishes_its_bake_and_keeps_one_cache_entry_per_light() {
         entered.elapsed()
     );
     session.send("s");
-    session.wait_for("the save", |s| s.contains("saved "));
+    session.wait_for("the save", shows_saved);
     session.send("q");
     assert_eq!(wait_for_file(&exit_file).trim(), "EXIT=0");
     let saved: toml::Value = toml::from_str(&std::fs::read_to_string(&room).unwrap()).unwrap();
