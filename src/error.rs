@@ -81,6 +81,20 @@ impl Error {
 /// The crate's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// Checks that every number of a result about to be printed is finite. The input ranges
+/// (docs/ROOM_FILE.md "Limits") rule out a NaN or an infinity, so one here is Haiko's bug: an
+/// internal error naming `what` (exit code 1), never a printed `NaN` or `inf`.
+pub fn check_finite(what: &str, values: impl IntoIterator<Item = f64>) -> Result<()> {
+    match values.into_iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(Error::internal(format!(
+            "internal error: {what} (value {}) is not a finite number; nothing was printed \
+             (please report this with the input files)",
+            i + 1
+        ))),
+    }
+}
+
 /// The most characters of a file's content an error message quotes ([`quoted`]).
 pub const MAX_QUOTED_CHARS: usize = 24;
 
@@ -151,6 +165,19 @@ mod tests {
             "`root:x:0:0:root:/root:/b…`"
         );
         assert_eq!(quoted("a\u{1b}b"), "`a\\u{1b}b`");
+    }
+
+    #[test]
+    fn non_finite_results_are_internal_errors() {
+        assert!(check_finite("lux", [0.0, 1e300, -5.0]).is_ok());
+        let e = check_finite("lux", [1.0, f64::NAN]).unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        assert_eq!(
+            e.to_string(),
+            "internal error: lux (value 2) is not a finite number; nothing was printed \
+             (please report this with the input files)"
+        );
+        assert!(check_finite("E_max", [f64::INFINITY]).is_err());
     }
 
     #[test]

@@ -13,11 +13,14 @@
 //!   failed write removes the temporary file and keeps the old one. A symlink is written through
 //!   to its target. Only regular files (or new names) are written.
 //! * [`check_not_an_input`] refuses an output that is the same file (device and inode, through
-//!   symlinks and hard links) as one of the command's inputs.
+//!   symlinks and hard links) as one of the command's inputs: every file this process read
+//!   through [`read_bytes`] (the room, its photometric, OBJ and MTL files, a points file) is
+//!   noted for it.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, SystemTime};
 
@@ -165,6 +168,7 @@ pub fn read_bytes(path: &Path, kind: FileKind) -> Result<Vec<u8>, ReadError> {
     if let Some(what) = not_regular(metadata.file_type()) {
         return Err(ReadError::NotRegular(what));
     }
+    note_read(path, &metadata);
     let limit = kind.max_bytes();
     if metadata.len() > limit {
         return Err(ReadError::TooLarge {
@@ -382,24 +386,81 @@ pub fn remove_stale_temporaries(target: &Path) -> io::Result<Vec<PathBuf>> {
     Ok(removed)
 }
 
-/// True when `a` and `b` name the same existing file (through symlinks and hard links).
-pub fn same_file(a: &Path, b: &Path) -> bool {
-    match (fs::metadata(a), fs::metadata(b)) {
+/// A file's identity: device and inode on Unix (shared by its hard links and the symlinks to
+/// it), the canonical path elsewhere.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct FileId {
+    #[cfg(unix)]
+    dev_ino: (u64, u64),
+    #[cfg(not(unix))]
+    canonical: PathBuf,
+}
+
+impl FileId {
+    #[cfg_attr(unix, allow(unused_variables))]
+    fn of(path: &Path, metadata: &fs::Metadata) -> Option<FileId> {
         #[cfg(unix)]
-        (Ok(ma), Ok(mb)) => {
+        {
             use std::os::unix::fs::MetadataExt;
-            ma.dev() == mb.dev() && ma.ino() == mb.ino()
+            Some(FileId {
+                dev_ino: (metadata.dev(), metadata.ino()),
+            })
         }
         #[cfg(not(unix))]
-        (Ok(_), Ok(_)) => fs::canonicalize(a).ok() == fs::canonicalize(b).ok(),
+        {
+            fs::canonicalize(path).ok().map(|canonical| FileId { canonical })
+        }
+    }
+
+    fn of_path(path: &Path) -> Option<FileId> {
+        FileId::of(path, &fs::metadata(path).ok()?)
+    }
+}
+
+/// Every file this process read through [`read_bytes`], with the path it was read as: the inputs
+/// [`check_not_an_input`] protects. At most [`MAX_NOTED_FILES`] are kept.
+static FILES_READ: Mutex<Vec<(FileId, PathBuf)>> = Mutex::new(Vec::new());
+
+/// The most files [`FILES_READ`] keeps (a command reads a handful; a long editor session a few
+/// per reload).
+const MAX_NOTED_FILES: usize = 4096;
+
+fn note_read(path: &Path, metadata: &fs::Metadata) {
+    let Some(id) = FileId::of(path, metadata) else {
+        return;
+    };
+    let mut files = FILES_READ.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    if files.len() < MAX_NOTED_FILES && !files.iter().any(|(known, _)| *known == id) {
+        files.push((id, path.to_path_buf()));
+    }
+}
+
+/// True when `a` and `b` name the same existing file (through symlinks and hard links).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (FileId::of_path(a), FileId::of_path(b)) {
+        (Some(ida), Some(idb)) => ida == idb,
         _ => false,
     }
 }
 
-/// Refuses to write `output` when it is one of the command's `inputs` (the same file, by device
-/// and inode): bad input naming the output and the input (exit code 2).
+/// Refuses to write `output` when it is one of the command's inputs (the same file, by device
+/// and inode): one of `inputs`, or any file this process has read through [`read_bytes`]. Bad
+/// input naming the output and the input (exit code 2).
 pub fn check_not_an_input(output: &Path, inputs: &[&Path]) -> Result<()> {
-    match inputs.iter().find(|input| same_file(output, input)) {
+    let Some(output_id) = FileId::of_path(output) else {
+        return Ok(()); // a new file is no input
+    };
+    let read = FILES_READ.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    let input = inputs
+        .iter()
+        .map(|p| p.to_path_buf())
+        .find(|input| FileId::of_path(input).as_ref() == Some(&output_id))
+        .or_else(|| {
+            read.iter()
+                .find(|(id, _)| *id == output_id)
+                .map(|(_, p)| p.clone())
+        });
+    match input {
         None => Ok(()),
         Some(input) => Err(Error::input(
             output,
@@ -508,6 +569,19 @@ mod tests {
         assert!(check_not_an_input(&other, &[room.as_path()]).is_ok());
         fs::write(&other, "y").unwrap();
         assert!(check_not_an_input(&other, &[room.as_path()]).is_ok());
+    }
+
+    #[test]
+    fn files_read_are_inputs_of_the_command() {
+        let dir = tempfile::tempdir().unwrap();
+        let lamp = dir.path().join("lamp.ies");
+        fs::write(&lamp, "IESNA:LM-63-2002").unwrap();
+        let link = dir.path().join("out.png");
+        fs::hard_link(&lamp, &link).unwrap();
+        assert!(check_not_an_input(&link, &[]).is_ok(), "not read yet");
+        read(&lamp, FileKind::Ies).unwrap();
+        let e = check_not_an_input(&link, &[]).unwrap_err().to_string();
+        assert!(e.contains("is the input file") && e.contains("lamp.ies"), "{e}");
     }
 
     #[test]

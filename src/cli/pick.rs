@@ -9,7 +9,7 @@ use std::str::FromStr;
 use glam::DVec3;
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check_finite, printable};
 use crate::render::{DisplayMode, aim_direction};
 use crate::scene;
 use crate::session::frame::check_size;
@@ -189,12 +189,12 @@ pub fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
     let mut text = format!(
         "patch   {} (surface {})\npoint   {} m\nnormal  {}\n",
         report.patch,
-        report.surface,
+        printable(&report.surface),
         v(report.point),
         v(report.normal)
     );
     if let (Some(aim), Some(name)) = (report.aim, aim_light) {
-        text.push_str(&format!("aim     {} (light {name})\n", v(aim)));
+        text.push_str(&format!("aim     {} (light {})\n", v(aim), printable(name)));
     }
     text
 }
@@ -216,6 +216,11 @@ pub fn run(
     };
     let mut session = Session::new(scene, options, &mut |_| {})?;
     let report = pick_pixel(&mut session, width, height, pixel, aim_light)?;
+    let vectors = [Some(report.point), Some(report.normal), report.aim];
+    check_finite(
+        "pick: a coordinate",
+        vectors.iter().flatten().flat_map(|v| v.to_array()),
+    )?;
     if json {
         println!("{}", to_json(&report)?);
     } else {

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::cli::open_session;
-use crate::error::Result;
+use crate::error::{Result, check_finite};
 use crate::scene::points::POINTS_HEADER;
 use crate::scene::{self, DirectMode};
 use crate::transport::direct::Receiver;
@@ -25,6 +25,7 @@ pub fn run(room: &Path, points: &Path, direct_only: bool, mode: DirectMode) -> R
     let receivers = scene::points::read_points(points)?;
     let mut session = open_session(scene, !direct_only)?;
     let lux = session.illuminance_at(&receivers, direct_only, mode)?;
+    check_finite("probe: an illuminance", lux.iter().copied())?;
     print!("{}", format_csv(&receivers, &lux));
     Ok(())
 }

@@ -22,6 +22,7 @@ pub const FORMAT_VERSION: u32 = 1;
 const HEADER_LEN: usize = 8 + 4 + 4 + 8 + 8 + 8;
 
 pub use crate::fsio::Fnv64;
+use crate::fsio::{self, FileKind, ReadError};
 
 /// Where cache files live: `$HAIKO_CACHE_DIR`, else `$XDG_CACHE_HOME/haiko`, else
 /// `$HOME/.cache/haiko`, else `haiko-cache` in the system temporary directory.
@@ -174,12 +175,14 @@ pub enum CacheLoad {
     Invalid(String),
 }
 
-/// Reads and checks a cache file against `key`.
+/// Reads and checks a cache file against `key`. The file is read through
+/// [`crate::fsio::read_bytes`]: a FIFO or a device with a cache file's name is never opened
+/// (docs/DECISIONS.md "Bad input") and is reported invalid, so the bake is redone.
 pub fn read(path: &Path, key: u64) -> CacheLoad {
-    let data = match fs::read(path) {
+    let data = match fsio::read_bytes(path, FileKind::BakeCache) {
         Ok(d) => d,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return CacheLoad::Missing,
-        Err(e) => return CacheLoad::Invalid(format!("cannot read {}: {e}", path.display())),
+        Err(ReadError::NotFound) => return CacheLoad::Missing,
+        Err(e) => return CacheLoad::Invalid(e.into_error(path, FileKind::BakeCache).to_string()),
     };
     match check(&data, key) {
         Ok(()) => CacheLoad::Hit(data[HEADER_LEN..].to_vec()),
@@ -235,7 +238,9 @@ pub fn write_atomic(path: &Path, key: u64, payload: &[u8]) -> std::io::Result<()
         std::process::id()
     ));
     let result = (|| {
-        let mut f = fs::File::create(&tmp)?;
+        // A fresh file, never an existing one (a FIFO under this name would block the open).
+        let _ = fs::remove_file(&tmp);
+        let mut f = fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
         f.write_all(MAGIC)?;
         f.write_all(&FORMAT_VERSION.to_le_bytes())?;
         f.write_all(&0u32.to_le_bytes())?;

@@ -20,10 +20,28 @@ struct Run {
 /// Runs `haiko ARGS` in `dir` with a private bake cache; fails the test if it takes more than
 /// 60 s (a hang on a FIFO or a device).
 fn haiko(dir: &Path, args: &[&str]) -> Run {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_haiko"));
+    command.args(args);
+    run_in(dir, command, args)
+}
+
+/// Runs `haiko ARGS` as [`haiko`] does, with files limited to `blocks` blocks of 512 bytes
+/// (`ulimit -f`) and SIGXFSZ ignored, so a write past the limit fails with EFBIG as on a full
+/// disk (without root or a small file system).
+fn haiko_with_file_limit(dir: &Path, blocks: u32, args: &[&str]) -> Run {
+    let mut command = Command::new("sh");
+    command
+        .arg("-c")
+        .arg(format!("trap '' XFSZ; ulimit -f {blocks}; exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_haiko"))
+        .args(args);
+    run_in(dir, command, args)
+}
+
+fn run_in(dir: &Path, mut command: Command, args: &[&str]) -> Run {
     let out = dir.join(".stdout");
     let err = dir.join(".stderr");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_haiko"))
-        .args(args)
+    let mut child = command
         .current_dir(dir)
         .env("HAIKO_CACHE_DIR", dir.join(".cache"))
         .stdin(Stdio::null())
@@ -647,4 +665,211 @@ fn points_files_have_a_row_limit() {
             MAX_POINTS + 2
         )
     );
+}
+
+/// `ROOM` with grey walls (so there is interreflection and a bake cache entry).
+fn grey_room() -> String {
+    room_with("walls = 0.0", "walls = 0.5")
+}
+
+fn render_args<'a>(room: &'a str, output: &'a str) -> [&'a str; 8] {
+    ["render", room, "-o", output, "--width", "160", "--height", "120"]
+}
+
+#[test]
+fn outputs_that_are_inputs_are_refused_and_left_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ies = fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ies/isotropic.ies"))
+        .unwrap();
+    write(d, "lamp.ies", &ies);
+    let room = room_with("lid = [[0, 1000], [180, 1000]]", "lid_file = \"lamp.ies\"");
+    write(d, "room.toml", &room);
+    std::os::unix::fs::symlink("room.toml", d.join("soft.png")).unwrap();
+    fs::hard_link(d.join("room.toml"), d.join("hard.png")).unwrap();
+    for (output, input) in [
+        ("room.toml", "room.toml"),
+        ("soft.png", "room.toml"),
+        ("hard.png", "room.toml"),
+        ("lamp.ies", "lamp.ies"),
+    ] {
+        let run = haiko(d, &render_args("room.toml", output));
+        assert_bad_input(
+            &run,
+            output,
+            &["is the input file", input, "never overwrites an input"],
+        );
+    }
+    assert_eq!(fs::read_to_string(d.join("room.toml")).unwrap(), room);
+    assert_eq!(fs::read_to_string(d.join("lamp.ies")).unwrap(), ies);
+    // An OBJ and its MTL are inputs too.
+    write(d, "m.obj", QUAD);
+    write(d, "m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n");
+    write(
+        d,
+        "mesh.toml",
+        &room_with("[settings]", "[[mesh]]\nfile = \"m.obj\"\nup = \"z\"\n[settings]"),
+    );
+    for output in ["m.obj", "m.mtl"] {
+        let run = haiko(d, &render_args("mesh.toml", output));
+        assert_bad_input(&run, output, &["is the input file", "never overwrites an input"]);
+    }
+    assert_eq!(fs::read_to_string(d.join("m.obj")).unwrap(), QUAD);
+    // A new output is written (a PNG), through a temporary file that does not stay.
+    let run = haiko(d, &render_args("room.toml", "out.png"));
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert_eq!(&fs::read(d.join("out.png")).unwrap()[..8], b"\x89PNG\r\n\x1a\n");
+    let temporaries: Vec<_> = fs::read_dir(d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains("haiko-tmp"))
+        .collect();
+    assert!(temporaries.is_empty(), "{temporaries:?}");
+}
+
+#[test]
+fn a_failed_image_write_keeps_the_old_image_and_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", ROOM);
+    write(d, "out.png", "the previous image");
+    // One block of 512 bytes: the 160 × 120 PNG (several kB) cannot be written.
+    let run = haiko_with_file_limit(d, 1, &render_args("room.toml", "out.png"));
+    assert_eq!(run.code, Some(1), "an I/O failure is exit 1: {}", run.stderr);
+    assert_eq!(run.stderr.trim_end().lines().count(), 1, "{}", run.stderr);
+    assert!(
+        run.stderr.contains("cannot write out.png")
+            && run.stderr.contains("the previous file, if any, is unchanged"),
+        "{}",
+        run.stderr
+    );
+    assert_eq!(
+        fs::read_to_string(d.join("out.png")).unwrap(),
+        "the previous image"
+    );
+    let names: Vec<String> = fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with(".std") && n != ".cache")
+        .collect();
+    let mut names = names;
+    names.sort();
+    assert_eq!(names, ["out.png", "room.toml"], "no temporary file left");
+}
+
+#[test]
+fn a_tiny_grid_spacing_is_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "room.toml", ROOM);
+    for spacing in ["1e-9", "1e-300", "5e-324"] {
+        let run = haiko(
+            dir.path(),
+            &["grid", "room.toml", "--height", "0.8", "--spacing", spacing],
+        );
+        assert_bad_input(
+            &run,
+            "--spacing",
+            &[
+                "points, more than 4000000",
+                "choose a spacing of at least 0.003 m",
+            ],
+        );
+        assert!(!run.stderr.contains("furniture"), "{}", run.stderr);
+    }
+    // At that spacing the grid fits: 4 m / 0.003 m + 1 = 1334 points per axis (margin 1.5 mm).
+    let run = haiko(
+        dir.path(),
+        &[
+            "grid",
+            "room.toml",
+            "--height",
+            "0.8",
+            "--spacing",
+            "0.003",
+            "--direct-only",
+        ],
+    );
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains("1333 × 1333 points"), "{}", run.stdout);
+}
+
+#[test]
+fn names_are_escaped_wherever_they_are_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let room = ROOM.replace("name = \"iso\"", "name = \"red\\u001b[31m\\nx\"");
+    write(d, "room.toml", &room);
+    let shown = "red\\u{1b}[31m\\nx";
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains(&format!("light {shown}")), "{}", run.stdout);
+    let run = haiko(d, &["bake", "room.toml"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains(shown), "{}", run.stdout);
+    let source = "room.toml#red\u{1b}[31m\nx";
+    let run = haiko(d, &["lid", source]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(
+        run.stdout.starts_with(&format!("room.toml#{shown}\n")),
+        "{}",
+        run.stdout
+    );
+    let run = haiko(
+        d,
+        &[
+            "pick",
+            "room.toml",
+            "--pixel",
+            "80,100",
+            "--width",
+            "160",
+            "--height",
+            "120",
+            "--aim",
+            "red\u{1b}[31m\nx",
+        ],
+    );
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains(&format!("(light {shown})")), "{}", run.stdout);
+    for out in [&run.stdout, &run.stderr] {
+        assert!(!out.contains('\u{1b}'), "{out}");
+    }
+}
+
+#[test]
+fn a_fifo_named_like_a_cache_file_is_never_opened() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", &grey_room());
+    write(d, "p.csv", "x,y,z,nx,ny,nz\n2,2,0,0,0,1\n");
+    let first = haiko(d, &["probe", "room.toml", "--points", "p.csv"]);
+    assert_eq!(first.code, Some(0), "{}", first.stderr);
+    let entries: Vec<PathBuf> = fs::read_dir(d.join(".cache"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "bake"))
+        .collect();
+    assert!(!entries.is_empty(), "the bake was cached");
+    for entry in &entries {
+        fs::remove_file(entry).unwrap();
+        assert!(Command::new("mkfifo").arg(entry).status().unwrap().success());
+    }
+    // Neither command blocks on the FIFO (the helper fails a run after 60 s): the entry is
+    // invalid, the bake is redone and cached again as a regular file, the answer unchanged.
+    let again = haiko(d, &["probe", "room.toml", "--points", "p.csv"]);
+    assert_eq!(again.code, Some(0), "{}", again.stderr);
+    assert!(
+        again.stderr.contains("FIFO (named pipe), not a regular file"),
+        "{}",
+        again.stderr
+    );
+    assert_eq!(again.stdout, first.stdout);
+    for entry in &entries {
+        assert!(fs::metadata(entry).unwrap().is_file(), "{entry:?} rewritten");
+        fs::remove_file(entry).unwrap();
+        assert!(Command::new("mkfifo").arg(entry).status().unwrap().success());
+    }
+    let run = haiko(d, &render_args("room.toml", "out.png"));
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stderr.contains("FIFO"), "{}", run.stderr);
 }
