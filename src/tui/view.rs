@@ -8,6 +8,7 @@ use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
 
+use crate::error::printable;
 use crate::session::LightStatus;
 use crate::tui::keys::{self, ModeKind};
 use crate::tui::model::{LightEdit, Mode, Model};
@@ -134,7 +135,7 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
 
 fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &Areas) {
     let series = model.series.get(model.selected_light).and_then(Option::as_ref);
-    let title = format!(" {} · I(γ) cd · C0–C180 ", light.name);
+    let title = format!(" {} · I(γ) cd · C0–C180 ", printable(&light.name));
     let diagram = PolarDiagram {
         curve: &light.curve,
         series: series.map(|s| s.samples.as_slice()),
@@ -225,7 +226,7 @@ fn status_line(model: &Model) -> Line<'static> {
     if let Some(light) = model.light() {
         parts.push(format!(
             " {} ({}/{})",
-            light.name,
+            printable(&light.name),
             model.selected_light + 1,
             model.lights.len()
         ));
@@ -243,12 +244,12 @@ fn status_line(model: &Model) -> Line<'static> {
     if let Some((done, total)) = model.bake {
         parts.push(format!("baking {done}/{total}"));
     }
-    let updating: Vec<&str> = model
+    let updating: Vec<_> = model
         .lights
         .iter()
         .zip(&model.light_status)
         .filter(|(_, status)| **status == LightStatus::Updating)
-        .map(|(light, _)| light.name.as_str())
+        .map(|(light, _)| printable(&light.name))
         .collect();
     if !updating.is_empty() {
         parts.push(format!("updating {}", updating.join(", ")));
