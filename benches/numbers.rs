@@ -53,7 +53,11 @@ fn numbers(c: &mut Criterion) {
     group.bench_function("point_edit/office", |b| {
         b.iter(|| {
             step += 1;
-            let candela = if step.is_multiple_of(2) { first } else { 0.9 * first };
+            let candela = if step.is_multiple_of(2) {
+                first
+            } else {
+                0.9 * first
+            };
             let edit = Command::SetIntensity {
                 light: 0,
                 point: 0,

@@ -11,6 +11,7 @@ mod session;
 
 fn main() {}
 mod accuracy;
+mod badinput;
 mod bake;
 mod cli;
 mod design;
@@ -18,5 +19,6 @@ mod design_e2e;
 mod radiosity;
 mod render;
 mod render_rooms;
+mod save;
 mod tui;
 mod tui_e2e;
