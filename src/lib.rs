@@ -11,6 +11,7 @@ pub mod accuracy;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
+pub mod fsio;
 pub mod metrics;
 pub mod photometry;
 pub mod relight;

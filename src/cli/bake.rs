@@ -5,7 +5,7 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use crate::cli::open_session;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check_finite, printable};
 use crate::scene;
 use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
@@ -36,7 +36,7 @@ pub fn format_plan(p: &Plan) -> String {
     for l in &p.lights {
         s.push_str(&format!(
             "light {:<10} order {:>2} ({} columns): {}\n    window {}: {}\n    mask: {}\n",
-            l.name,
+            printable(&l.name),
             l.order,
             l.columns,
             l.order_reason,
@@ -67,6 +67,10 @@ pub fn format_plan(p: &Plan) -> String {
 pub fn run_plan(room: &Path, json: bool) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
+    check_finite(
+        "plan: a mounting normal",
+        p.lights.iter().flat_map(|l| l.mask.into_iter().flatten()),
+    )?;
     if json {
         println!(
             "{}",
@@ -114,7 +118,7 @@ pub fn format_bake(b: &Bake) -> String {
         let bytes = (l.direct.len() + l.indirect.iter().map(Vec::len).sum::<usize>()) * 4;
         s.push_str(&format!(
             "light {:<10} order {:>2}, {:>4} columns, {:>8.2} MB, {}\n",
-            l.plan.name,
+            printable(&l.plan.name),
             l.plan.order,
             l.n_columns,
             bytes as f64 / 1e6,

@@ -79,6 +79,11 @@ pub enum LuminousShape {
     },
 }
 
+/// The largest luminous dimension (length, width, height, diameter) Haiko accepts, metres: larger
+/// than any luminaire, and small enough that projected areas and glare terms stay finite
+/// (docs/DECISIONS.md, "Bad input").
+pub const MAX_LUMINOUS_SIZE_M: f64 = 100.0;
+
 /// C-planes sampled when averaging a projected area over C (midpoints of 0.5° intervals, so the
 /// kinks of `|cos C|` at 90° and 270° fall on interval ends).
 const C_SAMPLES: usize = 720;

@@ -19,9 +19,9 @@ pub struct SurfaceSpec {
     pub height: Option<Spanned<f64>>,
     /// Corner `[x, y]` with the smaller coordinates, m (with `max`; default: the room without
     /// `margin`).
-    pub min: Option<Spanned<[f64; 2]>>,
+    pub min: Option<Spanned<Vec<f64>>>,
     /// Corner `[x, y]` with the larger coordinates, m.
-    pub max: Option<Spanned<[f64; 2]>>,
+    pub max: Option<Spanned<Vec<f64>>>,
     /// Room surfaces instead of a horizontal rectangle.
     pub on: Option<Spanned<String>>,
     /// Band left out along the walls (work plane covering the room, default 0.5 m) or along

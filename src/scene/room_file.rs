@@ -1,8 +1,10 @@
 //! The room file schema (docs/ROOM_FILE.md, version 1) as serde types, and byte-span → place conversion.
 //!
 //! Every value a later check may reject is wrapped in [`Spanned`] so that the error names the
-//! line, the column and the field. Unknown fields are rejected. Lengths are metres in the world
-//! frame (z up), angles degrees, intensities candela.
+//! line, the column and the field. Unknown fields are rejected. Arrays are read with any length
+//! and their length is checked on load ([`crate::scene::load`]), so that an extra or missing
+//! element is an error naming the field. Lengths are metres in the world frame (z up), angles
+//! degrees, intensities candela.
 
 use serde::Deserialize;
 use std::ops::Range;
@@ -10,8 +12,9 @@ use toml::Spanned;
 
 use crate::scene::calc_spec::{LuminousSizeSpec, ObserverSpec, SurfaceSpec};
 
-/// A three-component vector as written in the file (`[x, y, z]`, metres or a direction).
-pub type Vec3Spec = [f64; 3];
+/// A three-component vector as written in the file (`[x, y, z]`, metres or a direction); its
+/// length is checked on load.
+pub type Vec3Spec = Vec<f64>;
 
 /// The whole room file.
 #[derive(Debug, Deserialize)]
@@ -68,7 +71,7 @@ pub struct RoomReflectanceSpec {
 }
 
 /// A reflectance: a number (grey) or `[r, g, b]`, each in 0..0.98.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(
     untagged,
     expecting = "expected a reflectance: a number or [r, g, b], each in 0..0.98"
@@ -76,18 +79,8 @@ pub struct RoomReflectanceSpec {
 pub enum ReflectanceSpec {
     /// One value for all channels.
     Grey(f64),
-    /// Per channel.
-    Rgb([f64; 3]),
-}
-
-impl ReflectanceSpec {
-    /// The three channels.
-    pub fn channels(self) -> [f64; 3] {
-        match self {
-            ReflectanceSpec::Grey(rho) => [rho; 3],
-            ReflectanceSpec::Rgb(rgb) => rgb,
-        }
-    }
+    /// Per channel (three numbers; checked on load).
+    Rgb(Vec<f64>),
 }
 
 /// `[[box]]`: an axis-aligned box, world metres.
@@ -142,8 +135,8 @@ pub struct LightSpec {
     pub aim: Option<Spanned<Vec3Spec>>,
     /// Aim direction (world; normalised on load). Default `[0, 0, -1]`.
     pub aim_dir: Option<Spanned<Vec3Spec>>,
-    /// Inline curve: `[γ_deg, candela]` points.
-    pub lid: Option<Spanned<Vec<[f64; 2]>>>,
+    /// Inline curve: `[γ_deg, candela]` points (each checked on load to have two numbers).
+    pub lid: Option<Spanned<Vec<Spanned<Vec<f64>>>>>,
     /// Photometric file (IES / EULUMDAT), relative to the room file.
     pub lid_file: Option<Spanned<String>>,
     /// Fixed SH order (≤ 150).

@@ -8,6 +8,7 @@ use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
 
+use crate::error::printable;
 use crate::session::LightStatus;
 use crate::tui::keys::{self, ModeKind};
 use crate::tui::luminaires::{self, lid_info};
@@ -149,9 +150,10 @@ fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &
     let title = match info {
         Some(info) if info.n_planes > 1 => format!(
             " {} · I(γ) cd · C-plane average, asym {:.2} ",
-            light.name, info.asymmetry
+            printable(&light.name),
+            info.asymmetry
         ),
-        _ => format!(" {} · I(γ) cd · C0–C180 ", light.name),
+        _ => format!(" {} · I(γ) cd · C0–C180 ", printable(&light.name)),
     };
     // The C-planes' spread is drawn while the curve is still the file's.
     let spread = info
@@ -279,7 +281,7 @@ fn status_line(model: &Model) -> Line<'static> {
     if let Some(light) = model.light() {
         parts.push(format!(
             " {} ({}/{})",
-            light.name,
+            printable(&light.name),
             model.selected_light + 1,
             model.lights.len()
         ));
@@ -300,12 +302,12 @@ fn status_line(model: &Model) -> Line<'static> {
     if let Some((done, total)) = model.bake {
         parts.push(format!("baking {done}/{total}"));
     }
-    let updating: Vec<&str> = model
+    let updating: Vec<_> = model
         .lights
         .iter()
         .zip(&model.light_status)
         .filter(|(_, status)| **status == LightStatus::Updating)
-        .map(|(light, _)| light.name.as_str())
+        .map(|(light, _)| printable(&light.name))
         .collect();
     if !updating.is_empty() {
         parts.push(format!("updating {}", updating.join(", ")));

@@ -12,6 +12,7 @@ mod session;
 
 fn main() {}
 mod accuracy;
+mod badinput;
 mod bake;
 mod cli;
 mod design;
@@ -19,5 +20,6 @@ mod design_e2e;
 mod radiosity;
 mod render;
 mod render_rooms;
+mod save;
 mod tui;
 mod tui_e2e;
