@@ -11,7 +11,8 @@
 //!   along the contact edge are halved across the edge while their width across it exceeds
 //!   `contact_ratio ×` their distance to it, down to strips of `contact_min_m`. Light next to a
 //!   contact changes over centimetres (the dark strip of a box face by the floor, the floor in the
-//!   box's shadow), along the edge only over the box's size, so the strips are anisotropic. A strip
+//!   box's shadow), along the edge only over the box's size, so the strips are anisotropic (a strip
+//!   touching the edge at most `CONTACT_ASPECT` = 4 times as long as wide). A strip
 //!   near the edge that a light's shadow line crosses (the box's own shadow next to its base,
 //!   a few centimetres wide beside a bright pool) is halved further, down to `shadow_min_m`.
 //!   The room's own edges near a light hung close to a room surface (a wall-washer under the
