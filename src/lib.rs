@@ -44,7 +44,9 @@
 //! ```
 
 pub mod accuracy;
+/// The command line: the binary's front end, not a library API (hidden from the docs).
 #[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod cli;
 pub mod error;
 pub mod fsio;
@@ -56,7 +58,9 @@ pub mod report;
 pub mod scene;
 pub mod session;
 pub mod transport;
+/// The terminal editor: the binary's front end, public for its tests, not a library API.
 #[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod tui;
 
 pub use error::{Error, Result};
