@@ -11,7 +11,7 @@ use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
 /// Formats a plan with its reasons.
-pub fn format_plan(p: &Plan) -> String {
+pub(crate) fn format_plan(p: &Plan) -> String {
     let on = |b: bool| if b { "on " } else { "off" };
     let mut s = String::new();
     s.push_str(&format!(
@@ -64,7 +64,7 @@ pub fn format_plan(p: &Plan) -> String {
 }
 
 /// Runs `haiko plan`.
-pub fn run_plan(room: &Path, json: bool) -> Result<()> {
+pub(crate) fn run_plan(room: &Path, json: bool) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     check_finite(
@@ -83,7 +83,7 @@ pub fn run_plan(room: &Path, json: bool) -> Result<()> {
 }
 
 /// A progress reporter for the command line: a redrawn bar on a terminal, stage lines otherwise.
-pub fn progress_printer() -> impl FnMut(Progress) {
+pub(crate) fn progress_printer() -> impl FnMut(Progress) {
     let tty = std::io::stderr().is_terminal();
     let mut last_stage = "";
     move |p: Progress| {
@@ -111,7 +111,7 @@ pub fn progress_printer() -> impl FnMut(Progress) {
 }
 
 /// Formats what a bake did.
-pub fn format_bake(b: &Bake) -> String {
+pub(crate) fn format_bake(b: &Bake) -> String {
     let mut s = String::new();
     let t = &b.timings;
     for l in &b.lights {
@@ -171,7 +171,7 @@ pub fn format_bake(b: &Bake) -> String {
 }
 
 /// Runs `haiko bake`.
-pub fn run_bake(room: &Path) -> Result<()> {
+pub(crate) fn run_bake(room: &Path) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     print!("{}", format_plan(&p));
