@@ -12,7 +12,7 @@ use haiko::transport::formfactor::{
     FormFactorBuilder, FormFactorOptions, FormFactors, TargetPatch, differential, point_to_polygon,
 };
 use haiko::transport::interpolate::{InterpolationWeights, interpolate};
-use haiko::transport::radiosity::{PatchColumns, SolveOptions, solve};
+use haiko::transport::radiosity::{PatchColumns, SolveOptions, solve, solve_from};
 use haiko::transport::visibility::{Unoccluded, Visibility};
 
 // ---------------------------------------------------------------- helpers
@@ -641,6 +641,43 @@ fn solve_is_linear_in_the_emission() {
     let deviation = max_abs_diff(&h3, &blended);
     assert!(deviation <= allowed, "{deviation} > {allowed}");
     assert!(allowed < 1e-6 * norm_inf(&h3));
+}
+
+/// A warm start (`solve_from`) from the radiosity of a nearby emission reaches the cold solve's
+/// answer for the new emission within the two certified bounds, in fewer iterations; a starting
+/// radiosity of the wrong shape is an internal error.
+#[test]
+fn warm_start_reaches_the_cold_solution_in_fewer_iterations() {
+    let mesh = small_room();
+    let n = mesh.patches.len();
+    let ff = FormFactors::build(&mesh, &Unoccluded, FormFactorOptions::default());
+    let mut rng = Rng(23);
+    let rho: Vec<f64> = (0..n).map(|_| rng.between(0.5, 0.9)).collect();
+    let e: Vec<f64> = (0..n).map(|_| rng.between(0.0, 100.0)).collect();
+    // The edit: one patch 10 % brighter.
+    let mut edited = e.clone();
+    edited[0] *= 1.1;
+    let options = SolveOptions {
+        tolerance: 1e-8,
+        ..SolveOptions::default()
+    };
+    let before = solve(&ff, &rho, &PatchColumns::from_columns(n, &[e]), &options).unwrap();
+    let emission = PatchColumns::from_columns(n, &[edited]);
+    let cold = solve(&ff, &rho, &emission, &options).unwrap();
+    let warm = solve_from(&ff, &rho, &emission, Some(&before.radiosity), &options).unwrap();
+    let allowed = cold.max_row_sum * (cold.columns[0].error_bound + warm.columns[0].error_bound)
+        + 1e-12 * norm_inf(&cold.irradiance.column(0));
+    let deviation = max_abs_diff(&warm.irradiance.column(0), &cold.irradiance.column(0));
+    assert!(deviation <= allowed, "{deviation} > {allowed}");
+    assert!(
+        warm.columns[0].iterations < cold.columns[0].iterations,
+        "warm {} vs cold {}",
+        warm.columns[0].iterations,
+        cold.columns[0].iterations
+    );
+    let wrong = PatchColumns::from_columns(n - 1, &[vec![0.0; n - 1]]);
+    let err = solve_from(&ff, &rho, &emission, Some(&wrong), &options).unwrap_err();
+    assert_eq!(err.exit_code(), 1, "{err}");
 }
 
 // ---------------------------------------------------------------- interpolation
