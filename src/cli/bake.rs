@@ -7,6 +7,7 @@ use std::path::Path;
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::scene;
+use crate::session::budget::{Estimate, MemoryLimit};
 use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
@@ -64,7 +65,7 @@ pub fn format_plan(p: &Plan) -> String {
 }
 
 /// Runs `haiko plan`.
-pub fn run_plan(room: &Path, json: bool) -> Result<()> {
+pub fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     check_finite(
@@ -78,8 +79,19 @@ pub fn run_plan(room: &Path, json: bool) -> Result<()> {
         );
     } else {
         print!("{}", format_plan(&p));
+        println!("{}", format_budget(&Estimate::of(&p, true), limit));
     }
     Ok(())
+}
+
+/// One line on the estimate against the limit: what `bake` (and the other commands) will check.
+pub fn format_budget(estimate: &Estimate, limit: &MemoryLimit) -> String {
+    let verdict = if estimate.bytes() <= limit.bytes {
+        "within"
+    } else {
+        "ABOVE (the commands that simulate will refuse)"
+    };
+    format!("budget: {estimate}; {verdict} the limit of {limit}")
 }
 
 /// A progress reporter for the command line: a redrawn bar on a terminal, stage lines otherwise.
@@ -171,11 +183,11 @@ pub fn format_bake(b: &Bake) -> String {
 }
 
 /// Runs `haiko bake`.
-pub fn run_bake(room: &Path) -> Result<()> {
+pub fn run_bake(room: &Path, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     print!("{}", format_plan(&p));
-    let session = open_session(scene, true)?;
+    let session = open_session(scene, true, limit)?;
     let b = session
         .bake()
         .ok_or_else(|| Error::internal("bake: the session has no bake"))?;

@@ -1,14 +1,18 @@
 //! The command line: argument definitions (clap) and one function per subcommand.
 //! `main.rs` only parses and calls [`run`].
 
+use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::photometry::Window;
 use crate::scene::Scene;
+use crate::session::budget::{self, MemoryLimit, MemorySize};
 use crate::session::{Session, SessionOptions};
+use crate::transport::plan::PlanOptions;
 use crate::tui::Graphics;
 
 pub mod accuracy;
@@ -39,6 +43,8 @@ pub enum Command {
         /// Inline image protocol for the preview.
         #[arg(long, value_enum, default_value_t = GraphicsArg::Auto)]
         graphics: GraphicsArg,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Luminous intensity curve report: flux, asymmetry, truncation error per SH order.
     Lid {
@@ -67,6 +73,8 @@ pub enum Command {
         /// Direct light exact from the curve (hybrid, default) or from the SH series (paper mode).
         #[arg(long, value_enum, default_value_t = DirectArg::Exact)]
         mode: DirectArg,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Which effects the scene calls for, and why.
     Plan {
@@ -75,11 +83,15 @@ pub enum Command {
         /// Print JSON.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Precompute and cache the SH basis (interreflection) of every light.
     Bake {
         /// The room file.
         room: PathBuf,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Work-plane calculation grid: E_avg, E_min, E_max, U0 = E_min/E_avg.
     Grid {
@@ -100,6 +112,8 @@ pub enum Command {
         /// Direct light only (no interreflection).
         #[arg(long)]
         direct_only: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Headless preview: render the room's camera view to a PNG, with per-stage timings.
     Render {
@@ -117,6 +131,8 @@ pub enum Command {
         /// What the image shows.
         #[arg(long, value_enum, default_value_t = render::ModeArg::Photo)]
         mode: render::ModeArg,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// What a pixel of the `render` image shows (patch, surface, point, normal); aims a light at it.
     Pick {
@@ -137,6 +153,8 @@ pub enum Command {
         /// Also print the unit aim vector that points this light at the picked point.
         #[arg(long, value_name = "LIGHT")]
         aim: Option<String>,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// What accuracy costs in time: error against time for each knob (docs/ACCURACY.md).
     Accuracy {
@@ -152,6 +170,22 @@ pub enum Command {
         #[arg(value_enum, default_value_t = CacheAction::List)]
         action: CacheAction,
     },
+}
+
+/// `--max-memory`, shared by the commands that plan a session.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct MemoryArg {
+    /// Most memory the simulation may plan to use (`8G`, `512M`; binary units); default: half
+    /// the memory available (README "Memory").
+    #[arg(long, value_name = "SIZE")]
+    pub max_memory: Option<MemorySize>,
+}
+
+impl MemoryArg {
+    /// The limit this option sets ([`MemoryLimit::from_option`]).
+    pub fn limit(self) -> MemoryLimit {
+        MemoryLimit::from_option(self.max_memory)
+    }
 }
 
 /// `haiko cache` actions.
@@ -224,21 +258,26 @@ pub enum WindowArg {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Edit { room, graphics } => crate::tui::app::run(&room, graphics.into()),
+        Command::Edit {
+            room,
+            graphics,
+            memory,
+        } => crate::tui::app::run(&room, graphics.into(), &memory.limit()),
         Command::Lid {
             source,
             order,
             window,
             json,
         } => lid::run(&source, order, window.map(Window::from), json),
-        Command::Plan { room, json } => bake::run_plan(&room, json),
-        Command::Bake { room } => bake::run_bake(&room),
+        Command::Plan { room, json, memory } => bake::run_plan(&room, json, &memory.limit()),
+        Command::Bake { room, memory } => bake::run_bake(&room, &memory.limit()),
         Command::Probe {
             room,
             points,
             direct_only,
             mode,
-        } => probe::run(&room, &points, direct_only, mode.into()),
+            memory,
+        } => probe::run(&room, &points, direct_only, mode.into(), &memory.limit()),
         Command::Grid {
             room,
             height,
@@ -246,14 +285,16 @@ pub fn run(cli: Cli) -> Result<()> {
             margin,
             json,
             direct_only,
-        } => grid::run(&room, height, spacing, margin, json, direct_only),
+            memory,
+        } => grid::run(&room, height, spacing, margin, json, direct_only, &memory.limit()),
         Command::Render {
             room,
             output,
             width,
             height,
             mode,
-        } => render::run(&room, &output, width, height, mode.into()),
+            memory,
+        } => render::run(&room, &output, width, height, mode.into(), &memory.limit()),
         Command::Pick {
             room,
             pixel,
@@ -261,7 +302,8 @@ pub fn run(cli: Cli) -> Result<()> {
             height,
             json,
             aim,
-        } => pick::run(&room, pixel, width, height, json, aim.as_deref()),
+            memory,
+        } => pick::run(&room, pixel, width, height, json, aim.as_deref(), &memory.limit()),
         Command::Accuracy { room, json } => accuracy::run(&room, json),
         Command::Cache { action } => match action {
             CacheAction::List => cache::run_list(),
@@ -270,11 +312,54 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// Opens a session on `scene` for a command: the user's bake cache, the progress bar on
-/// standard error, cache notices printed; `indirect` false for direct light only (no bake).
+/// The last panic's message and place, recorded by the hook [`install_panic_hook`] installs.
+static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
+
+/// Replaces the default panic report (several lines on standard error) by a record of the
+/// message and its place, which [`catch_panics`] turns into a one-line internal error. The
+/// binary calls this once at start; the editor's terminal hooks run before it and restore the
+/// terminal.
+pub fn install_panic_hook() {
+    std::panic::set_hook(Box::new(|info| {
+        let place = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        let text = format!("{}{place}", panic_text(info.payload()));
+        *LAST_PANIC.lock().unwrap_or_else(|p| p.into_inner()) = Some(text);
+    }));
+}
+
+/// A panic payload's message (`panic!` gives a `&str` or a `String`).
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic without a message".to_string())
+}
+
+/// Runs one command at the command boundary: a panic anywhere below (the last resort; no input
+/// should reach one) becomes an internal error, exit code 1, with one line naming the message
+/// and where it happened. Unwinding drops the editor's terminal guard, so the terminal is
+/// restored first.
+pub fn catch_panics(command: impl FnOnce() -> Result<()>) -> Result<()> {
+    std::panic::catch_unwind(AssertUnwindSafe(command)).unwrap_or_else(|payload| {
+        let recorded = LAST_PANIC.lock().unwrap_or_else(|p| p.into_inner()).take();
+        let text = recorded.unwrap_or_else(|| panic_text(payload.as_ref()));
+        Err(Error::internal(format!(
+            "internal error: {text} (a bug in Haiko; please report it with the input files)"
+        )))
+    })
+}
+
+/// Opens a session on `scene` for a command: the plan's estimate checked against `limit` first,
+/// then the user's bake cache, the progress bar on standard error, cache notices printed;
+/// `indirect` false for direct light only (no bake).
 ///
-/// Errors: the bake failing (internal).
-pub fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
+/// Errors: the estimate above the limit (bad input), the bake failing (internal).
+pub fn open_session(scene: Scene, indirect: bool, limit: &MemoryLimit) -> Result<Session> {
+    budget::check_scene(&scene, PlanOptions::default(), indirect, limit)?;
     let options = SessionOptions {
         indirect,
         ..SessionOptions::with_user_cache()
@@ -294,5 +379,32 @@ impl From<WindowArg> for Window {
             WindowArg::Lanczos => Window::Lanczos,
             WindowArg::Cesaro2 => Window::Cesaro2,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_at_the_command_boundary_is_a_one_line_internal_error() {
+        let e = catch_panics(|| {
+            let lights: Vec<usize> = Vec::new();
+            let i = lights.len() + 2;
+            panic!("light {i} of {}\nsecond line", lights.len())
+        })
+        .unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        let text = e.to_string();
+        assert!(
+            text.starts_with("internal error: light 2 of 0\\nsecond line")
+                && text.ends_with("(a bug in Haiko; please report it with the input files)"),
+            "{text}"
+        );
+        assert_eq!(text.lines().count(), 1);
+        // No panic: the command's own result passes through.
+        assert!(catch_panics(|| Ok(())).is_ok());
+        let bad = catch_panics(|| Err(Error::input("room.toml", "line 1", "bad"))).unwrap_err();
+        assert_eq!(bad.exit_code(), 2);
     }
 }

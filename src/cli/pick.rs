@@ -12,8 +12,10 @@ use serde::Serialize;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::render::{DisplayMode, aim_direction};
 use crate::scene;
+use crate::session::budget::{self, MemoryLimit};
 use crate::session::frame::check_size;
 use crate::session::{FrameSpec, Session, SessionOptions};
+use crate::transport::plan::PlanOptions;
 
 /// A pixel of the image: column `x` from the left, row `y` from the top (docs/METHOD.md §1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -207,8 +209,10 @@ pub fn run(
     height: u32,
     json: bool,
     aim_light: Option<&str>,
+    limit: &MemoryLimit,
 ) -> Result<()> {
     let scene = scene::load(room)?;
+    budget::check_scene(&scene, PlanOptions::default(), false, limit)?;
     // What a pixel shows does not depend on the light: no bake.
     let options = SessionOptions {
         indirect: false,

@@ -19,6 +19,7 @@ use ratatui_image::protocol::Protocol;
 use crate::error::{Error, Result};
 use crate::render::DisplayMode;
 use crate::scene;
+use crate::session::budget::{self, MemoryLimit};
 use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::msg::{Effect, Msg};
@@ -32,8 +33,10 @@ use crate::tui::{Mode, Model, PreviewArea, preview, save_room, update, view};
 /// fails before the terminal is touched; the terminal is restored however the editor ends.
 ///
 /// Errors: the room file (bad input), the terminal or a worker (internal).
-pub fn run(room: &Path, graphics: Graphics) -> Result<()> {
+pub fn run(room: &Path, graphics: Graphics, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
+    // Before the terminal is taken: a room too large for memory is refused on a sane screen.
+    budget::check_scene(&scene, PlanOptions::default(), true, limit)?;
     let mut session = TerminalSession::enter(graphics)?;
     let mut app = App::start(scene, room, &session)?;
     app.run(&mut session)
