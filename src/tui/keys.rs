@@ -20,17 +20,23 @@ pub enum ModeKind {
     ValueEntry,
     /// The unsaved-changes quit prompt.
     ConfirmQuit,
+    /// The room file changed on disk since it was read: overwrite, reload or save as.
+    SaveConflict,
+    /// Typing the name of the file to save as.
+    SaveAs,
 }
 
 impl ModeKind {
     /// Every mode, in the order the help overlay lists them.
-    pub const ALL: [ModeKind; 6] = [
+    pub const ALL: [ModeKind; 8] = [
         ModeKind::Normal,
         ModeKind::Aim,
         ModeKind::Move,
         ModeKind::ValueEntry,
         ModeKind::Help,
         ModeKind::ConfirmQuit,
+        ModeKind::SaveConflict,
+        ModeKind::SaveAs,
     ];
 
     /// Heading of the mode's section in the help overlay.
@@ -42,6 +48,8 @@ impl ModeKind {
             ModeKind::ValueEntry => "Typing a value (=)",
             ModeKind::Help => "Help",
             ModeKind::ConfirmQuit => "Quit prompt",
+            ModeKind::SaveConflict => "File changed on disk",
+            ModeKind::SaveAs => "Save as (S)",
         }
     }
 }
@@ -61,6 +69,8 @@ pub enum Key {
     CtrlCode(KeyCode),
     /// Any digit or `.` (typing a number).
     Digit,
+    /// Any character (typing a file name).
+    Text,
 }
 
 impl Key {
@@ -78,6 +88,7 @@ impl Key {
             Key::Digit => {
                 matches!(event.code, KeyCode::Char(c) if c.is_ascii_digit() || c == '.') && plain_or_shift
             }
+            Key::Text => matches!(event.code, KeyCode::Char(_)) && plain_or_shift,
         }
     }
 }
@@ -104,6 +115,7 @@ impl fmt::Display for Key {
             Key::Ctrl(c) => write!(f, "Ctrl-{c}"),
             Key::CtrlCode(code) => write!(f, "Ctrl-{}", code_label(code)),
             Key::Digit => write!(f, "0-9 ."),
+            Key::Text => write!(f, "a-z …"),
         }
     }
 }
@@ -117,6 +129,12 @@ pub enum Action {
     Quit,
     /// Save the room file.
     Save,
+    /// Save the room as another file (type its name).
+    SaveAs,
+    /// Save over a room file that changed on disk since it was read.
+    Overwrite,
+    /// Read the room file again, dropping the edits.
+    Reload,
     /// Select the next light.
     NextLight,
     /// Select the previous light.
@@ -187,11 +205,11 @@ pub enum Action {
     Finish,
     /// Leave the mode, undoing what it did.
     Cancel,
-    /// Type the pressed digit or `.`.
+    /// Type the pressed character (a digit or `.` for a value).
     Type,
     /// Delete the last typed character.
     Backspace,
-    /// Apply the typed value.
+    /// Apply the typed value (or save under the typed name).
     Apply,
     /// Quit without saving.
     ConfirmQuit,
@@ -245,7 +263,7 @@ const fn bind(
 
 use Action as A;
 use Key::{Char as C, Code, Ctrl, CtrlCode, Shift};
-use ModeKind::{Aim, ConfirmQuit, Help, Move, Normal, ValueEntry};
+use ModeKind::{Aim, ConfirmQuit, Help, Move, Normal, SaveAs, SaveConflict, ValueEntry};
 
 /// Every key binding of the editor.
 #[rustfmt::skip]
@@ -253,6 +271,7 @@ pub const BINDINGS: &[Binding] = &[
     bind(Normal, &[C('?')], A::ToggleHelp, "show this help", Some("help")),
     bind(Normal, &[C('q')], A::Quit, "quit (asks if unsaved)", Some("quit")),
     bind(Normal, &[C('s')], A::Save, "save the room file", Some("save")),
+    bind(Normal, &[C('S')], A::SaveAs, "save as another file", None),
     bind(Normal, &[Code(KeyCode::Tab)], A::NextLight, "next light", Some("light")),
     bind(Normal, &[Code(KeyCode::BackTab)], A::PreviousLight, "previous light", None),
     bind(Normal, &[Code(KeyCode::Left), C('h')], A::PreviousPoint, "previous control point", None),
@@ -314,6 +333,14 @@ pub const BINDINGS: &[Binding] = &[
     bind(Help, &[C('?'), Code(KeyCode::Esc), C('q')], A::ToggleHelp, "close the help", Some("close")),
     bind(ConfirmQuit, &[C('y')], A::ConfirmQuit, "quit without saving", Some("quit")),
     bind(ConfirmQuit, &[C('n'), Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
+    bind(SaveConflict, &[C('o')], A::Overwrite, "overwrite (your version wins)", Some("overwrite")),
+    bind(SaveConflict, &[C('r')], A::Reload, "reload (drops the edits)", Some("reload")),
+    bind(SaveConflict, &[C('a')], A::SaveAs, "save as another file", Some("save as")),
+    bind(SaveConflict, &[Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
+    bind(SaveAs, &[Key::Text], A::Type, "type the file name", None),
+    bind(SaveAs, &[Code(KeyCode::Backspace)], A::Backspace, "delete a character", None),
+    bind(SaveAs, &[Code(KeyCode::Enter)], A::Apply, "save under that name", Some("save")),
+    bind(SaveAs, &[Code(KeyCode::Esc)], A::Cancel, "cancel", Some("cancel")),
 ];
 
 /// The action bound to `event` in `mode`, if any.

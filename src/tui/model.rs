@@ -38,6 +38,18 @@ pub enum Mode {
     },
     /// "Unsaved changes: quit?" prompt.
     ConfirmQuit,
+    /// The room file changed on disk since it was read: overwrite, reload or save as?
+    SaveConflict {
+        /// What the save found, for the prompt.
+        reason: String,
+    },
+    /// Typing the name of a file to save the room as.
+    SaveAs {
+        /// What was typed so far (relative names are in the room file's folder).
+        buffer: String,
+        /// Why "save as" is offered (a refused save), if it was.
+        reason: Option<String>,
+    },
 }
 
 impl Mode {
@@ -50,6 +62,8 @@ impl Mode {
             Mode::Help => ModeKind::Help,
             Mode::ValueEntry { .. } => ModeKind::ValueEntry,
             Mode::ConfirmQuit => ModeKind::ConfirmQuit,
+            Mode::SaveConflict { .. } => ModeKind::SaveConflict,
+            Mode::SaveAs { .. } => ModeKind::SaveAs,
         }
     }
 
@@ -62,6 +76,8 @@ impl Mode {
             Mode::Help => "HELP",
             Mode::ValueEntry { .. } => "VALUE",
             Mode::ConfirmQuit => "QUIT?",
+            Mode::SaveConflict { .. } => "CHANGED ON DISK",
+            Mode::SaveAs { .. } => "SAVE AS",
         }
     }
 }

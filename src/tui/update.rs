@@ -17,11 +17,14 @@ use crate::tui::edits::{self, EditError};
 use crate::tui::history::Change;
 use crate::tui::keys::{self, Action};
 use crate::tui::model::{LightEdit, Mode, Model, Picked, Timings};
-use crate::tui::msg::{Effect, Msg};
+use crate::tui::msg::{Effect, Msg, SaveOffer};
 use crate::tui::view::{cell_to_pixel, preview_rect};
 
 /// Longest typed value, characters.
 const MAX_TYPED_LEN: usize = 16;
+
+/// Longest typed file name, characters.
+const MAX_TYPED_NAME_LEN: usize = 1024;
 
 /// Applies one message to the model and returns the work the app must do.
 pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
@@ -88,6 +91,16 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.message = Some(message);
             Vec::new()
         }
+        Msg::SaveRefused { reason, offer } => {
+            model.mode = match offer {
+                SaveOffer::OverwriteReloadOrSaveAs => Mode::SaveConflict { reason },
+                SaveOffer::SaveAs => Mode::SaveAs {
+                    buffer: String::new(),
+                    reason: Some(reason),
+                },
+            };
+            Vec::new()
+        }
     }
 }
 
@@ -118,7 +131,22 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             Vec::new()
         }
         Action::Quit | Action::ConfirmQuit => vec![Effect::Quit],
-        Action::Save => vec![Effect::Save],
+        Action::Save => vec![Effect::Save { overwrite: false }],
+        Action::SaveAs => {
+            model.mode = Mode::SaveAs {
+                buffer: String::new(),
+                reason: None,
+            };
+            Vec::new()
+        }
+        Action::Overwrite => {
+            model.mode = Mode::Normal;
+            vec![Effect::Save { overwrite: true }]
+        }
+        Action::Reload => {
+            model.mode = Mode::Normal;
+            vec![Effect::Reload]
+        }
         Action::NextLight => select_light(model, 1),
         Action::PreviousLight => select_light(model, -1),
         Action::NextPoint => select_point(model, 1),
@@ -152,20 +180,36 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             Vec::new()
         }
         Action::Type => {
-            if let (Mode::ValueEntry { buffer }, KeyCode::Char(c)) = (&mut model.mode, event.code)
-                && buffer.chars().count() < MAX_TYPED_LEN
+            let (buffer, max) = match &mut model.mode {
+                Mode::ValueEntry { buffer } => (buffer, MAX_TYPED_LEN),
+                Mode::SaveAs { buffer, .. } => (buffer, MAX_TYPED_NAME_LEN),
+                _ => return Vec::new(),
+            };
+            if let KeyCode::Char(c) = event.code
+                && buffer.chars().count() < max
             {
                 buffer.push(c);
             }
             Vec::new()
         }
         Action::Backspace => {
-            if let Mode::ValueEntry { buffer } = &mut model.mode {
+            if let Mode::ValueEntry { buffer } | Mode::SaveAs { buffer, .. } = &mut model.mode {
                 buffer.pop();
             }
             Vec::new()
         }
-        Action::Apply => apply_typed_value(model),
+        Action::Apply => match &model.mode {
+            Mode::SaveAs { buffer, .. } if buffer.trim().is_empty() => {
+                model.message = Some("type a file name to save as (Esc cancels)".into());
+                Vec::new()
+            }
+            Mode::SaveAs { buffer, .. } => {
+                let name = buffer.trim().to_string();
+                model.mode = Mode::Normal;
+                vec![Effect::SaveAs(name)]
+            }
+            _ => apply_typed_value(model),
+        },
         Action::Order(delta) => edit(model, |l, i| Ok(edits::change_order(l, i, delta))),
         Action::CycleWindow => edit(model, |l, i| {
             Ok(Command::SetWindow {

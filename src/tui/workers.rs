@@ -88,6 +88,8 @@ pub enum EngineRequest {
     },
     /// A bake the bake worker finished.
     Baked(Box<BakeOutcome>),
+    /// End the engine (the room was reloaded and a new engine took over).
+    Stop,
 }
 
 /// Milliseconds since `start`.
@@ -195,6 +197,7 @@ impl Engine {
         let mut picks = Vec::new();
         for request in batch {
             match request {
+                EngineRequest::Stop => return None,
                 EngineRequest::Commands(commands) => {
                     for command in commands {
                         match self.session.apply(command) {

@@ -742,7 +742,7 @@ fn quit_asks_only_with_unsaved_changes() {
 fn saved_clears_dirty_only_when_the_app_reports_success() {
     let mut m = model();
     send(&mut m, [key(KeyCode::Tab), key(KeyCode::Up)]);
-    assert_eq!(update(&mut m, ch('s')), vec![Effect::Save]);
+    assert_eq!(update(&mut m, ch('s')), vec![Effect::Save { overwrite: false }]);
     assert!(m.dirty);
     update(
         &mut m,
@@ -910,6 +910,10 @@ fn example_events(k: keys::Key) -> Vec<KeyEvent> {
         Key::Ctrl(c) => vec![KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL)],
         Key::CtrlCode(code) => vec![KeyEvent::new(code, KeyModifiers::CONTROL)],
         Key::Digit => "0123456789."
+            .chars()
+            .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
+            .collect(),
+        Key::Text => "aZ./ é-_"
             .chars()
             .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
             .collect(),
@@ -1299,4 +1303,74 @@ fn light_names_are_escaped_in_the_panels() {
     // The curve panel's title and the status line both show the escaped name.
     assert_eq!(text.matches("red\\u{1b}[31m\\nx\\u{202e}").count(), 2, "{text}");
     assert!(!text.contains('\u{1b}') && !text.contains('\u{202e}'));
+}
+
+#[test]
+fn refused_saves_ask_what_to_do() {
+    use haiko::tui::msg::SaveOffer;
+    let mut m = model();
+    send(&mut m, [key(KeyCode::Up)]);
+    assert_eq!(update(&mut m, ch('s')), vec![Effect::Save { overwrite: false }]);
+    // Changed on disk: overwrite, reload or save as.
+    let conflict = || Msg::SaveRefused {
+        reason: "room.toml: cannot save: the file was changed on disk".into(),
+        offer: SaveOffer::OverwriteReloadOrSaveAs,
+    };
+    update(&mut m, conflict());
+    assert_eq!(m.mode.kind(), ModeKind::SaveConflict);
+    assert_eq!(update(&mut m, ch('o')), vec![Effect::Save { overwrite: true }]);
+    assert_eq!(m.mode, Mode::Normal);
+    update(&mut m, conflict());
+    assert_eq!(update(&mut m, ch('r')), vec![Effect::Reload]);
+    assert_eq!(m.mode, Mode::Normal);
+    update(&mut m, conflict());
+    assert_eq!(update(&mut m, key(KeyCode::Esc)), vec![]);
+    assert_eq!(m.mode, Mode::Normal);
+    assert!(m.dirty, "a cancelled save keeps the edits");
+    update(&mut m, conflict());
+    assert!(update(&mut m, ch('a')).is_empty());
+    assert_eq!(
+        m.mode,
+        Mode::SaveAs {
+            buffer: String::new(),
+            reason: None
+        }
+    );
+    // Read-only or hard-linked: save as, with the reason shown.
+    update(
+        &mut m,
+        Msg::SaveRefused {
+            reason: "room.toml: cannot save: the file is read-only".into(),
+            offer: SaveOffer::SaveAs,
+        },
+    );
+    let reason = Some("room.toml: cannot save: the file is read-only".to_string());
+    assert_eq!(
+        m.mode,
+        Mode::SaveAs {
+            buffer: String::new(),
+            reason: reason.clone()
+        }
+    );
+    assert!(update(&mut m, key(KeyCode::Enter)).is_empty(), "no name, no save");
+    type_keys(&mut m, "sub/Copy 2.tomlx");
+    update(&mut m, key(KeyCode::Backspace));
+    let screen = draw(&m, 120, 40);
+    let text: String = screen
+        .backend()
+        .buffer()
+        .content()
+        .iter()
+        .map(|c| c.symbol())
+        .collect();
+    assert!(text.contains("save as (file name): sub/Copy 2.toml▏"), "{text}");
+    assert!(text.contains("cannot save: the file is read-only"), "{text}");
+    assert_eq!(
+        update(&mut m, key(KeyCode::Enter)),
+        vec![Effect::SaveAs("sub/Copy 2.toml".into())]
+    );
+    assert_eq!(m.mode, Mode::Normal);
+    // `S` offers save as at any time.
+    update(&mut m, ch('S'));
+    assert_eq!(m.mode.kind(), ModeKind::SaveAs);
 }
