@@ -67,7 +67,7 @@ impl WorkPlane {
         // wrap a usize) and checked before anything is allocated.
         let count = |len: f64| ((len - 2.0 * margin_m) / spacing_m + 1e-9).floor() + 1.0;
         let (nx, ny) = (count(size.x), count(size.y));
-        if !(nx * ny <= MAX_POINTS as f64) {
+        if nx * ny > MAX_POINTS as f64 {
             return Err(Error::input(
                 "--spacing",
                 "",

@@ -229,7 +229,7 @@ impl FromStr for MemorySize {
         };
         let bytes = number * scale as f64;
         // Below 2^63 bytes (8 EiB), so the cast is exact enough and never saturates.
-        if !(bytes >= 1.0 && bytes < 9.2e18) {
+        if !(1.0..9.2e18).contains(&bytes) {
             return Err(bad());
         }
         Ok(MemorySize(bytes as u64))
