@@ -333,7 +333,7 @@ pub const BINDINGS: &[Binding] = &[
     bind(Help, &[C('?'), Code(KeyCode::Esc), C('q')], A::ToggleHelp, "close the help", Some("close")),
     bind(ConfirmQuit, &[C('y')], A::ConfirmQuit, "quit without saving", Some("quit")),
     bind(ConfirmQuit, &[C('n'), Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
-    bind(SaveConflict, &[C('o')], A::Overwrite, "overwrite (your version wins)", Some("overwrite")),
+    bind(SaveConflict, &[C('o')], A::Overwrite, "overwrite with yours", Some("overwrite")),
     bind(SaveConflict, &[C('r')], A::Reload, "reload (drops the edits)", Some("reload")),
     bind(SaveConflict, &[C('a')], A::SaveAs, "save as another file", Some("save as")),
     bind(SaveConflict, &[Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
