@@ -7,7 +7,7 @@ use std::path::Path;
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::scene;
-use crate::session::budget::{Estimate, MemoryLimit};
+use crate::session::budget::{Estimate, LimitSource, MemoryLimit};
 use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
@@ -72,14 +72,27 @@ pub fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
         "plan: a mounting normal",
         p.lights.iter().flat_map(|l| l.mask.into_iter().flatten()),
     )?;
+    let estimate = Estimate::of(&p, true);
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&p).map_err(|e| Error::internal(e.to_string()))?
-        );
+        let json_error = |e: serde_json::Error| Error::internal(e.to_string());
+        let mut doc = serde_json::to_value(&p).map_err(json_error)?;
+        doc["budget"] = serde_json::json!({
+            "estimate_bytes": estimate.bytes(),
+            "form_factor_bytes": estimate.form_factor_bytes,
+            "basis_bytes": estimate.basis_bytes,
+            "relight_bytes": estimate.relight_bytes,
+            "rays": estimate.rays,
+            "limit_bytes": limit.bytes,
+            "limit_from": match limit.source {
+                LimitSource::Option => "--max-memory",
+                LimitSource::Machine => "half the available memory",
+            },
+            "within": estimate.bytes() <= limit.bytes,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc).map_err(json_error)?);
     } else {
         print!("{}", format_plan(&p));
-        println!("{}", format_budget(&Estimate::of(&p, true), limit));
+        println!("{}", format_budget(&estimate, limit));
     }
     Ok(())
 }
@@ -186,6 +199,8 @@ pub fn format_bake(b: &Bake) -> String {
 pub fn run_bake(room: &Path, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
+    // Refused before the plan is printed: the one line on standard error is all that shows.
+    limit.check(room, &Estimate::of(&p, true))?;
     print!("{}", format_plan(&p));
     let session = open_session(scene, true, limit)?;
     let b = session

@@ -898,6 +898,11 @@ fn a_hall_too_large_for_memory_is_refused_before_allocating() {
     // The default limit: half the memory the process may have; under a 4 GiB address space
     // (the bad-input corpus's cap) that is 2 GiB on any machine.
     let run = haiko_limited(d, "-v 4194304", &["bake", "hall.toml"]);
+    assert!(
+        run.stdout.is_empty(),
+        "refused before the plan is printed: {}",
+        run.stdout
+    );
     assert_bad_input(
         &run,
         "hall.toml",
@@ -997,6 +1002,22 @@ fn a_small_room_runs_within_a_given_budget_and_not_within_a_tiny_one() {
         "{}",
         run.stdout
     );
+    let run = haiko(d, &["plan", "room.toml", "--json", "--max-memory", "1K"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let plan: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
+    let budget = &plan["budget"];
+    assert_eq!(budget["limit_bytes"], 1024);
+    assert_eq!(budget["limit_from"], "--max-memory");
+    assert_eq!(budget["within"], false);
+    let parts = ["form_factor_bytes", "basis_bytes", "relight_bytes"].map(|k| budget[k].as_u64().unwrap());
+    assert_eq!(
+        budget["estimate_bytes"].as_u64().unwrap(),
+        parts.iter().sum::<u64>()
+    );
+    // The dense form factors of n solver patches: n² × 4 bytes.
+    let n = plan["coarse_patches"].as_u64().unwrap();
+    assert!(n > 0);
+    assert_eq!(parts[0], n * n * 4);
     let run = haiko(d, &["bake", "room.toml", "--max-memory", "12Q"]);
     assert_eq!(run.code, Some(2), "{}", run.stderr);
     assert!(
