@@ -4,7 +4,7 @@ use clap::Parser;
 
 fn main() {
     let cli = haiko::cli::Cli::parse();
-    haiko::cli::install_panic_hook();
+    haiko::error::install_panic_recorder();
     if let Err(err) = haiko::cli::catch_panics(|| haiko::cli::run(cli)) {
         eprintln!("haiko: {err}");
         std::process::exit(err.exit_code());

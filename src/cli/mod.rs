@@ -3,11 +3,10 @@
 
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
-use std::sync::Mutex;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, panic_text, take_recorded_panic};
 use crate::photometry::Window;
 use crate::scene::Scene;
 use crate::session::budget::{self, MemoryLimit, MemorySize};
@@ -312,41 +311,13 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// The last panic's message and place, recorded by the hook [`install_panic_hook`] installs.
-static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
-
-/// Replaces the default panic report (several lines on standard error) by a record of the
-/// message and its place, which [`catch_panics`] turns into a one-line internal error. The
-/// binary calls this once at start; the editor's terminal hooks run before it and restore the
-/// terminal.
-pub fn install_panic_hook() {
-    std::panic::set_hook(Box::new(|info| {
-        let place = info
-            .location()
-            .map(|l| format!(" at {}:{}", l.file(), l.line()))
-            .unwrap_or_default();
-        let text = format!("{}{place}", panic_text(info.payload()));
-        *LAST_PANIC.lock().unwrap_or_else(|p| p.into_inner()) = Some(text);
-    }));
-}
-
-/// A panic payload's message (`panic!` gives a `&str` or a `String`).
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| (*s).to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "a panic without a message".to_string())
-}
-
 /// Runs one command at the command boundary: a panic anywhere below (the last resort; no input
 /// should reach one) becomes an internal error, exit code 1, with one line naming the message
 /// and where it happened. Unwinding drops the editor's terminal guard, so the terminal is
-/// restored first.
+/// restored first. The binary installs [`crate::error::install_panic_recorder`] first.
 pub fn catch_panics(command: impl FnOnce() -> Result<()>) -> Result<()> {
     std::panic::catch_unwind(AssertUnwindSafe(command)).unwrap_or_else(|payload| {
-        let recorded = LAST_PANIC.lock().unwrap_or_else(|p| p.into_inner()).take();
-        let text = recorded.unwrap_or_else(|| panic_text(payload.as_ref()));
+        let text = take_recorded_panic().unwrap_or_else(|| panic_text(payload.as_ref()));
         Err(Error::internal(format!(
             "internal error: {text} (a bug in Haiko; please report it with the input files)"
         )))

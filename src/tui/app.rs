@@ -315,8 +315,14 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
     })
 }
 
+/// A worker's channel closed: it ended, most likely by a panic, whose recorded message is given.
 fn worker_stopped() -> Error {
-    Error::internal("a background worker of the editor stopped")
+    match crate::error::take_recorded_panic() {
+        Some(panic) => Error::internal(format!(
+            "internal error: a background worker of the editor panicked: {panic}"
+        )),
+        None => Error::internal("a background worker of the editor stopped"),
+    }
 }
 
 /// The message for a terminal event the editor reacts to.
