@@ -17,11 +17,14 @@ use crate::tui::Graphics;
 pub mod accuracy;
 pub mod bake;
 pub mod cache;
+pub mod check;
+pub mod glare;
 pub mod grid;
 pub mod lid;
 pub mod pick;
 pub mod probe;
 pub mod render;
+pub mod report;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -114,6 +117,48 @@ pub enum Command {
         #[command(flatten)]
         memory: MemoryArg,
     },
+    /// Design check: every calculation surface's maintained Ē, E_min, E_max, U0, g2 against its targets.
+    Check {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON (with every grid point's new illuminance).
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
+    },
+    /// Glare: UGR (CIE 117) at every observer, with each luminaire's luminance, solid angle and position index.
+    Glare {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no background luminance: UGR undefined).
+        #[arg(long)]
+        direct_only: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
+    },
+    /// Client report: one self-contained HTML file (views, surfaces, glare, schedule, settings) for A4.
+    Report {
+        /// The room file.
+        room: PathBuf,
+        /// Output HTML file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Width of each view, pixels.
+        #[arg(long, default_value_t = 1200)]
+        width: u32,
+        /// Height of each view, pixels.
+        #[arg(long, default_value_t = 800)]
+        height: u32,
+        #[command(flatten)]
+        memory: MemoryArg,
+    },
     /// Headless preview: render the room's camera view to a PNG, with per-stage timings.
     Render {
         /// The room file.
@@ -152,6 +197,9 @@ pub enum Command {
         /// Also print the unit aim vector that points this light at the picked point.
         #[arg(long, value_name = "LIGHT")]
         aim: Option<String>,
+        /// The illuminance at the picked point by direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
         #[command(flatten)]
         memory: MemoryArg,
     },
@@ -286,6 +334,25 @@ pub fn run(cli: Cli) -> Result<()> {
             direct_only,
             memory,
         } => grid::run(&room, height, spacing, margin, json, direct_only, &memory.limit()),
+        Command::Check {
+            room,
+            json,
+            direct_only,
+            memory,
+        } => check::run(&room, json, direct_only, &memory.limit()),
+        Command::Glare {
+            room,
+            json,
+            direct_only,
+            memory,
+        } => glare::run(&room, json, direct_only, &memory.limit()),
+        Command::Report {
+            room,
+            output,
+            width,
+            height,
+            memory,
+        } => report::run(&room, &output, width, height, &memory.limit()),
         Command::Render {
             room,
             output,
@@ -301,8 +368,17 @@ pub fn run(cli: Cli) -> Result<()> {
             height,
             json,
             aim,
+            direct_only,
             memory,
-        } => pick::run(&room, pixel, width, height, json, aim.as_deref(), &memory.limit()),
+        } => pick::run(
+            &room,
+            pixel,
+            (width, height),
+            json,
+            aim.as_deref(),
+            direct_only,
+            &memory.limit(),
+        ),
         Command::Accuracy { room, json } => accuracy::run(&room, json),
         Command::Cache { action } => match action {
             CacheAction::List => cache::run_list(),

@@ -67,13 +67,14 @@ impl WorkPlane {
         // wrap a usize) and checked before anything is allocated.
         let count = |len: f64| ((len - 2.0 * margin_m) / spacing_m + 1e-9).floor() + 1.0;
         let (nx, ny) = (count(size.x), count(size.y));
-        if nx * ny > MAX_POINTS as f64 {
+        let points = nx * ny;
+        if points.is_nan() || points > MAX_POINTS as f64 {
             return Err(Error::input(
                 "--spacing",
                 "",
                 format!(
                     "{spacing_m} m gives {:.3e} points, more than {MAX_POINTS}: choose a spacing of at least {:.3} m",
-                    nx * ny,
+                    points,
                     min_spacing(size.x - 2.0 * margin_m, size.y - 2.0 * margin_m)
                 ),
             ));

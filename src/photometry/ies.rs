@@ -385,6 +385,14 @@ impl<'a> Numbers<'a> {
 /// Numbers are printed in Rust's shortest round-trip form, so reading the file back gives the
 /// same curve exactly. Control characters in `luminaire` become spaces.
 pub fn write_ies(curve: &Curve, luminaire: &str) -> String {
+    write_ies_with_area(curve, luminaire, None)
+}
+
+/// As [`write_ies`], with the luminous dimensions of `luminous` (LM-63 Table 1 signs,
+/// [`LuminousShape::to_ies`]) so that the file gives the same luminous area back; zero (a point
+/// source) when there is none or LM-63 cannot describe it.
+pub fn write_ies_with_area(curve: &Curve, luminaire: &str, luminous: Option<&LuminousShape>) -> String {
+    let [width, length, height] = luminous.and_then(LuminousShape::to_ies).unwrap_or([0.0; 3]);
     let name: String = luminaire
         .chars()
         .map(|c| if c.is_control() { ' ' } else { c })
@@ -395,7 +403,7 @@ pub fn write_ies(curve: &Curve, luminaire: &str) -> String {
         format!("[LUMINAIRE] {}", name.trim()),
         "[MORE] absolute photometry, candela; gamma in degrees from nadir".to_string(),
         "TILT=NONE".to_string(),
-        format!("1 -1 1 {} 1 1 2 0 0 0", curve.len()),
+        format!("1 -1 1 {} 1 1 2 {width} {length} {height}", curve.len()),
         "1 1 0".to_string(),
     ];
     lines.extend(wrapped(curve.gammas_deg()));

@@ -145,6 +145,55 @@ impl LuminousShape {
         Ok(Some(shape))
     }
 
+    /// The IES LM-63 `width length height` (m) that [`Self::from_ies`] reads back as this
+    /// shape; `None` for a rectangle whose sides have different heights (LM-63 has one height).
+    pub fn to_ies(&self) -> Option<[f64; 3]> {
+        Some(match *self {
+            LuminousShape::Rectangle {
+                length_m,
+                width_m,
+                side_heights_m: [h, h1, h2, h3],
+            } => {
+                if [h1, h2, h3] != [h; 3] {
+                    return None;
+                }
+                [width_m, length_m, h]
+            }
+            LuminousShape::Ellipse {
+                length_m,
+                width_m,
+                side_height_m,
+            } => [-width_m, -length_m, side_height_m],
+            LuminousShape::Ellipsoid {
+                length_m,
+                width_m,
+                height_m,
+            } => [-width_m, -length_m, -height_m],
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C0,
+                length_m,
+                across_m,
+                height_m,
+            } => [-across_m, length_m, -height_m],
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C90,
+                length_m,
+                across_m,
+                height_m,
+            } => [length_m, -across_m, -height_m],
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C0,
+                across_m,
+                height_m,
+            } => [-across_m, 0.0, -height_m],
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C90,
+                across_m,
+                height_m,
+            } => [0.0, -across_m, -height_m],
+        })
+    }
+
     /// The shape a EULUMDAT file's luminous area describes (fields 16–21, millimetres): length
     /// (or diameter) and width (0 = circular), and the luminous heights on the C0, C90, C180 and
     /// C270 sides. `None` when the length is 0 (no luminous area given). A circular area with
@@ -302,6 +351,65 @@ mod tests {
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * b.abs().max(1e-12)
+    }
+
+    /// Every shape LM-63 can describe is written as dimensions that read back as itself; a
+    /// rectangle with unequal side heights has no LM-63 form.
+    #[test]
+    fn ies_dimensions_read_back_as_the_shape() {
+        let shapes = [
+            LuminousShape::Rectangle {
+                length_m: 1.2,
+                width_m: 0.3,
+                side_heights_m: [0.05; 4],
+            },
+            LuminousShape::Ellipse {
+                length_m: 0.662,
+                width_m: 0.662,
+                side_height_m: 0.0,
+            },
+            LuminousShape::Ellipsoid {
+                length_m: 0.3,
+                width_m: 0.2,
+                height_m: 0.1,
+            },
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C0,
+                length_m: 1.5,
+                across_m: 0.05,
+                height_m: 0.06,
+            },
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C90,
+                length_m: 1.5,
+                across_m: 0.05,
+                height_m: 0.06,
+            },
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C0,
+                across_m: 0.4,
+                height_m: 0.3,
+            },
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C90,
+                across_m: 0.4,
+                height_m: 0.3,
+            },
+        ];
+        for shape in shapes {
+            let [w, l, h] = shape.to_ies().unwrap();
+            assert_eq!(
+                LuminousShape::from_ies(w, l, h, 1.0),
+                Ok(Some(shape)),
+                "{shape:?}"
+            );
+        }
+        let uneven = LuminousShape::Rectangle {
+            length_m: 1.0,
+            width_m: 0.5,
+            side_heights_m: [0.1, 0.0, 0.1, 0.0],
+        };
+        assert_eq!(uneven.to_ies(), None);
     }
 
     #[test]

@@ -2,6 +2,7 @@
 
 pub mod calc_spec;
 pub mod design;
+pub mod light_tables;
 pub mod load;
 pub mod mesher;
 pub mod model;

@@ -24,11 +24,11 @@ use toml_edit::{Array, DocumentMut, Item, Key, Table, Value};
 use crate::error::{Error, Result};
 use crate::fsio::{self, FileKind};
 use crate::photometry::Curve;
+use crate::scene::light_tables::align_light_tables;
 use crate::scene::load::RoomText;
 use crate::scene::model::{AimSpec, Light};
 
-/// Significant digits of the numbers written (no `1.0000000000000002` noise).
-pub const SIGNIFICANT_DIGITS: usize = 6;
+pub use crate::scene::light_tables::{SIGNIFICANT_DIGITS, number, round_significant, vector};
 
 /// Why a save did not happen. Nothing was written in any case.
 #[derive(Debug)]
@@ -281,19 +281,22 @@ fn rebase_paths(from: &Path, to: &Path, text: &str) -> Result<String> {
 }
 
 /// The room text with the changed values of `now` (against `saved`) written in; `file` names
-/// the file in errors.
+/// the file in errors. Added and removed lights and changed photometric files are handled first
+/// ([`align_light_tables`]), then each light's changed values.
 pub fn edit_room_text(
     file: &Path,
     original_text: &str,
     saved: &[Light],
     now: &[Light],
 ) -> Result<EditedRoom> {
+    let aligned = align_light_tables(file, original_text, saved, now)?;
+    let (original_text, saved) = (aligned.text.as_str(), aligned.saved.as_slice());
     let mut doc = parse(file, original_text)?;
     let mut inlined = Vec::new();
     let changed = now.len() != saved.len() || now.iter().zip(saved).any(|(n, s)| !same_saved_values(n, s));
     if !changed {
         return Ok(EditedRoom {
-            text: original_text.to_string(),
+            text: aligned.text,
             inlined,
         });
     }
@@ -559,31 +562,6 @@ fn set_replacing(table: &mut Table, key: &str, replaced: &str, mut value: Value)
 fn formatted(mut array: Array) -> Array {
     array.fmt();
     array
-}
-
-/// `[x, y, z]` with [`SIGNIFICANT_DIGITS`].
-fn vector(v: [f64; 3]) -> Value {
-    Value::Array(formatted(Array::from_iter(v.map(|x| number(x, false)))))
-}
-
-/// `x` rounded to [`SIGNIFICANT_DIGITS`]; written as an integer when `integral_as_int` and it is
-/// one (as in `lid = [[0, 1000], …]`), else as a float.
-pub fn number(x: f64, integral_as_int: bool) -> Value {
-    let rounded = round_significant(x);
-    if integral_as_int && rounded.fract() == 0.0 && rounded.abs() < 1e15 {
-        Value::from(rounded as i64)
-    } else {
-        Value::from(rounded)
-    }
-}
-
-/// `x` rounded to [`SIGNIFICANT_DIGITS`] significant digits (−0 becomes 0).
-pub fn round_significant(x: f64) -> f64 {
-    if !x.is_finite() || x == 0.0 {
-        return if x == 0.0 { 0.0 } else { x };
-    }
-    let text = format!("{:.*e}", SIGNIFICANT_DIGITS - 1, x);
-    text.parse().unwrap_or(x)
 }
 
 /// `line L, column C` of a parse error, when it has a span.

@@ -16,13 +16,16 @@ use ratatui::widgets::{Gauge, Paragraph};
 use ratatui_image::protocol::Protocol;
 
 use crate::error::{Error, Result};
+use crate::photometry::read_lid_file;
 use crate::render::DisplayMode;
 use crate::scene::save::{IfChanged, SaveError, Saved};
-use crate::scene::{self, RoomText};
+use crate::scene::{self, LidSource, RoomText};
 use crate::session::budget::{self, MemoryLimit};
 use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
-use crate::tui::msg::{Effect, Msg};
+use crate::tui::luminaires::{self, LidInfo};
+use crate::tui::msg::{CurveSave, Effect, Msg};
+use crate::tui::save::SaveTarget;
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
 use crate::tui::workers::{
     AppEvent, EncodeJob, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
@@ -64,6 +67,7 @@ fn fresh_model(
     for (i, light) in planned.iter().enumerate() {
         model.set_planned_order(i, light.order);
     }
+    model.lid_files = luminaires::read_lid_infos(&model.lights);
     model
 }
 
@@ -196,9 +200,11 @@ impl App {
                         preview_px: self.model.preview_px,
                         aim,
                     }),
-                    Effect::Save { overwrite } => queue.push_back(self.save(overwrite)),
+                    Effect::Save { curves, overwrite } => queue.push_back(self.save(curves, overwrite)),
                     Effect::SaveAs(name) => queue.push_back(self.save_as(&name)),
                     Effect::Reload => self.reload(),
+                    Effect::LoadLid(typed) => queue.push_back(self.load_lid(&typed)),
+                    Effect::Report => self.outbox.push(EngineRequest::Report(report_path(&self.room))),
                     Effect::Quit => self.quit = true,
                 }
             }
@@ -207,38 +213,47 @@ impl App {
     }
 
     /// Saves into the room file; a refusal becomes the prompt that asks what to do.
-    fn save(&mut self, overwrite: bool) -> Msg {
+    fn save(&mut self, curves: CurveSave, overwrite: bool) -> Msg {
         let if_changed = if overwrite {
             IfChanged::Overwrite
         } else {
             IfChanged::Refuse
         };
-        let result = save::save_loaded(&self.room, &self.loaded, &self.model, if_changed);
-        self.saved(result, None)
+        let target = SaveTarget::Room(if_changed);
+        let result = save::save_curves_to(&self.room, &self.loaded, &self.model, curves, target);
+        self.saved(result, curves, None)
     }
 
-    /// Saves as `name` (relative to the room file's folder); the editor then edits that file.
+    /// Saves as `name` (relative to the room file's folder; edited file curves inline); the
+    /// editor then edits that file.
     fn save_as(&mut self, name: &str) -> Msg {
         let folder = self.room.parent().unwrap_or(Path::new("."));
         let path = folder.join(name);
-        let result = save::save_as(&path, &self.room, &self.loaded, &self.model);
-        self.saved(result, Some(path))
+        let (curves, target) = (CurveSave::Inline, SaveTarget::As(&path));
+        let result = save::save_curves_to(&self.room, &self.loaded, &self.model, curves, target);
+        self.saved(result, curves, Some(path.clone()))
     }
 
     /// The message for a save's `result`; on success the room as written is what the next save
     /// compares against, and `new_room` (a "save as") becomes the file edited.
-    fn saved(&mut self, result: std::result::Result<Saved, SaveError>, new_room: Option<PathBuf>) -> Msg {
+    fn saved(
+        &mut self,
+        result: std::result::Result<(Saved, Vec<LidSource>), SaveError>,
+        curves: CurveSave,
+        new_room: Option<PathBuf>,
+    ) -> Msg {
         match result {
-            Ok(saved) => {
+            Ok((saved, sources)) => {
                 self.loaded = saved.room;
                 if let Some(path) = new_room {
                     self.room = path;
                 }
                 Msg::Saved {
                     message: saved.message,
+                    sources,
                 }
             }
-            Err(e) => save::refusal(e),
+            Err(e) => save::refusal(e, curves),
         }
     }
 
@@ -270,6 +285,18 @@ impl App {
         self.loaded = loaded;
         self.engine = spawn_engine(scene, SessionOptions::with_user_cache(), self.sender.clone());
         self.frame_changed = true;
+    }
+
+    /// Reads the photometric file the user typed.
+    fn load_lid(&self, typed: &str) -> Msg {
+        let home = std::env::var_os("HOME").map(PathBuf::from);
+        let path = luminaires::resolve_typed_path(&self.room, typed, home.as_deref());
+        Msg::LidLoaded {
+            result: read_lid_file(&path)
+                .map(|lid| std::sync::Arc::new(LidInfo::of(lid)))
+                .map_err(|e| e.to_string()),
+            path,
+        }
     }
 
     /// Sends the engine this turn's requests, in order, with the frame the model now shows
@@ -313,6 +340,14 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
             _ => None,
         },
     })
+}
+
+/// Where the editor writes the report: `ROOM-report.html` next to the room file.
+pub fn report_path(room: &Path) -> PathBuf {
+    let stem = room
+        .file_stem()
+        .map_or_else(|| "room".into(), |s| s.to_string_lossy().into_owned());
+    room.with_file_name(format!("{stem}-report.html"))
 }
 
 /// A worker's channel closed: it ended, most likely by a panic, whose recorded message is given.

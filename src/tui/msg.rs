@@ -1,10 +1,16 @@
 //! What reaches the editor (`Msg`: input events and engine results) and what it asks the app to
 //! do (`Effect`).
 
+use std::path::PathBuf;
+use std::sync::Arc;
+
 use glam::DVec3;
 use ratatui::crossterm::event::KeyEvent;
 
+use crate::scene::LidSource;
 use crate::session::{Command, LightStatus, Series};
+use crate::tui::luminaires::LidInfo;
+use crate::tui::panel::PanelNumbers;
 
 /// An input event or an engine's result.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,6 +72,23 @@ pub enum Msg {
     Saved {
         /// Status message from [`crate::tui::save::save_room`].
         message: String,
+        /// Every light's photometric source as now written (a light whose edited curve went
+        /// to a new file points at it; one written inline is inline).
+        sources: Vec<LidSource>,
+    },
+    /// The answer to [`Effect::LoadLid`]: the file at `path`, or why it could not be read.
+    LidLoaded {
+        /// The file, as resolved.
+        path: PathBuf,
+        /// What the editor keeps of it, or the error in one line.
+        result: Result<Arc<LidInfo>, String>,
+    },
+    /// The engine's numbers after its latest batch of edits.
+    Numbers(Box<PanelNumbers>),
+    /// The report was written; `message` says where.
+    Reported {
+        /// Status message.
+        message: String,
     },
     /// The engine or the save failed; `message` is one line for the user.
     Failed {
@@ -84,8 +107,12 @@ pub enum Msg {
 /// What the editor offers after a refused save (docs/DECISIONS.md "Saving").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SaveOffer {
-    /// The file changed on disk since it was read: overwrite, reload or save as.
-    OverwriteReloadOrSaveAs,
+    /// The file changed on disk since it was read: overwrite (writing edited file curves as
+    /// `curves` says), reload or save as.
+    OverwriteReloadOrSaveAs {
+        /// How the refused save wrote edited file curves.
+        curves: CurveSave,
+    },
     /// The file cannot be replaced (read-only, hard-linked): save as another file.
     SaveAs,
 }
@@ -105,18 +132,34 @@ pub enum Effect {
         /// True to aim the selected light at it.
         aim: bool,
     },
-    /// Save the room file ([`crate::scene::save::save_room`]); `overwrite` writes over a change
-    /// made on disk since it was read. Answered with [`Msg::Saved`], [`Msg::SaveRefused`] or
-    /// [`Msg::Failed`].
+    /// Save the room file ([`crate::tui::save::save_curves_to`]), edited file curves as
+    /// `curves` says; `overwrite` writes over a change made on disk since it was read. Answered
+    /// with [`Msg::Saved`], [`Msg::SaveRefused`] or [`Msg::Failed`].
     Save {
+        /// How edited file curves are written.
+        curves: CurveSave,
         /// True when the user chose to overwrite a change on disk.
         overwrite: bool,
     },
-    /// Save the room as the file typed (relative to the room file's folder); the editor then
-    /// edits that file. Answered as [`Effect::Save`].
+    /// Save the room as the file typed (relative to the room file's folder; edited file curves
+    /// inline); the editor then edits that file. Answered as [`Effect::Save`].
     SaveAs(String),
     /// Read the room file again, dropping the edits (the user chose "reload").
     Reload,
+    /// Read the photometric file the user typed (relative to the room file); answer with
+    /// [`Msg::LidLoaded`].
+    LoadLid(String),
+    /// Write the report next to the room file; answer with [`Msg::Reported`] or [`Msg::Failed`].
+    Report,
     /// Leave the editor.
     Quit,
+}
+
+/// How a save writes a curve that came from a photometric file and was edited.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CurveSave {
+    /// As a new IES file next to the room file, which the light's `lid_file` then names.
+    NewFiles,
+    /// Inline (`lid = […]` in place of `lid_file`).
+    Inline,
 }

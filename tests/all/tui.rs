@@ -10,6 +10,7 @@ use haiko::scene::{AimSpec, Camera, LidSource, Light, PatchMesh, Scene, Settings
 use haiko::session::{Command, Series};
 use haiko::tui::keys::{self, BINDINGS, ModeKind};
 use haiko::tui::model::{MAX_ORDER, WindowChoice};
+use haiko::tui::msg::CurveSave;
 use haiko::tui::save::{edit_room_text, round_significant, save_room};
 use haiko::tui::view::{cell_to_pixel, preview_rect};
 use haiko::tui::{Effect, Mode, Model, Msg, PreviewArea, update, view};
@@ -742,7 +743,17 @@ fn quit_asks_only_with_unsaved_changes() {
 fn saved_clears_dirty_only_when_the_app_reports_success() {
     let mut m = model();
     send(&mut m, [key(KeyCode::Tab), key(KeyCode::Up)]);
-    assert_eq!(update(&mut m, ch('s')), vec![Effect::Save { overwrite: false }]);
+    // The spot's curve came from a file: the save asks how to write it.
+    assert_eq!(update(&mut m, ch('s')), vec![]);
+    assert_eq!(m.mode, Mode::ConfirmSave);
+    assert_eq!(
+        update(&mut m, ch('i')),
+        vec![Effect::Save {
+            curves: CurveSave::Inline,
+            overwrite: false
+        }]
+    );
+    assert_eq!(m.mode, Mode::Normal);
     assert!(m.dirty);
     update(
         &mut m,
@@ -755,23 +766,26 @@ fn saved_clears_dirty_only_when_the_app_reports_success() {
         &mut m,
         Msg::Saved {
             message: "saved room.toml".into(),
+            sources: vec![LidSource::Inline, LidSource::Inline],
         },
     );
     assert!(!m.dirty);
     assert_eq!(m.message.as_deref(), Some("saved room.toml"));
-    // The edited file-backed curve is now inline; the untouched one keeps its source.
+    // The edited file-backed curve is now inline, as the app reported; the other kept its source.
     assert_eq!(m.lights[1].lid_source, LidSource::Inline);
     assert_eq!(m.lights[0].lid_source, LidSource::Inline);
     update(&mut m, ch('u'));
     assert!(m.dirty);
     // Quitting after a save does not ask.
     let mut m = model();
+    let spot_source = m.lights[1].lid_source.clone();
     send(
         &mut m,
         [
             key(KeyCode::Up),
             Msg::Saved {
                 message: String::new(),
+                sources: vec![LidSource::Inline, spot_source],
             },
         ],
     );
@@ -913,7 +927,7 @@ fn example_events(k: keys::Key) -> Vec<KeyEvent> {
             .chars()
             .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
             .collect(),
-        Key::Text => "aZ./ é-_"
+        Key::AnyChar => "a/Z.~ 9"
             .chars()
             .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
             .collect(),
@@ -1038,7 +1052,8 @@ fn save_converts_an_edited_lid_file_light_to_inline_and_writes_atomically() {
     assert!(spot.get("lid_file").is_none());
     assert_eq!(spot["lid"].as_array().unwrap().len(), 3);
     // After the app reports the save, nothing is left to write.
-    update(&mut m, Msg::Saved { message });
+    let sources = vec![LidSource::Inline, LidSource::Inline];
+    update(&mut m, Msg::Saved { message, sources });
     assert_eq!(edit_room_text(&path, &text, &m).unwrap().text, text);
 }
 
@@ -1213,6 +1228,7 @@ fn polar_diagram_marks_the_selected_point_once_and_labels_rings() {
     PolarDiagram {
         curve: &curve,
         series: None,
+        spread: None,
         selected: 1,
         block: Block::bordered(),
     }
@@ -1228,6 +1244,7 @@ fn polar_diagram_marks_the_selected_point_once_and_labels_rings() {
     PolarDiagram {
         curve: &curve,
         series: None,
+        spread: None,
         selected: 0,
         block: Block::bordered(),
     }
@@ -1310,15 +1327,20 @@ fn refused_saves_ask_what_to_do() {
     use haiko::tui::msg::SaveOffer;
     let mut m = model();
     send(&mut m, [key(KeyCode::Up)]);
-    assert_eq!(update(&mut m, ch('s')), vec![Effect::Save { overwrite: false }]);
+    // The centre light's curve is inline: no question about file curves.
+    let save = |curves, overwrite| Effect::Save { curves, overwrite };
+    assert_eq!(update(&mut m, ch('s')), vec![save(CurveSave::Inline, false)]);
     // Changed on disk: overwrite, reload or save as.
     let conflict = || Msg::SaveRefused {
         reason: "room.toml: cannot save: the file was changed on disk".into(),
-        offer: SaveOffer::OverwriteReloadOrSaveAs,
+        offer: SaveOffer::OverwriteReloadOrSaveAs {
+            curves: CurveSave::NewFiles,
+        },
     };
     update(&mut m, conflict());
     assert_eq!(m.mode.kind(), ModeKind::SaveConflict);
-    assert_eq!(update(&mut m, ch('o')), vec![Effect::Save { overwrite: true }]);
+    // Overwrite writes the file curves as the refused save did.
+    assert_eq!(update(&mut m, ch('o')), vec![save(CurveSave::NewFiles, true)]);
     assert_eq!(m.mode, Mode::Normal);
     update(&mut m, conflict());
     assert_eq!(update(&mut m, ch('r')), vec![Effect::Reload]);
