@@ -700,6 +700,23 @@ fn outputs_that_are_inputs_are_refused_and_left_alone() {
             &["is the input file", input, "never overwrites an input"],
         );
     }
+    // The report is an output too.
+    for output in ["room.toml", "hard.png", "lamp.ies"] {
+        let run = haiko(
+            d,
+            &[
+                "report",
+                "room.toml",
+                "-o",
+                output,
+                "--width",
+                "64",
+                "--height",
+                "48",
+            ],
+        );
+        assert_bad_input(&run, output, &["is the input file", "never overwrites an input"]);
+    }
     assert_eq!(fs::read_to_string(d.join("room.toml")).unwrap(), room);
     assert_eq!(fs::read_to_string(d.join("lamp.ies")).unwrap(), ies);
     // An OBJ and its MTL are inputs too.
