@@ -61,7 +61,7 @@ impl FileKind {
     }
 
     /// The kind in words, for messages.
-    pub const fn describe(self) -> &'static str {
+    pub(crate) const fn describe(self) -> &'static str {
         match self {
             FileKind::Room => "a room file",
             FileKind::Ies => "an IES file",
@@ -94,7 +94,7 @@ pub enum ReadError {
 
 impl ReadError {
     /// The error as a user-facing input error naming `path` (exit code 2).
-    pub fn into_error(self, path: &Path, kind: FileKind) -> Error {
+    pub(crate) fn into_error(self, path: &Path, kind: FileKind) -> Error {
         let message = match self {
             ReadError::NotFound => "cannot read file: no such file".to_string(),
             ReadError::NotRegular(what) => format!(
@@ -194,7 +194,7 @@ pub fn read(path: &Path, kind: FileKind) -> Result<Vec<u8>> {
 
 /// [`read`] as UTF-8 text (a leading byte-order mark is kept); invalid UTF-8 is an input error
 /// naming the line, without quoting the file.
-pub fn read_text(path: &Path, kind: FileKind) -> Result<String> {
+pub(crate) fn read_text(path: &Path, kind: FileKind) -> Result<String> {
     let bytes = read(path, kind)?;
     String::from_utf8(bytes).map_err(|e| {
         let valid = e.utf8_error().valid_up_to();
@@ -246,7 +246,7 @@ impl Fnv64 {
 }
 
 /// The content hash of a file's bytes (FNV-1a 64).
-pub fn content_hash(bytes: &[u8]) -> u64 {
+pub(crate) fn content_hash(bytes: &[u8]) -> u64 {
     Fnv64::default().bytes(bytes).finish()
 }
 
@@ -255,7 +255,7 @@ const MAX_SYMLINK_HOPS: usize = 40;
 
 /// The file `path` finally names: symlinks followed (each relative target against its link's
 /// directory) until a non-link or a missing name; `path` itself when it is no link.
-pub fn resolve_symlinks(path: &Path) -> io::Result<PathBuf> {
+pub(crate) fn resolve_symlinks(path: &Path) -> io::Result<PathBuf> {
     let mut current = path.to_path_buf();
     for _ in 0..MAX_SYMLINK_HOPS {
         match fs::symlink_metadata(&current) {
@@ -299,7 +299,7 @@ fn temp_path(target: &Path) -> PathBuf {
 /// file they name, keeping the old file's permissions. A target that exists but is not a regular
 /// file is bad input (exit code 2); an I/O failure is an internal error (exit code 1) after
 /// which the old file is unchanged and no temporary file is left.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let failed = |e: io::Error| {
         Error::internal(format!(
             "cannot write {}: {e} (the previous file, if any, is unchanged)",
@@ -435,18 +435,10 @@ fn note_read(path: &Path, metadata: &fs::Metadata) {
     }
 }
 
-/// True when `a` and `b` name the same existing file (through symlinks and hard links).
-pub fn same_file(a: &Path, b: &Path) -> bool {
-    match (FileId::of_path(a), FileId::of_path(b)) {
-        (Some(ida), Some(idb)) => ida == idb,
-        _ => false,
-    }
-}
-
 /// Refuses to write `output` when it is one of the command's inputs (the same file, by device
 /// and inode): one of `inputs`, or any file this process has read through [`read_bytes`]. Bad
 /// input naming the output and the input (exit code 2).
-pub fn check_not_an_input(output: &Path, inputs: &[&Path]) -> Result<()> {
+pub(crate) fn check_not_an_input(output: &Path, inputs: &[&Path]) -> Result<()> {
     let Some(output_id) = FileId::of_path(output) else {
         return Ok(()); // a new file is no input
     };

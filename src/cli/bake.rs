@@ -12,7 +12,7 @@ use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
 /// Formats a plan with its reasons.
-pub fn format_plan(p: &Plan) -> String {
+pub(crate) fn format_plan(p: &Plan) -> String {
     let on = |b: bool| if b { "on " } else { "off" };
     let mut s = String::new();
     s.push_str(&format!(
@@ -65,7 +65,7 @@ pub fn format_plan(p: &Plan) -> String {
 }
 
 /// Runs `haiko plan`.
-pub fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
+pub(crate) fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     check_finite(
@@ -98,7 +98,7 @@ pub fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
 }
 
 /// One line on the estimate against the limit: what `bake` (and the other commands) will check.
-pub fn format_budget(estimate: &Estimate, limit: &MemoryLimit) -> String {
+pub(crate) fn format_budget(estimate: &Estimate, limit: &MemoryLimit) -> String {
     let verdict = if estimate.bytes() <= limit.bytes {
         "within"
     } else {
@@ -108,7 +108,7 @@ pub fn format_budget(estimate: &Estimate, limit: &MemoryLimit) -> String {
 }
 
 /// A progress reporter for the command line: a redrawn bar on a terminal, stage lines otherwise.
-pub fn progress_printer() -> impl FnMut(Progress) {
+pub(crate) fn progress_printer() -> impl FnMut(Progress) {
     let tty = std::io::stderr().is_terminal();
     let mut last_stage = "";
     move |p: Progress| {
@@ -136,7 +136,7 @@ pub fn progress_printer() -> impl FnMut(Progress) {
 }
 
 /// Formats what a bake did.
-pub fn format_bake(b: &Bake) -> String {
+pub(crate) fn format_bake(b: &Bake) -> String {
     let mut s = String::new();
     let t = &b.timings;
     for l in &b.lights {
@@ -196,7 +196,7 @@ pub fn format_bake(b: &Bake) -> String {
 }
 
 /// Runs `haiko bake`.
-pub fn run_bake(room: &Path, limit: &MemoryLimit) -> Result<()> {
+pub(crate) fn run_bake(room: &Path, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     // Refused before the plan is printed: the one line on standard error is all that shows.

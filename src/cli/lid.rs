@@ -6,7 +6,7 @@ use crate::error::{Error, Result, check_finite, printable};
 use crate::photometry::Window;
 
 /// Formats the report as text tables.
-pub fn format_text(source: &str, r: &LidReport) -> String {
+pub(crate) fn format_text(source: &str, r: &LidReport) -> String {
     let mut s = format!(
         "{}\nflux {:.1} lm   peak {:.1} cd   asymmetry {:.3}   chosen order {} (relative L2 ≤ {:.0} %)\n\n",
         printable(source),

@@ -405,7 +405,7 @@ pub fn catch_panics(command: impl FnOnce() -> Result<()>) -> Result<()> {
 /// `indirect` false for direct light only (no bake).
 ///
 /// Errors: the estimate above the limit (bad input), the bake failing (internal).
-pub fn open_session(scene: Scene, indirect: bool, limit: &MemoryLimit) -> Result<Session> {
+pub(crate) fn open_session(scene: Scene, indirect: bool, limit: &MemoryLimit) -> Result<Session> {
     budget::check_scene(&scene, PlanOptions::default(), indirect, limit)?;
     let options = SessionOptions {
         indirect,

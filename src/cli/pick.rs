@@ -139,7 +139,7 @@ pub fn pick_pixel(
 }
 
 /// Refuses a bad image size or a pixel outside the image (bad input naming the flag).
-pub fn check_pixel(pixel: Pixel, width: u32, height: u32) -> Result<()> {
+pub(crate) fn check_pixel(pixel: Pixel, width: u32, height: u32) -> Result<()> {
     check_size(width, height, ["--width", "--height"])?;
     if pixel.x >= width || pixel.y >= height {
         return Err(Error::input(
@@ -206,7 +206,7 @@ impl serde_json::ser::Formatter for SpacedFormatter {
 }
 
 /// The report as text, one item per line.
-pub fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
+pub(crate) fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
     let v = |d: DVec3| format!("[{:.4}, {:.4}, {:.4}]", d.x, d.y, d.z);
     let mut text = format!(
         "patch   {} (surface {})\npoint   {} m\nnormal  {}\nE       {:.1} lx\n",

@@ -11,7 +11,7 @@ use crate::session::budget::MemoryLimit;
 use crate::transport::direct::Receiver;
 
 /// Formats receivers and their illuminance as CSV (`x,y,z,nx,ny,nz,lux`), in input order.
-pub fn format_csv(receivers: &[Receiver], lux: &[f64]) -> String {
+pub(crate) fn format_csv(receivers: &[Receiver], lux: &[f64]) -> String {
     let mut out = format!("{POINTS_HEADER},lux\n");
     for (rx, e) in receivers.iter().zip(lux) {
         let (p, n) = (rx.point, rx.normal);

@@ -104,7 +104,7 @@ fn mode_name(mode: DisplayMode) -> &'static str {
 }
 
 /// One line on what the shader shows: the exposure, or the lux range of the colour scale.
-pub fn shader_summary(shader: &DisplayShader) -> String {
+pub(crate) fn shader_summary(shader: &DisplayShader) -> String {
     match shader {
         DisplayShader::Photo(photo) => format!(
             "exposure {:.4} m²/cd (a luminance of {:.2} cd/m² shows as mid-grey)",

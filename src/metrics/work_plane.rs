@@ -21,7 +21,7 @@ fn min_spacing(w: f64, d: f64) -> f64 {
 
 /// A work-plane grid: points facing up at one height, spaced evenly and centred in the room.
 #[derive(Debug, Clone, PartialEq)]
-pub struct WorkPlane {
+pub(crate) struct WorkPlane {
     /// Height above the floor, m.
     pub height_m: f64,
     /// Spacing between points along x and y, m.
@@ -115,7 +115,7 @@ impl WorkPlane {
 
 /// Illuminance statistics over a grid (lx); `u0 = E_min / E_avg` (0 when E_avg is 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct GridStats {
+pub(crate) struct GridStats {
     /// Mean illuminance, lx.
     pub e_avg: f64,
     /// Minimum, lx.

@@ -17,7 +17,7 @@ use crate::photometry::{Curve, LuminousShape, MAX_INTENSITY_CD, ies, ldt};
 
 /// The most angles (γ or C) a file may list. A 0.02° γ grid over 0–180° has 9 001 angles; a
 /// count above this is a broken or hostile file, and is refused before anything is read.
-pub const MAX_ANGLES: usize = 10_000;
+pub(crate) const MAX_ANGLES: usize = 10_000;
 
 /// Above this [`LidFile::asymmetry`] the editor warns that the axial average misrepresents the
 /// luminaire: some C-plane differs from the average by more than 10 % of the average's peak

@@ -31,60 +31,60 @@ mod design;
 
 /// The most fine (or coarse) vertices a room may have; more is refused with advice to raise
 /// the patch size (or to simplify the OBJ meshes when they alone exceed it).
-pub const MAX_VERTICES: usize = 2_000_000;
+pub(crate) const MAX_VERTICES: usize = 2_000_000;
 
 /// Reflectances at or above this are refused: the interreflection becomes singular near 1.
-pub const MAX_REFLECTANCE: f64 = 0.98;
+pub(crate) const MAX_REFLECTANCE: f64 = 0.98;
 
 /// The highest spherical-harmonic order a light may fix.
 pub const MAX_ORDER: i64 = 150;
 
 /// Default vertical field of view of the camera, degrees.
-pub const DEFAULT_FOV_DEG: f64 = 60.0;
+pub(crate) const DEFAULT_FOV_DEG: f64 = 60.0;
 
 /// The smallest room dimension, metres: below it the fixed lengths of the light transport (the
 /// 1 µm a receiver keeps from a light, the 0.15 m mounting distance, ray offsets) are no longer
 /// small against the room.
-pub const MIN_ROOM_SIZE_M: f64 = 0.1;
+pub(crate) const MIN_ROOM_SIZE_M: f64 = 0.1;
 
 /// The largest room dimension, metres.
-pub const MAX_ROOM_SIZE_M: f64 = 1000.0;
+pub(crate) const MAX_ROOM_SIZE_M: f64 = 1000.0;
 
 /// The largest coordinate magnitude (m) of points that may lie outside the room: aim targets,
 /// the camera, an OBJ's translation.
-pub const MAX_COORDINATE_M: f64 = 1e6;
+pub(crate) const MAX_COORDINATE_M: f64 = 1e6;
 
 /// The smallest `patch_size` / `solver_patch_size`, metres (the largest is the largest room
 /// dimension, [`MAX_ROOM_SIZE_M`]).
-pub const MIN_PATCH_SIZE_M: f64 = 0.001;
+pub(crate) const MIN_PATCH_SIZE_M: f64 = 0.001;
 
 /// The smallest spacing of a calculation grid (`[[surface]] spacing`), metres.
-pub const MIN_GRID_SPACING_M: f64 = 0.001;
+pub(crate) const MIN_GRID_SPACING_M: f64 = 0.001;
 
 /// The largest dimmer factor (the curve's intensities times this stay within 1e11 cd).
-pub const MAX_DIMMER: f64 = 100.0;
+pub(crate) const MAX_DIMMER: f64 = 100.0;
 
 /// The largest colour multiplier of a channel.
-pub const MAX_COLOR: f64 = 100.0;
+pub(crate) const MAX_COLOR: f64 = 100.0;
 
 /// The largest luminous radius of a light, metres.
-pub const MAX_RADIUS_M: f64 = 10.0;
+pub(crate) const MAX_RADIUS_M: f64 = 10.0;
 
 /// The field of view range of the camera, degrees.
-pub const FOV_RANGE_DEG: (f64, f64) = (1.0, 170.0);
+pub(crate) const FOV_RANGE_DEG: (f64, f64) = (1.0, 170.0);
 
 /// The smallest solver tolerance (f64 round-off is about 1e-16; the solve cannot certify less).
-pub const MIN_TOLERANCE: f64 = 1e-9;
+pub(crate) const MIN_TOLERANCE: f64 = 1e-9;
 
 /// The uniform scale range of an OBJ.
-pub const SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
+pub(crate) const SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
 
 /// The most lights, boxes and meshes a room may have.
-pub const MAX_LIGHTS: usize = 10_000;
+pub(crate) const MAX_LIGHTS: usize = 10_000;
 /// See [`MAX_LIGHTS`].
-pub const MAX_BOXES: usize = 1_000;
+pub(crate) const MAX_BOXES: usize = 1_000;
 /// See [`MAX_LIGHTS`].
-pub const MAX_MESHES: usize = 100;
+pub(crate) const MAX_MESHES: usize = 100;
 
 /// The longest message of the TOML parser quoted in an error (characters).
 const MAX_PARSER_MESSAGE_CHARS: usize = 200;
@@ -124,7 +124,7 @@ pub fn load(path: &Path) -> Result<Scene> {
 
 /// Loads and meshes a room from its text, as read from `path` (which names it in errors and
 /// anchors relative paths).
-pub fn load_text(path: &Path, text: &str) -> Result<Scene> {
+pub(crate) fn load_text(path: &Path, text: &str) -> Result<Scene> {
     check(path, text)?.mesh(MAX_VERTICES)
 }
 
@@ -172,7 +172,7 @@ impl CheckedRoom {
     }
 
     /// The number of OBJ triangles (before subdivision).
-    pub fn obj_triangles(&self) -> usize {
+    pub(crate) fn obj_triangles(&self) -> usize {
         self.obj_surfaces.iter().map(|s| s.geometry.triangles.len()).sum()
     }
 

@@ -27,18 +27,18 @@ use crate::scene::model::Reflectance;
 use crate::scene::room_file::UpAxis;
 
 /// Reflectance of OBJ surfaces without a material or without `Kd`.
-pub const DEFAULT_REFLECTANCE: f64 = 0.5;
+pub(crate) const DEFAULT_REFLECTANCE: f64 = 0.5;
 
 /// Faces smaller than this (m², after placement) are rejected as degenerate.
-pub const MIN_FACE_AREA: f64 = 1e-12;
+pub(crate) const MIN_FACE_AREA: f64 = 1e-12;
 
 /// The most triangles (after splitting polygons into fans) one OBJ may have. The fine mesh
 /// needs up to three vertices per OBJ triangle at any patch size, so this keeps an OBJ within the
 /// room's 2 000 000-vertex limit (`crate::scene::load::MAX_VERTICES`) with room to spare.
-pub const MAX_TRIANGLES: usize = 600_000;
+pub(crate) const MAX_TRIANGLES: usize = 600_000;
 
 /// The most vertices (`v` lines) one OBJ may have.
-pub const MAX_VERTICES: usize = 2_000_000;
+pub(crate) const MAX_VERTICES: usize = 2_000_000;
 
 /// Where an OBJ goes in the room.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -15,16 +15,16 @@ use crate::fsio::{self, FileKind};
 use crate::scene::Receiver;
 
 /// The header the points file must start with.
-pub const POINTS_HEADER: &str = "x,y,z,nx,ny,nz";
+pub(crate) const POINTS_HEADER: &str = "x,y,z,nx,ny,nz";
 
 /// The most points a file may hold.
 pub const MAX_POINTS: usize = 1_000_000;
 
 /// The largest coordinate magnitude of a point, metres.
-pub const MAX_COORDINATE_M: f64 = 1e6;
+pub(crate) const MAX_COORDINATE_M: f64 = 1e6;
 
 /// Reads a points file through [`crate::fsio`] and parses it with [`parse_points`].
-pub fn read_points(path: &Path) -> Result<Vec<Receiver>> {
+pub(crate) fn read_points(path: &Path) -> Result<Vec<Receiver>> {
     let text = fsio::read_text(path, FileKind::Points)?;
     parse_points(&text, path)
 }

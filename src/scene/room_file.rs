@@ -14,12 +14,12 @@ use crate::scene::calc_spec::{LuminousSizeSpec, ObserverSpec, SurfaceSpec};
 
 /// A three-component vector as written in the file (`[x, y, z]`, metres or a direction); its
 /// length is checked on load.
-pub type Vec3Spec = Vec<f64>;
+pub(crate) type Vec3Spec = Vec<f64>;
 
 /// The whole room file.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct RoomFile {
+pub(crate) struct RoomFile {
     /// Schema version; only 1 is understood.
     pub version: Spanned<i64>,
     /// Display name (default: the file stem).
@@ -51,7 +51,7 @@ pub struct RoomFile {
 /// `[room]`: the room interior spans (0, 0, 0) to `size` (metres).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct RoomSpec {
+pub(crate) struct RoomSpec {
     /// Width (x), depth (y), height (z) in metres.
     pub size: Spanned<Vec3Spec>,
     /// Reflectances of floor, walls and ceiling.
@@ -61,7 +61,7 @@ pub struct RoomSpec {
 /// `[room.reflectance]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct RoomReflectanceSpec {
+pub(crate) struct RoomReflectanceSpec {
     /// Floor (z = 0).
     pub floor: Spanned<ReflectanceSpec>,
     /// All four walls.
@@ -76,7 +76,7 @@ pub struct RoomReflectanceSpec {
     untagged,
     expecting = "expected a reflectance: a number or [r, g, b], each in 0..0.98"
 )]
-pub enum ReflectanceSpec {
+pub(crate) enum ReflectanceSpec {
     /// One value for all channels.
     Grey(f64),
     /// Per channel (three numbers; checked on load).
@@ -86,7 +86,7 @@ pub enum ReflectanceSpec {
 /// `[[box]]`: an axis-aligned box, world metres.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct BoxSpec {
+pub(crate) struct BoxSpec {
     /// Minimum corner.
     pub min: Spanned<Vec3Spec>,
     /// Maximum corner.
@@ -109,7 +109,7 @@ pub enum UpAxis {
 /// `[[mesh]]`: an OBJ file placed in the room.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct MeshSpec {
+pub(crate) struct MeshSpec {
     /// Path of the OBJ, relative to the room file.
     pub file: Spanned<String>,
     /// Translation (metres, world) applied after the up conversion and the scale.
@@ -126,7 +126,7 @@ pub struct MeshSpec {
 /// `[[light]]`: a luminaire.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct LightSpec {
+pub(crate) struct LightSpec {
     /// Unique name.
     pub name: Spanned<String>,
     /// Position (world, metres).
@@ -154,7 +154,7 @@ pub struct LightSpec {
 /// How direct light is computed, as written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum DirectSpec {
+pub(crate) enum DirectSpec {
     /// Hybrid: exact direct light.
     Exact,
     /// Paper mode: direct light from the SH basis.
@@ -164,7 +164,7 @@ pub enum DirectSpec {
 /// `[settings]`, all optional.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SettingsSpec {
+pub(crate) struct SettingsSpec {
     /// Fine patch edge, metres.
     pub patch_size: Option<Spanned<f64>>,
     /// Coarse patch edge, metres.
@@ -180,7 +180,7 @@ pub struct SettingsSpec {
 /// `[camera]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct CameraSpec {
+pub(crate) struct CameraSpec {
     /// Eye position (world, metres).
     pub eye: Spanned<Vec3Spec>,
     /// Point looked at (world, metres).
@@ -190,7 +190,7 @@ pub struct CameraSpec {
 }
 
 /// `line L, column C` (both 1-based; the column counts characters) of byte `offset` in `text`.
-pub fn line_column(text: &str, offset: usize) -> String {
+pub(crate) fn line_column(text: &str, offset: usize) -> String {
     let mut offset = offset.min(text.len());
     while !text.is_char_boundary(offset) {
         offset -= 1;

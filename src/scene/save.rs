@@ -341,7 +341,7 @@ fn parse(file: &Path, text: &str) -> Result<DocumentMut> {
 }
 
 /// True when the values a save writes (curve, aim, position, dimmer, order) are equal.
-pub fn same_saved_values(a: &Light, b: &Light) -> bool {
+pub(crate) fn same_saved_values(a: &Light, b: &Light) -> bool {
     a.curve == b.curve
         && a.aim_spec == b.aim_spec
         && a.position == b.position

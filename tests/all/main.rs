@@ -3,6 +3,7 @@
 mod direct;
 mod editor_design;
 mod layering;
+mod library;
 mod lidfiles;
 mod numbers;
 mod photometry;
