@@ -11,6 +11,7 @@
 
 use rayon::prelude::*;
 
+use super::flatten::uniform_columns;
 use super::palette::Indexed;
 
 /// Empty columns after which a colour's run of columns is cut into a new segment (an empty run
@@ -18,7 +19,7 @@ use super::palette::Indexed;
 const SEGMENT_GAP: usize = 10;
 
 /// Bands encoded by one task of the thread pool.
-const BANDS_PER_TASK: usize = 8;
+pub const BANDS_PER_TASK: usize = 8;
 
 /// The sixel data of `image`: one string per band joined by `-` (graphics new line), without
 /// the introducer, raster attributes or palette.
@@ -57,12 +58,21 @@ struct Segment {
     last: usize,
 }
 
-/// One sixel column of one colour: the column, the colour and which of the six rows it paints.
+/// A run of equal sixels of one colour: the first column, how many, the colour and which of the
+/// six rows they paint.
 #[derive(Debug, Clone, Copy, Default)]
 struct Entry {
     x: u32,
+    len: u32,
     colour: u8,
     mask: u8,
+}
+
+impl Entry {
+    /// One past the last column.
+    fn end(self) -> u32 {
+        self.x + self.len
+    }
 }
 
 /// Buffers reused from band to band.
@@ -72,6 +82,7 @@ struct Scratch {
     sorted: Vec<Entry>,
     segments: Vec<Segment>,
     used: Vec<bool>,
+    uniform: Vec<bool>,
 }
 
 impl Scratch {
@@ -85,17 +96,20 @@ impl Scratch {
         self.write_passes(full, out);
     }
 
-    /// One entry per colour of each column, in column order.
+    /// The entries of each colour of each column, in column order; equal neighbours merged.
     fn gather(&mut self, band: &[u8], width: usize, rows: usize, full: u8) {
         self.entries.clear();
-        for x in 0..width {
-            let first = band[x];
-            if (1..rows).all(|r| band[r * width + x] == first) {
-                self.entries.push(Entry {
-                    x: x as u32,
-                    colour: first,
-                    mask: full,
-                });
+        uniform_columns(band, width, &mut self.uniform);
+        let mut x = 0;
+        while x < width {
+            if self.uniform[x] {
+                // A run of columns all of one colour.
+                let (start, colour) = (x, band[x]);
+                x += 1;
+                while x < width && self.uniform[x] && band[x] == colour {
+                    x += 1;
+                }
+                self.push(start as u32, (x - start) as u32, colour, full);
                 continue;
             }
             let column_start = self.entries.len();
@@ -108,12 +122,27 @@ impl Scratch {
                     Some(entry) => entry.mask |= 1 << r,
                     None => self.entries.push(Entry {
                         x: x as u32,
+                        len: 1,
                         colour,
                         mask: 1 << r,
                     }),
                 }
             }
+            x += 1;
         }
+    }
+
+    /// Appends an entry, extending the last entry when it is the same sixel just before.
+    fn push(&mut self, x: u32, len: u32, colour: u8, mask: u8) {
+        if let Some(last) = self.entries.last_mut()
+            && last.colour == colour
+            && last.mask == mask
+            && last.end() == x
+        {
+            last.len += len;
+            return;
+        }
+        self.entries.push(Entry { x, len, colour, mask });
     }
 
     /// `sorted`: the entries grouped by colour (a counting sort, so each colour's entries stay
@@ -145,14 +174,14 @@ impl Scratch {
             i += 1;
             while i < self.sorted.len()
                 && self.sorted[i].colour == colour
-                && (self.sorted[i].x - self.sorted[i - 1].x) as usize <= SEGMENT_GAP
+                && ((self.sorted[i].x - self.sorted[i - 1].end()) as usize) < SEGMENT_GAP
             {
                 i += 1;
             }
             self.segments.push(Segment {
                 colour,
                 start: self.sorted[first].x as usize,
-                end: self.sorted[i - 1].x as usize + 1,
+                end: self.sorted[i - 1].end() as usize,
                 first,
                 last: i,
             });
@@ -187,7 +216,7 @@ impl Scratch {
                 } else {
                     for e in &self.sorted[segment.first..segment.last] {
                         runs.skip_to(e.x as usize, out);
-                        runs.repeat(e.mask, 1, out);
+                        runs.repeat(e.mask, e.len as usize, out);
                     }
                 }
                 runs.flush(out);

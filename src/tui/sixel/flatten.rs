@@ -7,11 +7,26 @@
 //! needs one run per colour. Columns holding any larger difference (an edge, a marker) are
 //! left exact.
 
+use rayon::prelude::*;
+
+use super::bands::BANDS_PER_TASK;
 use super::palette::Indexed;
 
 /// True when grid cells `a` and `b` are at most one step apart on every axis.
 fn neighbours(a: [i32; 3], b: [i32; 3]) -> bool {
     (0..3).all(|i| (a[i] - b[i]).abs() <= 1)
+}
+
+/// Marks in `uniform` the columns of `band` (whole rows of `width` pixels) that hold one colour.
+pub fn uniform_columns(band: &[u8], width: usize, uniform: &mut Vec<bool>) {
+    uniform.clear();
+    uniform.resize(width, true);
+    let (first, rest) = band.split_at(width);
+    for row in rest.chunks_exact(width) {
+        for ((same, a), b) in uniform.iter_mut().zip(first).zip(row) {
+            *same &= a == b;
+        }
+    }
 }
 
 /// Flattens the band columns of `image` whose colours are all neighbours.
@@ -23,27 +38,46 @@ pub fn flatten_columns(image: &mut Indexed) {
             near[a * colours + b] = neighbours(image.cells[a], image.cells[b]);
         }
     }
-    for band in image.indices.chunks_mut(6 * width) {
+    image
+        .indices
+        .par_chunks_mut(6 * BANDS_PER_TASK * width)
+        .for_each(|bands| flatten_bands(bands, width, &near, colours));
+}
+
+/// Flattens the bands in `bands` (whole rows of `width` pixels).
+fn flatten_bands(bands: &mut [u8], width: usize, near: &[bool], colours: usize) {
+    let mut uniform = Vec::with_capacity(width);
+    for band in bands.chunks_mut(6 * width) {
         let rows = band.len() / width;
-        for x in 0..width {
-            let column: [u8; 6] = std::array::from_fn(|r| band[r.min(rows - 1) * width + x]);
-            let column = &column[..rows];
-            if column.iter().all(|&c| c == column[0]) {
-                continue;
+        uniform_columns(band, width, &mut uniform);
+        for x in (0..width).filter(|&x| !uniform[x]) {
+            // The column's distinct colours and how often each occurs.
+            let mut distinct = [(0u8, 0u8); 6];
+            let mut n = 0;
+            for r in 0..rows {
+                let c = band[r * width + x];
+                match distinct[..n].iter_mut().find(|d| d.0 == c) {
+                    Some(d) => d.1 += 1,
+                    None => {
+                        distinct[n] = (c, 1);
+                        n += 1;
+                    }
+                }
             }
-            let all_near = column.iter().all(|&a| {
-                column
+            let distinct = &distinct[..n];
+            let all_near = distinct.iter().enumerate().all(|(i, &(a, _))| {
+                distinct[i + 1..]
                     .iter()
-                    .all(|&b| near[usize::from(a) * colours + usize::from(b)])
+                    .all(|&(b, _)| near[usize::from(a) * colours + usize::from(b)])
             });
             if !all_near {
                 continue;
             }
             // The most common colour; on a tie the lower index (the more used one overall).
-            let most = *column
+            let most = distinct
                 .iter()
-                .max_by_key(|&&c| (column.iter().filter(|&&d| d == c).count(), std::cmp::Reverse(c)))
-                .expect("a band has rows");
+                .max_by_key(|&&(c, count)| (count, std::cmp::Reverse(c)))
+                .map_or(band[x], |d| d.0);
             for r in 0..rows {
                 band[r * width + x] = most;
             }

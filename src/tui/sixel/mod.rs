@@ -35,15 +35,75 @@ pub fn encode(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Res
 ///
 /// Errors (internal): `rgba` does not hold `width × height` pixels.
 pub fn reduce(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Result<Indexed> {
+    let mut indexed = quantise_checked(rgba, width, height, quality)?;
+    flatten::flatten_columns(&mut indexed);
+    Ok(indexed)
+}
+
+/// [`quantise`] after checking the buffer's size.
+fn quantise_checked(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Result<Indexed> {
     if rgba.len() != width * height * 4 {
         return Err(Error::internal(format!(
             "sixel: {} bytes are not a {width} × {height} RGBA image",
             rgba.len()
         )));
     }
-    let mut indexed = quantise(rgba, width, height, quality);
+    Ok(quantise(rgba, width, height, quality))
+}
+
+/// Encodes a frame rendered at 1 / `divisor` of the size it is shown at: `rgba` holds
+/// `size.0 × size.1` pixels, each shown as `divisor × divisor` pixels, cut to `shown` (width,
+/// height). The quality follows the divisor ([`Quality::for_divisor`]); the colours are counted
+/// on the small image, so a reduced frame also encodes faster.
+///
+/// Errors (internal): `rgba` does not hold `size.0 × size.1` pixels, or `shown` is larger than
+/// the enlarged image.
+pub fn encode_frame(
+    rgba: &[u8],
+    size: (usize, usize),
+    divisor: u32,
+    shown: (usize, usize),
+) -> Result<String> {
+    let d = divisor.max(1) as usize;
+    if shown.0 > size.0 * d || shown.1 > size.1 * d {
+        return Err(Error::internal(format!(
+            "sixel: a {}×{} frame at 1/{d} cannot show {}×{} pixels",
+            size.0, size.1, shown.0, shown.1
+        )));
+    }
+    let quality = Quality::for_divisor(divisor);
+    let small = quantise_checked(rgba, size.0, size.1, quality)?;
+    let mut indexed = if d == 1 && shown == size {
+        small
+    } else {
+        enlarge(&small, d, shown)
+    };
     flatten::flatten_columns(&mut indexed);
-    Ok(indexed)
+    Ok(encode_indexed(&indexed))
+}
+
+/// `image` with every pixel repeated `factor × factor` times, cut to `shown` (width, height).
+fn enlarge(image: &Indexed, factor: usize, shown: (usize, usize)) -> Indexed {
+    let mut indices = Vec::with_capacity(shown.0 * shown.1);
+    let mut row = Vec::with_capacity(shown.0);
+    for source in image.indices.chunks_exact(image.width) {
+        row.clear();
+        row.extend(
+            source
+                .iter()
+                .flat_map(|&c| std::iter::repeat_n(c, factor))
+                .take(shown.0),
+        );
+        for _ in 0..factor.min(shown.1 - indices.len() / shown.0) {
+            indices.extend_from_slice(&row);
+        }
+    }
+    Indexed {
+        width: shown.0,
+        height: shown.1,
+        indices,
+        ..image.clone()
+    }
 }
 
 /// The complete sixel sequence of a palette image.
@@ -254,6 +314,33 @@ mod tests {
         let band = "#0!450~#1!450~";
         let expected_body = [band; 10].join("-");
         assert!(data.contains(&expected_body), "{data}");
+    }
+
+    #[test]
+    fn a_reduced_frame_is_shown_enlarged_and_cut() {
+        // 5 × 4 pixels at 1/3, shown as 14 × 10: each pixel a 3 × 3 block, the last cut.
+        let small = image(5, 4, |x, y| [(x * 50) as u8, (y * 60) as u8, 0]);
+        let data = encode_frame(&small, (5, 4), 3, (14, 10)).unwrap();
+        let decoded = decode(&data).unwrap();
+        assert_eq!((decoded.width, decoded.height), (14, 10));
+        let quantised = quantise(&small, 5, 4, Quality::for_divisor(3));
+        for y in 0..10 {
+            for x in 0..14 {
+                let i = usize::from(quantised.indices[(y / 3) * 5 + x / 3]);
+                assert_eq!(
+                    decoded.pixels[y * 14 + x],
+                    Some(quantised.palette[i].map(from_percent)),
+                    "({x}, {y})"
+                );
+            }
+        }
+        // Full size at 1/1 is plain encoding.
+        let full = image(6, 6, |x, y| [(x * 40) as u8, (y * 40) as u8, 9]);
+        assert_eq!(
+            encode_frame(&full, (6, 6), 1, (6, 6)).unwrap(),
+            encode(&full, 6, 6, Quality::FINE).unwrap()
+        );
+        assert!(encode_frame(&small, (5, 4), 3, (16, 10)).is_err());
     }
 
     #[test]

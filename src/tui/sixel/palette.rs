@@ -12,7 +12,7 @@
 //! largest squared error, chroma weighted by [`CHROMA_WEIGHT`], is cut where the halves' errors
 //! are smallest), each box showing its mean.
 
-use super::histogram::{count_colours, unpack};
+use super::histogram::{Run, count_colours, unpack};
 
 /// Most colours in a sixel palette (colour registers the editor uses).
 pub const MAX_COLOURS: usize = 256;
@@ -110,7 +110,7 @@ pub fn from_percent(p: u8) -> u8 {
 /// sixel palette on the grid of `quality`. `rgba` must hold exactly `width × height` pixels.
 pub fn quantise(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Indexed {
     debug_assert_eq!(rgba.len(), width * height * 4);
-    let (table, ids) = count_colours(rgba);
+    let (table, runs) = count_colours(rgba);
     // Group the distinct colours by grid cell.
     let colour_cells: Vec<[i32; 3]> = table.colours.iter().map(|&c| quality.cell(unpack(c))).collect();
     let mut order: Vec<u32> = (0..table.colours.len() as u32).collect();
@@ -155,8 +155,26 @@ pub fn quantise(rgba: &[u8], width: usize, height: usize, quality: Quality) -> I
         height,
         palette: means.iter().map(|m| m.map(to_percent)).collect(),
         cells: means.iter().map(|&m| quality.cell(m)).collect(),
-        indices: ids.iter().map(|&id| palette_of_id[usize::from(id)]).collect(),
+        indices: expand(&runs, &palette_of_id, width * height),
     }
+}
+
+/// The palette index of every pixel from the runs of colour ids. Most runs are short: each is
+/// written eight bytes at a time (into slack at the end, cut off afterwards).
+fn expand(runs: &[Run], palette_of_id: &[u8], pixels: usize) -> Vec<u8> {
+    let mut indices = vec![0u8; pixels + 8];
+    let mut at = 0;
+    for &(id, n) in runs {
+        let colour = palette_of_id[usize::from(id)];
+        let n = n as usize;
+        indices[at..at + 8].copy_from_slice(&[colour; 8]);
+        if n > 8 {
+            indices[at + 8..at + n].fill(colour);
+        }
+        at += n;
+    }
+    indices.truncate(pixels);
+    indices
 }
 
 /// The pixels of one grid cell: how many and the sum of their 8-bit colours.
