@@ -82,7 +82,7 @@ fn frames(c: &mut Criterion) {
     for frames in &rooms {
         for (d, frame) in (1u32..).zip(frames) {
             let size = (frame.size.0 as usize, frame.size.1 as usize);
-            let encode = || sixel::encode_frame(&frame.rgba, size, d, shown).expect("encodes");
+            let encode = || sixel::encode_frame(&frame.rgba, size, d, shown, false).expect("encodes");
             println!(
                 "sixel {} 1/{d} ({}×{} px): {}",
                 frame.room,
@@ -94,6 +94,15 @@ fn frames(c: &mut Criterion) {
                 b.iter(|| black_box(encode()))
             });
         }
+    }
+    for frames in &rooms {
+        let frame = &frames[0];
+        let size = (frame.size.0 as usize, frame.size.1 as usize);
+        let encode = || sixel::encode_frame(&frame.rgba, size, 1, shown, true).expect("encodes");
+        println!("sixel {} dithered: {}", frame.room, kib(encode().len()));
+        group.bench_function(BenchmarkId::new(frame.room, "dithered"), |b| {
+            b.iter(|| black_box(encode()))
+        });
     }
     group.finish();
 
@@ -132,8 +141,14 @@ fn frames(c: &mut Criterion) {
     );
     for frames in &rooms {
         let frame = &frames[0];
-        let image =
-            preview::encode_frame(&blocks, &frame.rgba, frame.size, 1, Size::new(94, 44)).expect("encodes");
+        let image = preview::encode_frame(
+            &blocks,
+            &frame.rgba,
+            frame.size,
+            haiko::tui::frame_budget::FramePlan::Full { dither: false },
+            Size::new(94, 44),
+        )
+        .expect("encodes");
         let bytes = preview::frame_bytes(&image, ratatui::layout::Rect::new(0, 0, 94, 44)).expect("measured");
         println!("half-blocks {}: {}", frame.room, kib(bytes));
     }

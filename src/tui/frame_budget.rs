@@ -67,11 +67,20 @@ impl Budget {
     }
 }
 
+/// A full frame's bytes a sixel frame is dithered within (docs/DECISIONS.md "Terminal
+/// graphics": dithering hides sixel's one-percent steps).
+pub const FULL_TARGET: usize = 100 * 1024;
+/// How much larger a dithered sixel frame is than a flattened one (measured: 2.2–2.5).
+pub const DITHER_GROWTH: f64 = 2.5;
+
 /// Which frame to send next.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FramePlan {
-    /// The full-resolution frame.
-    Full,
+    /// The full-resolution frame; for sixel dithered when `dither` is set.
+    Full {
+        /// Dither (sixel): expected to fit [`FULL_TARGET`].
+        dither: bool,
+    },
     /// A frame at 1 / `divisor` of the full resolution in each direction.
     Interactive {
         /// The reduction, one of [`DIVISORS`].
@@ -83,7 +92,7 @@ impl FramePlan {
     /// The divisor (1 for the full frame).
     pub fn divisor(self) -> u32 {
         match self {
-            FramePlan::Full => 1,
+            FramePlan::Full { .. } => 1,
             FramePlan::Interactive { divisor } => divisor,
         }
     }
@@ -112,6 +121,8 @@ pub struct FrameBudget {
     prior: f64,
     /// The last large writes: (bytes, seconds).
     writes: Vec<(usize, f64)>,
+    /// The last full frame's bytes, and whether it was dithered.
+    last_full: Option<(usize, bool)>,
 }
 
 impl FrameBudget {
@@ -123,6 +134,7 @@ impl FrameBudget {
             seen: [None; DIVISORS.len()],
             prior,
             writes: Vec::new(),
+            last_full: None,
         }
     }
 
@@ -164,12 +176,25 @@ impl FrameBudget {
         }
     }
 
+    /// True when the next full frame is expected to fit [`FULL_TARGET`] dithered: the last
+    /// dithered one did, or the last flat one times [`DITHER_GROWTH`] does. The first full
+    /// frame is flat.
+    pub fn dither_full(&self) -> bool {
+        match self.last_full {
+            Some((bytes, true)) => bytes <= FULL_TARGET,
+            Some((bytes, false)) => bytes as f64 * DITHER_GROWTH <= FULL_TARGET as f64,
+            None => false,
+        }
+    }
+
     /// The frame to send after `input_idle` without input, for a full frame of `full` pixels:
     /// the full frame once idle for [`IDLE_FOR_FULL`], else the finest divisor expected to fit
     /// the budget (the coarsest when none does).
     pub fn plan(&self, input_idle: Duration, full: (u32, u32)) -> FramePlan {
         if input_idle >= IDLE_FOR_FULL {
-            return FramePlan::Full;
+            return FramePlan::Full {
+                dither: self.dither_full(),
+            };
         }
         let pixels = f64::from(full.0) * f64::from(full.1);
         let budget = self.budget_bytes() as f64;
@@ -190,8 +215,13 @@ impl FrameBudget {
     /// `write_time` (from the first byte to the last accepted by the terminal).
     pub fn record(&mut self, plan: FramePlan, full: (u32, u32), bytes: usize, write_time: Duration) {
         let pixels = f64::from(full.0) * f64::from(full.1);
+        if let FramePlan::Full { dither } = plan {
+            self.last_full = Some((bytes, dither));
+        }
+        // Dithered frames say nothing about the flat interactive ones.
         if let Some(index) = DIVISORS.iter().position(|&d| d == plan.divisor())
             && pixels > 0.0
+            && plan != (FramePlan::Full { dither: true })
         {
             self.seen[index] = Some(bytes as f64 / pixels);
         }
@@ -242,9 +272,10 @@ mod tests {
     #[test]
     fn idle_input_gets_the_full_frame() {
         let policy = FrameBudget::new(Budget::Bytes(1024), 5.4);
-        assert_eq!(policy.plan(IDLE_FOR_FULL, FULL), FramePlan::Full);
-        assert_eq!(policy.plan(Duration::from_secs(3), FULL), FramePlan::Full);
-        assert_ne!(policy.plan(TYPING, FULL), FramePlan::Full);
+        let full = FramePlan::Full { dither: false };
+        assert_eq!(policy.plan(IDLE_FOR_FULL, FULL), full);
+        assert_eq!(policy.plan(Duration::from_secs(3), FULL), full);
+        assert_ne!(policy.plan(TYPING, FULL), full);
         assert_eq!(policy.full_frame_in(TYPING), Duration::from_millis(120));
         assert_eq!(policy.full_frame_in(Duration::from_secs(1)), Duration::ZERO);
     }
@@ -268,7 +299,12 @@ mod tests {
     fn measured_frames_replace_the_prior() {
         let mut policy = FrameBudget::new(Budget::Bytes(DEFAULT_BUDGET), prior_bytes_per_pixel(true));
         // A full frame took 100 KB: at 1/2 that scales to 25 KB, which fits.
-        policy.record(FramePlan::Full, FULL, 100_000, Duration::from_millis(5));
+        policy.record(
+            FramePlan::Full { dither: false },
+            FULL,
+            100_000,
+            Duration::from_millis(5),
+        );
         assert_eq!(policy.plan(TYPING, FULL), FramePlan::Interactive { divisor: 2 });
         // But 1/2 frames turn out to take 70 KB (sixel keeps its bytes when upscaled): 1/3
         // is estimated from them, 70 KB · (2/3)² = 31 KB.
@@ -295,28 +331,68 @@ mod tests {
         assert_eq!(policy.budget_bytes(), DEFAULT_BUDGET);
         assert_eq!(policy.drain_rate(), None);
         // Small writes say nothing.
-        policy.record(FramePlan::Full, FULL, 4000, Duration::from_millis(100));
+        policy.record(
+            FramePlan::Full { dither: false },
+            FULL,
+            4000,
+            Duration::from_millis(100),
+        );
         assert_eq!(policy.drain_rate(), None);
         // 10 Mbit/s: 1.25 MB/s, so 62.5 KB drain in 50 ms.
         for _ in 0..10 {
-            policy.record(FramePlan::Full, FULL, 125_000, Duration::from_millis(100));
+            policy.record(
+                FramePlan::Full { dither: false },
+                FULL,
+                125_000,
+                Duration::from_millis(100),
+            );
         }
         assert!((policy.drain_rate().unwrap() - 1.25e6).abs() < 1.0);
         assert_eq!(policy.budget_bytes(), 62_500);
         // A 1 Mbit/s link: the floor.
         for _ in 0..RATE_WINDOW {
-            policy.record(FramePlan::Full, FULL, 20_000, Duration::from_millis(160));
+            policy.record(
+                FramePlan::Full { dither: false },
+                FULL,
+                20_000,
+                Duration::from_millis(160),
+            );
         }
         assert_eq!(policy.budget_bytes(), MIN_BUDGET);
         // A fixed budget ignores the rate.
         let mut fixed = FrameBudget::new(Budget::Bytes(100_000), 0.1);
-        fixed.record(FramePlan::Full, FULL, 20_000, Duration::from_secs(1));
+        fixed.record(
+            FramePlan::Full { dither: false },
+            FULL,
+            20_000,
+            Duration::from_secs(1),
+        );
         assert_eq!(fixed.budget_bytes(), 100_000);
     }
 
     #[test]
+    fn full_frames_are_dithered_while_they_fit() {
+        let mut policy = FrameBudget::new(Budget::Auto, prior_bytes_per_pixel(true));
+        let idle = Duration::from_secs(1);
+        assert_eq!(policy.plan(idle, FULL), FramePlan::Full { dither: false });
+        // A 38 KB flat frame (the paper room): dithered, about 95 KB, fits.
+        policy.record(FramePlan::Full { dither: false }, FULL, 38_000, Duration::ZERO);
+        assert_eq!(policy.plan(idle, FULL), FramePlan::Full { dither: true });
+        policy.record(FramePlan::Full { dither: true }, FULL, 90_000, Duration::ZERO);
+        assert!(policy.dither_full());
+        // The interactive estimate still comes from the flat frame: 38 KB at 1/1 fits 64 KiB.
+        assert_eq!(policy.plan(TYPING, FULL), FramePlan::Interactive { divisor: 1 });
+        // A dithered frame that grew past the target: the next one is flat.
+        policy.record(FramePlan::Full { dither: true }, FULL, 110_000, Duration::ZERO);
+        assert!(!policy.dither_full());
+        // A 95 KB flat frame (the office) stays flat.
+        policy.record(FramePlan::Full { dither: false }, FULL, 95_000, Duration::ZERO);
+        assert!(!policy.dither_full());
+    }
+
+    #[test]
     fn frame_sizes_round_up() {
-        assert_eq!(FramePlan::Full.size(FULL), FULL);
+        assert_eq!(FramePlan::Full { dither: true }.size(FULL), FULL);
         assert_eq!(FramePlan::Interactive { divisor: 3 }.size(FULL), (314, 294));
         assert_eq!(FramePlan::Interactive { divisor: 8 }.size((5, 5)), (1, 1));
     }

@@ -27,6 +27,7 @@ use ratatui_image::{Image, Resize};
 use tiny_skia::Pixmap;
 
 use crate::error::{Error, Result};
+use crate::tui::frame_budget::FramePlan;
 use crate::tui::multiplexer as mux;
 use crate::tui::terminal::Graphics;
 use crate::tui::{kitty, png, probe, sixel};
@@ -256,16 +257,17 @@ impl FrameImage {
     }
 }
 
-/// Encodes a frame of `size` pixels (width, height), rendered at 1 / `divisor` of
-/// [`ImageSetup::frame_px`] for a preview of `cells`, with `setup`'s protocol. No sequence
-/// erases the area first: the new image is drawn over the old one.
+/// Encodes a frame of `size` pixels (width, height), rendered for `plan` (its divisor of
+/// [`ImageSetup::frame_px`], and for sixel whether a full frame is dithered) for a preview of
+/// `cells`, with `setup`'s protocol. No sequence erases the area first: the new image is drawn
+/// over the old one.
 ///
 /// Errors (internal): `rgba` does not hold `size` pixels, or an encoder failed.
 pub fn encode_frame(
     setup: &ImageSetup,
     rgba: &[u8],
     size: (u32, u32),
-    divisor: u32,
+    plan: FramePlan,
     cells: Size,
 ) -> Result<FrameImage> {
     let failed = |e: ratatui_image::errors::Errors| {
@@ -282,8 +284,9 @@ pub fn encode_frame(
             let data = sixel::encode_frame(
                 rgba,
                 (size.0 as usize, size.1 as usize),
-                divisor,
+                plan.divisor(),
                 (shown.0 as usize, shown.1 as usize),
+                plan == FramePlan::Full { dither: true },
             )?;
             Ok(FrameImage::Protocol(Protocol::Sixel(Sixel {
                 data,
@@ -439,7 +442,7 @@ mod tests {
             &setup(mux::Protocol::Sixel),
             gradient(160, 160).data(),
             (160, 160),
-            1,
+            FramePlan::Full { dither: false },
             cells,
         )
         .unwrap();
@@ -466,7 +469,7 @@ mod tests {
             &setup(mux::Protocol::Sixel),
             gradient(80, 80).data(),
             (80, 80),
-            2,
+            FramePlan::Interactive { divisor: 2 },
             cells,
         )
         .unwrap();
@@ -480,7 +483,7 @@ mod tests {
             &setup(mux::Protocol::Kitty),
             gradient(80, 80).data(),
             (80, 80),
-            2,
+            FramePlan::Interactive { divisor: 2 },
             cells,
         )
         .unwrap();
@@ -508,7 +511,7 @@ mod tests {
             &setup(mux::Protocol::Iterm2),
             gradient(40, 40).data(),
             (40, 40),
-            4,
+            FramePlan::Interactive { divisor: 4 },
             cells,
         )
         .unwrap();

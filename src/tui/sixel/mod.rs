@@ -13,7 +13,7 @@ pub mod palette;
 #[cfg(test)]
 mod decode;
 
-pub use palette::{Indexed, MAX_COLOURS, Quality, from_percent, quantise, to_percent};
+pub use palette::{Indexed, MAX_COLOURS, Quality, from_percent, quantise, quantise_dithered, to_percent};
 
 use crate::error::{Error, Result};
 
@@ -42,19 +42,27 @@ pub fn reduce(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Res
 
 /// [`quantise`] after checking the buffer's size.
 fn quantise_checked(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Result<Indexed> {
+    check_size(rgba, width, height)?;
+    Ok(quantise(rgba, width, height, quality))
+}
+
+/// Errors (internal) unless `rgba` holds `width × height` pixels.
+fn check_size(rgba: &[u8], width: usize, height: usize) -> Result<()> {
     if rgba.len() != width * height * 4 {
         return Err(Error::internal(format!(
             "sixel: {} bytes are not a {width} × {height} RGBA image",
             rgba.len()
         )));
     }
-    Ok(quantise(rgba, width, height, quality))
+    Ok(())
 }
 
 /// Encodes a frame rendered at 1 / `divisor` of the size it is shown at: `rgba` holds
 /// `size.0 × size.1` pixels, each shown as `divisor × divisor` pixels, cut to `shown` (width,
 /// height). The quality follows the divisor ([`Quality::for_divisor`]); the colours are counted
-/// on the small image, so a reduced frame also encodes faster.
+/// on the small image, so a reduced frame also encodes faster. A full-size frame (`divisor` 1)
+/// is dithered when `dither` is set ([`quantise_dithered`]: no banding, about two and a half
+/// times the bytes), else its band columns are flattened.
 ///
 /// Errors (internal): `rgba` does not hold `size.0 × size.1` pixels, or `shown` is larger than
 /// the enlarged image.
@@ -63,6 +71,7 @@ pub fn encode_frame(
     size: (usize, usize),
     divisor: u32,
     shown: (usize, usize),
+    dither: bool,
 ) -> Result<String> {
     let d = divisor.max(1) as usize;
     if shown.0 > size.0 * d || shown.1 > size.1 * d {
@@ -72,6 +81,10 @@ pub fn encode_frame(
         )));
     }
     let quality = Quality::for_divisor(divisor);
+    if dither && d == 1 && shown == size {
+        check_size(rgba, size.0, size.1)?;
+        return Ok(encode_indexed(&quantise_dithered(rgba, size.0, size.1, quality)));
+    }
     let small = quantise_checked(rgba, size.0, size.1, quality)?;
     let mut indexed = if d == 1 && shown == size {
         small
@@ -320,7 +333,7 @@ mod tests {
     fn a_reduced_frame_is_shown_enlarged_and_cut() {
         // 5 × 4 pixels at 1/3, shown as 14 × 10: each pixel a 3 × 3 block, the last cut.
         let small = image(5, 4, |x, y| [(x * 50) as u8, (y * 60) as u8, 0]);
-        let data = encode_frame(&small, (5, 4), 3, (14, 10)).unwrap();
+        let data = encode_frame(&small, (5, 4), 3, (14, 10), false).unwrap();
         let decoded = decode(&data).unwrap();
         assert_eq!((decoded.width, decoded.height), (14, 10));
         let quantised = quantise(&small, 5, 4, Quality::for_divisor(3));
@@ -337,10 +350,88 @@ mod tests {
         // Full size at 1/1 is plain encoding.
         let full = image(6, 6, |x, y| [(x * 40) as u8, (y * 40) as u8, 9]);
         assert_eq!(
-            encode_frame(&full, (6, 6), 1, (6, 6)).unwrap(),
+            encode_frame(&full, (6, 6), 1, (6, 6), false).unwrap(),
             encode(&full, 6, 6, Quality::FINE).unwrap()
         );
-        assert!(encode_frame(&small, (5, 4), 3, (16, 10)).is_err());
+        assert!(encode_frame(&small, (5, 4), 3, (16, 10), false).is_err());
+    }
+
+    /// The luma (percent, before the terminal's 8-bit rounding, which is the same for both
+    /// ways) of each pixel, averaged over each band's rows, per column.
+    fn band_means(indexed: &Indexed) -> Vec<f64> {
+        let (w, h) = (indexed.width, indexed.height);
+        let mut means = Vec::new();
+        for band in (0..h).step_by(6) {
+            for x in 0..w {
+                let rows = band..(band + 6).min(h);
+                let n = rows.len() as f64;
+                let sum: f64 = rows
+                    .map(|y| {
+                        let p = indexed.palette[usize::from(indexed.indices[y * w + x])];
+                        palette::luma_chroma(p.map(f64::from))[0]
+                    })
+                    .sum();
+                means.push(sum / n);
+            }
+        }
+        means
+    }
+
+    #[test]
+    fn dithering_keeps_the_average_of_a_ramp_between_levels() {
+        // A slow grey ramp: 60 8-bit levels (24 percent) over 600 columns.
+        let (w, h) = (600, 36);
+        let rgba = image(w, h, |x, _| [(100 + x / 10) as u8; 3]);
+        let dithered = quantise_dithered(&rgba, w, h, Quality::FINE);
+        let flat = quantise(&rgba, w, h, Quality::FINE);
+        let exact: Vec<f64> = (0..h / 6 * w)
+            .map(|i| f64::from((100 + i % w / 10) as u8) * 100.0 / 255.0)
+            .collect();
+        let worst = |means: Vec<f64>| {
+            means
+                .iter()
+                .zip(&exact)
+                .map(|(m, e)| (m - e).abs())
+                .fold(0.0, f64::max)
+        };
+        // Rounding to whole percent is off by up to half a percent; the dither's average by
+        // at most a twelfth (six thresholds), plus the palette's own rounding.
+        let (flat_worst, dithered_worst) = (worst(band_means(&flat)), worst(band_means(&dithered)));
+        assert!(flat_worst > 0.35, "{flat_worst}");
+        assert!(dithered_worst < 0.15, "{dithered_worst}");
+        // And it decodes exactly.
+        let decoded = decode(&encode_indexed(&dithered)).unwrap();
+        for (i, &c) in dithered.indices.iter().enumerate() {
+            assert_eq!(
+                decoded.pixels[i],
+                Some(dithered.palette[usize::from(c)].map(from_percent))
+            );
+        }
+    }
+
+    #[test]
+    fn dither_thresholds_are_a_shuffled_sixth_ladder() {
+        for band in 0..50 {
+            let mut t = row_thresholds_sorted(band);
+            t.iter_mut().for_each(|v| *v *= 12.0);
+            assert_eq!(t, [1.0, 3.0, 5.0, 7.0, 9.0, 11.0]);
+        }
+        assert_ne!(palette::row_thresholds(0), palette::row_thresholds(1));
+        // A full frame is dithered only when asked.
+        let rgba = image(60, 12, |x, _| [(100 + x / 3) as u8; 3]);
+        let plain = encode_frame(&rgba, (60, 12), 1, (60, 12), false).unwrap();
+        let dithered = encode_frame(&rgba, (60, 12), 1, (60, 12), true).unwrap();
+        assert_eq!(
+            dithered,
+            encode_indexed(&quantise_dithered(&rgba, 60, 12, Quality::FINE))
+        );
+        assert_ne!(plain, dithered);
+    }
+
+    fn row_thresholds_sorted(band: usize) -> [f64; 6] {
+        let mut t = palette::row_thresholds(band);
+        t.sort_by(f64::total_cmp);
+        t
     }
 
     #[test]

@@ -107,35 +107,141 @@ pub fn from_percent(p: u8) -> u8 {
 }
 
 /// Reduces the opaque RGBA image `rgba` (`width × height`, 4 bytes a pixel, alpha ignored) to a
-/// sixel palette on the grid of `quality`. `rgba` must hold exactly `width × height` pixels.
+/// sixel palette on the grid of `quality`, each pixel taking its grid cell's colour. `rgba` must
+/// hold exactly `width × height` pixels.
 pub fn quantise(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Indexed {
     debug_assert_eq!(rgba.len(), width * height * 4);
     let (table, runs) = count_colours(rgba);
-    // Group the distinct colours by grid cell.
-    let colour_cells: Vec<[i32; 3]> = table.colours.iter().map(|&c| quality.cell(unpack(c))).collect();
-    let mut order: Vec<u32> = (0..table.colours.len() as u32).collect();
-    order.sort_unstable_by_key(|&id| colour_cells[id as usize]);
+    let contributions: Vec<Contribution> = (0..table.colours.len())
+        .map(|id| {
+            let rgb = unpack(table.colours[id]);
+            Contribution {
+                cell: quality.cell(rgb),
+                weight: f64::from(table.counts[id]),
+                rgb: rgb.map(f64::from),
+            }
+        })
+        .collect();
+    let (palette, cells, entry_of) = build_palette(&contributions, quality);
+    Indexed {
+        width,
+        height,
+        palette,
+        cells,
+        indices: expand(&runs, &entry_of, width * height),
+    }
+}
+
+/// The rows of a band in the order they take the upper of two levels as a pixel's fraction
+/// between them grows, before each band's shuffle ([`row_thresholds`]).
+const DITHER_ORDER: [u8; 6] = [0, 3, 1, 4, 2, 5];
+
+/// The dither threshold of each row of band `band`: `(k + ½) / 6` for the row's place `k`, the
+/// six places shuffled per band (a fixed pseudo-random permutation) so no line pattern repeats
+/// from band to band.
+pub fn row_thresholds(band: usize) -> [f64; 6] {
+    let mut order = DITHER_ORDER;
+    let mut state = (band as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    for i in (1..6).rev() {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        order.swap(i, (state % (i as u64 + 1)) as usize);
+    }
+    order.map(|k| (f64::from(k) + 0.5) / 6.0)
+}
+
+/// Like [`quantise`], but a pixel between two luma levels of the grid takes the lower or the
+/// upper one by an ordered threshold that depends on its row only ([`row_thresholds`]): the
+/// average over a band matches the pixel's luma (no banding), while a column's sixels stay the
+/// same along a row of equal colours (long runs). The palette colours sit exactly on their luma
+/// levels.
+pub fn quantise_dithered(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Indexed {
+    debug_assert_eq!(rgba.len(), width * height * 4);
+    let (table, runs) = count_colours(rgba);
+    let mut contributions = Vec::with_capacity(2 * table.colours.len());
+    // Per colour id: its fraction above the lower level, and its two contributions.
+    let mut levels: Vec<(f64, usize, usize)> = Vec::with_capacity(table.colours.len());
+    for id in 0..table.colours.len() {
+        let rgb = unpack(table.colours[id]).map(f64::from);
+        let luma = luma_chroma(rgb)[0] * 100.0 / 255.0 / quality.luma_step;
+        let (lower, f) = (luma.floor(), luma - luma.floor());
+        let [_, cb, cr] = quality.cell(unpack(table.colours[id]));
+        let count = f64::from(table.counts[id]);
+        let mut push = |level: f64, weight: f64| {
+            // The colour moved onto the level: the same shift on every channel moves luma by it.
+            let shift = (level - luma) * quality.luma_step * 255.0 / 100.0;
+            contributions.push(Contribution {
+                cell: [level as i32, cb, cr],
+                weight: count * weight,
+                rgb: rgb.map(|c| c + shift),
+            });
+            contributions.len() - 1
+        };
+        let below = push(lower, 1.0 - f);
+        // Exactly on a level: the upper one is never taken.
+        let above = if f > 0.0 { push(lower + 1.0, f) } else { below };
+        levels.push((f, below, above));
+    }
+    let (palette, cells, entry_of) = build_palette(&contributions, quality);
+    let thresholds: Vec<f64> = (0..height).map(|y| row_thresholds(y / 6)[y % 6]).collect();
+    let mut indices = Vec::with_capacity(width * height);
+    let mut x = 0;
+    for &(id, n) in &runs {
+        let (f, below, above) = levels[usize::from(id)];
+        let mut left = n as usize;
+        while left > 0 {
+            let take = left.min(width - x);
+            let entry = if f > thresholds[indices.len() / width] {
+                above
+            } else {
+                below
+            };
+            indices.extend(std::iter::repeat_n(entry_of[entry], take));
+            left -= take;
+            x = (x + take) % width;
+        }
+    }
+    Indexed {
+        width,
+        height,
+        palette,
+        cells,
+        indices,
+    }
+}
+
+/// Pixels of a distinct colour going to one grid cell: how many (weight) and the colour they
+/// bring (8-bit scale, possibly moved in luma).
+#[derive(Debug, Clone, Copy)]
+struct Contribution {
+    cell: [i32; 3],
+    weight: f64,
+    rgb: [f64; 3],
+}
+
+/// The palette (percent), its grid cells and the palette entry of each contribution: cells
+/// grouped, more than [`MAX_COLOURS`] cells split into boxes, the most used colours first.
+fn build_palette(contributions: &[Contribution], quality: Quality) -> (Vec<[u8; 3]>, Vec<[i32; 3]>, Vec<u8>) {
+    let mut order: Vec<u32> = (0..contributions.len() as u32).collect();
+    order.sort_unstable_by_key(|&i| contributions[i as usize].cell);
     let mut groups: Vec<Group> = Vec::new();
-    let mut group_of_id = vec![0u32; table.colours.len()];
-    for &id in &order {
-        let (cell, rgb, count) = (
-            colour_cells[id as usize],
-            unpack(table.colours[id as usize]),
-            f64::from(table.counts[id as usize]),
-        );
-        if groups.last().is_none_or(|g| g.cell != cell) {
+    let mut group_of = vec![0u32; contributions.len()];
+    for &i in &order {
+        let c = contributions[i as usize];
+        if groups.last().is_none_or(|g| g.cell != c.cell) {
             groups.push(Group {
-                cell,
+                cell: c.cell,
                 count: 0.0,
                 sum: [0.0; 3],
             });
         }
         let group = groups.last_mut().expect("just pushed");
-        group.count += count;
-        for c in 0..3 {
-            group.sum[c] += count * f64::from(rgb[c]);
+        group.count += c.weight;
+        for k in 0..3 {
+            group.sum[k] += c.weight * c.rgb[k];
         }
-        group_of_id[id as usize] = (groups.len() - 1) as u32;
+        group_of[i as usize] = (groups.len() - 1) as u32;
     }
     let (boxes, box_of_group) = split_boxes(&groups);
     // The most used colours first: their numbers are the shortest to write.
@@ -146,17 +252,15 @@ pub fn quantise(rgba: &[u8], width: usize, height: usize, quality: Quality) -> I
         rank[b] = r as u8;
     }
     let means: Vec<[u8; 3]> = by_use.iter().map(|&b| boxes[b].mean_rgb()).collect();
-    let palette_of_id: Vec<u8> = group_of_id
+    let entry_of = group_of
         .iter()
         .map(|&g| rank[usize::from(box_of_group[g as usize])])
         .collect();
-    Indexed {
-        width,
-        height,
-        palette: means.iter().map(|m| m.map(to_percent)).collect(),
-        cells: means.iter().map(|&m| quality.cell(m)).collect(),
-        indices: expand(&runs, &palette_of_id, width * height),
-    }
+    (
+        means.iter().map(|m| m.map(to_percent)).collect(),
+        means.iter().map(|&m| quality.cell(m)).collect(),
+        entry_of,
+    )
 }
 
 /// The palette index of every pixel from the runs of colour ids. Most runs are short: each is
