@@ -13,11 +13,10 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use haiko::cli::render::{light_markers, scene_view};
 use haiko::photometry::Curve;
 use haiko::relight::Relighter;
 use haiko::render::{
-    DisplayMode, DisplayShader, Frame, View, draw_lights, render, render_into, vertex_attributes,
+    DisplayMode, DisplayShader, Frame, LightMarker, View, draw_lights, render, render_into, vertex_attributes,
 };
 use haiko::scene::{self, Scene};
 use rayon::ThreadPool;
@@ -65,6 +64,24 @@ fn cpu_time_of(iters: u64, mut f: impl FnMut()) -> Duration {
         (Some(before), Some(after)) => after.saturating_sub(before),
         _ => wall.elapsed(),
     }
+}
+
+/// The room camera's view at `width × height`.
+fn scene_view(scene: &Scene, width: u32, height: u32) -> haiko::Result<View> {
+    View::new(scene.camera, width, height)
+}
+
+/// One marker per light, none selected (the aim line is not drawn).
+fn light_markers(scene: &Scene) -> Vec<LightMarker> {
+    scene
+        .lights
+        .iter()
+        .map(|light| LightMarker {
+            position: light.position,
+            aim_target: light.position + light.aim,
+            selected: false,
+        })
+        .collect()
 }
 
 /// Light 0's curve with its first control point scaled by `factor`.

@@ -7,12 +7,11 @@
 use std::hint::black_box;
 use std::io::Write;
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use haiko::tui::renderer::{FrameRequest, PreviewRenderer};
-use haiko::tui::workers::render_one;
+use haiko::session::{Session, SessionOptions};
+use haiko::tui::app::frame_spec;
 use haiko::tui::{Model, preview, sixel};
 use image::ImageEncoder;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
@@ -33,20 +32,21 @@ struct Frame {
 /// The preview of `room` at full size and at 1/2 and 1/3 of it.
 fn render(room: &'static str) -> Vec<Frame> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("rooms/{room}.toml"));
-    let scene = Arc::new(haiko::scene::load(&path).expect("the room loads"));
+    let scene = haiko::scene::load(&path).expect("the room loads");
     let model = Model::new(&scene, TERMINAL, FONT);
-    let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).expect("bake");
-    let full = FrameRequest::from_model(&model).expect("the preview has pixels");
+    let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+    session.relight();
+    let full = frame_spec(&model).expect("the preview has pixels");
     assert_eq!(full.size_px, (940, 880), "the layout changed");
     [1, 2, 3]
         .map(|d| {
-            let mut request = full.clone();
-            request.size_px = (full.size_px.0.div_ceil(d), full.size_px.1.div_ceil(d));
-            let frame = render_one(&mut renderer, &request).expect("the frame renders");
+            let mut spec = full;
+            spec.size_px = (full.size_px.0.div_ceil(d), full.size_px.1.div_ceil(d));
+            let frame = session.render(&spec).expect("the frame renders");
             Frame {
                 room,
-                size: request.size_px,
-                rgba: frame.preview.frame.pixmap.data().to_vec(),
+                size: spec.size_px,
+                rgba: frame.pixmap.data().to_vec(),
             }
         })
         .into()

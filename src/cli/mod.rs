@@ -7,15 +7,21 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::error::Result;
 use crate::photometry::Window;
+use crate::scene::Scene;
+use crate::session::{Session, SessionOptions};
 use crate::tui::Graphics;
 
 pub mod accuracy;
 pub mod bake;
+pub mod cache;
+pub mod check;
+pub mod glare;
 pub mod grid;
 pub mod lid;
 pub mod pick;
 pub mod probe;
 pub mod render;
+pub mod report;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -33,9 +39,17 @@ pub enum Command {
     Edit {
         /// The room file (rooms/*.toml).
         room: PathBuf,
-        /// Inline image protocol for the preview.
+        /// Inline image protocol for the preview (auto: what reaches the screen, also through
+        /// tmux and screen; half-blocks when nothing else does).
         #[arg(long, value_enum, default_value_t = GraphicsArg::Auto)]
         graphics: GraphicsArg,
+        /// Polar diagram style: braille, blocks or ascii (default: $HAIKO_POLAR, else by terminal).
+        #[arg(long, value_enum)]
+        polar: Option<PolarArg>,
+        /// Byte budget of an interactive frame while keys repeat: auto (from the link's speed)
+        /// or a size such as 64k.
+        #[arg(long, default_value = "auto")]
+        frame_budget: String,
     },
     /// Luminous intensity curve report: flux, asymmetry, truncation error per SH order.
     Lid {
@@ -98,6 +112,42 @@ pub enum Command {
         #[arg(long)]
         direct_only: bool,
     },
+    /// Design check: every calculation surface's maintained Ē, E_min, E_max, U0, g2 against its targets.
+    Check {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON (with every grid point's new illuminance).
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
+    },
+    /// Glare: UGR (CIE 117) at every observer, with each luminaire's luminance, solid angle and position index.
+    Glare {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no background luminance: UGR undefined).
+        #[arg(long)]
+        direct_only: bool,
+    },
+    /// Client report: one self-contained HTML file (views, surfaces, glare, schedule, settings) for A4.
+    Report {
+        /// The room file.
+        room: PathBuf,
+        /// Output HTML file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Width of each view, pixels.
+        #[arg(long, default_value_t = 1200)]
+        width: u32,
+        /// Height of each view, pixels.
+        #[arg(long, default_value_t = 800)]
+        height: u32,
+    },
     /// Headless preview: render the room's camera view to a PNG, with per-stage timings.
     Render {
         /// The room file.
@@ -134,6 +184,9 @@ pub enum Command {
         /// Also print the unit aim vector that points this light at the picked point.
         #[arg(long, value_name = "LIGHT")]
         aim: Option<String>,
+        /// The illuminance at the picked point by direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
     },
     /// What accuracy costs in time: error against time for each knob (docs/ACCURACY.md).
     Accuracy {
@@ -143,6 +196,21 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The bake cache: where it is and what it holds (`list`, the default), or empty it (`clear`).
+    Cache {
+        /// What to do.
+        #[arg(value_enum, default_value_t = CacheAction::List)]
+        action: CacheAction,
+    },
+}
+
+/// `haiko cache` actions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CacheAction {
+    /// List the entries, their sizes and when they were last used.
+    List,
+    /// Remove every entry.
+    Clear,
 }
 
 /// `--graphics` values.
@@ -168,6 +236,28 @@ impl From<GraphicsArg> for Graphics {
             GraphicsArg::Kitty => Graphics::Kitty,
             GraphicsArg::Iterm2 => Graphics::Iterm2,
             GraphicsArg::Halfblocks => Graphics::Halfblocks,
+        }
+    }
+}
+
+/// `--polar` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PolarArg {
+    /// Braille dots (2 × 4 a cell).
+    Braille,
+    /// Quadrant blocks (2 × 2 a cell).
+    Blocks,
+    /// ASCII only.
+    Ascii,
+}
+
+impl From<PolarArg> for crate::tui::polar::PolarStyle {
+    fn from(p: PolarArg) -> Self {
+        use crate::tui::polar::PolarStyle;
+        match p {
+            PolarArg::Braille => PolarStyle::Braille,
+            PolarArg::Blocks => PolarStyle::Blocks,
+            PolarArg::Ascii => PolarStyle::Ascii,
         }
     }
 }
@@ -206,7 +296,19 @@ pub enum WindowArg {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Edit { room, graphics } => crate::tui::app::run(&room, graphics.into()),
+        Command::Edit {
+            room,
+            graphics,
+            polar,
+            frame_budget,
+        } => crate::tui::app::run(
+            &room,
+            crate::tui::app::EditorOptions {
+                graphics: graphics.into(),
+                polar: polar.map(Into::into),
+                budget: crate::tui::frame_budget::Budget::parse("--frame-budget", &frame_budget)?,
+            },
+        ),
         Command::Lid {
             source,
             order,
@@ -229,6 +331,22 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
             direct_only,
         } => grid::run(&room, height, spacing, margin, json, direct_only),
+        Command::Check {
+            room,
+            json,
+            direct_only,
+        } => check::run(&room, json, direct_only),
+        Command::Glare {
+            room,
+            json,
+            direct_only,
+        } => glare::run(&room, json, direct_only),
+        Command::Report {
+            room,
+            output,
+            width,
+            height,
+        } => report::run(&room, &output, width, height),
         Command::Render {
             room,
             output,
@@ -243,9 +361,30 @@ pub fn run(cli: Cli) -> Result<()> {
             height,
             json,
             aim,
-        } => pick::run(&room, pixel, width, height, json, aim.as_deref()),
+            direct_only,
+        } => pick::run(&room, pixel, width, height, json, aim.as_deref(), direct_only),
         Command::Accuracy { room, json } => accuracy::run(&room, json),
+        Command::Cache { action } => match action {
+            CacheAction::List => cache::run_list(),
+            CacheAction::Clear => cache::run_clear(),
+        },
     }
+}
+
+/// Opens a session on `scene` for a command: the user's bake cache, the progress bar on
+/// standard error, cache notices printed; `indirect` false for direct light only (no bake).
+///
+/// Errors: the bake failing (internal).
+pub fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
+    let options = SessionOptions {
+        indirect,
+        ..SessionOptions::with_user_cache()
+    };
+    let session = Session::new(scene, options, &mut bake::progress_printer())?;
+    for notice in session.bake().map_or(&[][..], |b| &b.notices[..]) {
+        eprintln!("haiko: {notice}");
+    }
+    Ok(session)
 }
 
 impl From<WindowArg> for Window {

@@ -1,6 +1,7 @@
 //! `haiko pick ROOM --pixel X,Y`: what a pixel of the `render` image shows — patch, surface,
-//! world point and normal — and, with `--aim LIGHT`, the unit aim vector that points that light
-//! at it. Same camera and image size as `haiko render`.
+//! world point and normal, and the illuminance there (the value `haiko probe` gives for that
+//! point and normal) — and, with `--aim LIGHT`, the unit aim vector that points that light at
+//! it. Same camera and image size as `haiko render`.
 
 use std::fmt;
 use std::path::Path;
@@ -9,10 +10,12 @@ use std::str::FromStr;
 use glam::DVec3;
 use serde::Serialize;
 
-use super::render::scene_view;
+use crate::cli::open_session;
 use crate::error::{Error, Result};
-use crate::render::{Photo, aim_direction, pick, render};
-use crate::scene::{self, Scene};
+use crate::render::{DisplayMode, aim_direction};
+use crate::scene::{self, DirectMode, Receiver};
+use crate::session::frame::check_size;
+use crate::session::{FrameSpec, Session};
 
 /// A pixel of the image: column `x` from the left, row `y` from the top (docs/METHOD.md §1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -23,12 +26,17 @@ pub struct Pixel {
     pub y: u32,
 }
 
+/// A `--pixel` value that is not `X,Y`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{0}` is not a pixel `X,Y` (two whole numbers ≥ 0)")]
+pub struct PixelSyntax(String);
+
 impl FromStr for Pixel {
-    type Err = String;
+    type Err = PixelSyntax;
 
     /// Parses `X,Y` (two non-negative integers).
     fn from_str(text: &str) -> std::result::Result<Self, Self::Err> {
-        let bad = || format!("`{text}` is not a pixel `X,Y` (two whole numbers ≥ 0)");
+        let bad = || PixelSyntax(text.to_string());
         let (x, y) = text.split_once(',').ok_or_else(bad)?;
         let x = x.trim().parse().map_err(|_| bad())?;
         let y = y.trim().parse().map_err(|_| bad())?;
@@ -55,21 +63,83 @@ pub struct PickReport {
     pub normal: DVec3,
     /// With `--aim LIGHT`: the unit vector from the light's position to `point` (world).
     pub aim: Option<DVec3>,
+    /// New illuminance at `point` on the surface facing `normal`, lx: exact direct light plus
+    /// (unless direct only) the gathered indirect light, as `haiko probe` computes it.
+    pub lux: f64,
 }
 
-/// Picks pixel `pixel` of the `width × height` image of the room's camera; with `aim_light`,
+/// Picks pixel `pixel` of the `width × height` image of the session's camera, with the
+/// illuminance at the picked point (direct light only with `direct_only`); with `aim_light`,
 /// also the aim vector of that light towards the picked point.
 ///
 /// Errors (bad input): a bad image size, a pixel outside the image, an unknown light (the
 /// message lists the lights), a background pixel, or a light sitting on the picked point.
 pub fn pick_pixel(
-    scene: &Scene,
+    session: &mut Session,
     width: u32,
     height: u32,
     pixel: Pixel,
     aim_light: Option<&str>,
+    direct_only: bool,
 ) -> Result<PickReport> {
-    let view = scene_view(scene, width, height)?;
+    check_pixel(pixel, width, height)?;
+    let light = aim_light
+        .map(|name| session.light_named(name, "--aim"))
+        .transpose()?;
+    session.render(&FrameSpec {
+        size_px: (width, height),
+        mode: DisplayMode::Photo,
+        selected_light: None,
+        cursor: None,
+    })?;
+    let hit = session
+        .pick((pixel.x, pixel.y))
+        .ok_or_else(|| Error::input("--pixel", "", format!("nothing at pixel {pixel} (background)")))?;
+    let surface = session
+        .scene()
+        .surfaces
+        .get(hit.surface as usize)
+        .ok_or_else(|| {
+            Error::internal(format!(
+                "pick: patch {} has no surface {}",
+                hit.patch, hit.surface
+            ))
+        })?;
+    let aim = match light {
+        Some(i) => {
+            let light = &session.lights()[i];
+            Some(aim_direction(light.position, hit.point).ok_or_else(|| {
+                Error::input(
+                    "--aim",
+                    "",
+                    format!(
+                        "light `{}` sits on the picked point; it cannot aim at it",
+                        light.name
+                    ),
+                )
+            })?)
+        }
+        None => None,
+    };
+    let surface = surface.name.clone();
+    let receiver = Receiver {
+        point: hit.point,
+        normal: hit.normal,
+    };
+    let lux = session.illuminance_at(&[receiver], direct_only, DirectMode::Exact)?[0];
+    Ok(PickReport {
+        patch: hit.patch,
+        surface,
+        point: hit.point,
+        normal: hit.normal,
+        aim,
+        lux,
+    })
+}
+
+/// Refuses a bad image size or a pixel outside the image (bad input naming the flag).
+pub fn check_pixel(pixel: Pixel, width: u32, height: u32) -> Result<()> {
+    check_size(width, height, ["--width", "--height"])?;
     if pixel.x >= width || pixel.y >= height {
         return Err(Error::input(
             "--pixel",
@@ -77,49 +147,7 @@ pub fn pick_pixel(
             format!("pixel {pixel} is outside the {width}×{height} image (x < {width}, y < {height})"),
         ));
     }
-    let light = aim_light.map(|name| find_light(scene, name)).transpose()?;
-    // The ID and depth buffers do not depend on the lighting: render unlit.
-    let attrs = vec![[0.0f32; 3]; scene.fine.n_vertices()];
-    let frame = render(&scene.fine, &attrs, &view, &Photo::with_exposure(1.0))?;
-    let hit = pick(&frame, &view, &scene.fine, pixel.x, pixel.y)
-        .ok_or_else(|| Error::input("--pixel", "", format!("nothing at pixel {pixel} (background)")))?;
-    let surface = scene.surfaces.get(hit.surface as usize).ok_or_else(|| {
-        Error::internal(format!(
-            "pick: patch {} has no surface {}",
-            hit.patch, hit.surface
-        ))
-    })?;
-    let aim = match light {
-        Some(light) => Some(aim_direction(light.position, hit.point).ok_or_else(|| {
-            Error::input(
-                "--aim",
-                "",
-                format!(
-                    "light `{}` sits on the picked point; it cannot aim at it",
-                    light.name
-                ),
-            )
-        })?),
-        None => None,
-    };
-    Ok(PickReport {
-        patch: hit.patch,
-        surface: surface.name.clone(),
-        point: hit.point,
-        normal: hit.normal,
-        aim,
-    })
-}
-
-fn find_light<'a>(scene: &'a Scene, name: &str) -> Result<&'a scene::Light> {
-    scene.lights.iter().find(|l| l.name == name).ok_or_else(|| {
-        let names: Vec<&str> = scene.lights.iter().map(|l| l.name.as_str()).collect();
-        Error::input(
-            &scene.path,
-            "--aim",
-            format!("no light named `{name}` (lights: {})", names.join(", ")),
-        )
-    })
+    Ok(())
 }
 
 #[derive(Serialize)]
@@ -128,19 +156,20 @@ struct PickJson<'a> {
     surface: &'a str,
     point: [f64; 3],
     normal: [f64; 3],
+    lux: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     aim: Option<[f64; 3]>,
 }
 
-/// The report as one line of JSON:
-/// `{"patch": n, "surface": "floor", "point": [x, y, z], "normal": [x, y, z], "aim": [x, y, z]}`
-/// (`aim` only when asked for).
+/// The report as one line of JSON: `{"patch": n, "surface": "floor", "point": [x, y, z],
+/// "normal": [x, y, z], "lux": e, "aim": [x, y, z]}` (`aim` only when asked for).
 pub fn to_json(report: &PickReport) -> Result<String> {
     let doc = PickJson {
         patch: report.patch,
         surface: &report.surface,
         point: report.point.to_array(),
         normal: report.normal.to_array(),
+        lux: report.lux,
         aim: report.aim.map(|a| a.to_array()),
     };
     let mut out = Vec::new();
@@ -179,11 +208,12 @@ impl serde_json::ser::Formatter for SpacedFormatter {
 pub fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
     let v = |d: DVec3| format!("[{:.4}, {:.4}, {:.4}]", d.x, d.y, d.z);
     let mut text = format!(
-        "patch   {} (surface {})\npoint   {} m\nnormal  {}\n",
+        "patch   {} (surface {})\npoint   {} m\nnormal  {}\nE       {:.1} lx\n",
         report.patch,
         report.surface,
         v(report.point),
-        v(report.normal)
+        v(report.normal),
+        report.lux
     );
     if let (Some(aim), Some(name)) = (report.aim, aim_light) {
         text.push_str(&format!("aim     {} (light {name})\n", v(aim)));
@@ -191,7 +221,8 @@ pub fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
     text
 }
 
-/// Runs the command: prints the report as text or, with `json`, as one JSON line.
+/// Runs the command: prints the report as text or, with `json`, as one JSON line. The session
+/// bakes (or reads the user's bake cache) for the indirect light unless `direct_only`.
 pub fn run(
     room: &Path,
     pixel: Pixel,
@@ -199,9 +230,12 @@ pub fn run(
     height: u32,
     json: bool,
     aim_light: Option<&str>,
+    direct_only: bool,
 ) -> Result<()> {
     let scene = scene::load(room)?;
-    let report = pick_pixel(&scene, width, height, pixel, aim_light)?;
+    check_pixel(pixel, width, height)?;
+    let mut session = open_session(scene, !direct_only)?;
+    let report = pick_pixel(&mut session, width, height, pixel, aim_light, direct_only)?;
     if json {
         println!("{}", to_json(&report)?);
     } else {

@@ -22,7 +22,10 @@ pub use camera::View;
 pub use overlay::{LightMarker, draw_crosshair, draw_lights};
 pub use pick::{Pick, aim_direction, pick};
 pub use raster::{BACKGROUND_ID, Raster, ScreenTriangle, ScreenVertex, Target, rasterize, rasterize_into};
-pub use shade::{DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, vertex_attributes};
+pub use shade::{
+    DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, vertex_attributes,
+    vertex_attributes_into,
+};
 
 use tiny_skia::Pixmap;
 

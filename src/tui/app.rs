@@ -1,116 +1,271 @@
-//! `haiko edit ROOM`: the app loop. Loads the room (before the screen is taken), enters the
-//! terminal, starts the workers, then blocks on one channel: each event becomes a [`Msg`] for
-//! [`update`], whose [`Effect`]s are carried out here (picks, saves, quitting) or by the
-//! workers (a new frame is requested whenever the model asks for a different one).
+//! `haiko edit ROOM`: the app loop. Loads the room (before the screen is taken; a recovery file
+//! left by a signal is offered first), enters the terminal, starts the workers and the signal
+//! watcher, then blocks on one channel: each event becomes a [`Msg`] for [`update`], whose
+//! [`Effect`]s are carried out here — commands and frame requests collected and sent to the
+//! engine once per loop turn (in order), picks asked of the engine, saves written, suspending,
+//! quitting. While keys repeat the frames are reduced to fit the frame budget; the full frame
+//! follows once input has been idle ([`FrameBudget`]).
 
 use std::collections::VecDeque;
-use std::fs;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::mpsc::{self, Receiver, Sender};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::time::Instant;
 
 use ratatui::Frame;
 use ratatui::crossterm::event::{Event, MouseButton, MouseEvent, MouseEventKind};
 use ratatui::layout::{Alignment, Constraint, Flex, Layout, Rect, Size};
 use ratatui::style::Stylize;
 use ratatui::widgets::{Gauge, Paragraph};
-use ratatui_image::protocol::Protocol;
 
 use crate::error::{Error, Result};
-use crate::scene::{self, Scene};
+use crate::photometry::read_lid_file;
+use crate::render::DisplayMode;
+use crate::scene;
+use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
-use crate::tui::msg::{Effect, Msg};
-use crate::tui::renderer::{FrameRequest, PreviewFrame};
-use crate::tui::series::series_msg;
-use crate::tui::terminal::Graphics;
-use crate::tui::terminal::{TerminalSession, spawn_input_reader};
-use crate::tui::workers::{AppEvent, EncodeJob, RenderedFrame, spawn_encode_worker, spawn_render_worker};
-use crate::tui::{Model, PreviewArea, preview, save_room, update, view};
+use crate::tui::frame_budget::{Budget, DIVISORS, FrameBudget, FramePlan, prior_bytes_per_pixel};
+use crate::tui::luminaires::{self, LidInfo};
+use crate::tui::msg::{CurveSave, Effect, Msg};
+use crate::tui::polar::{PolarOptions, PolarScale, PolarStyle};
+use crate::tui::preview::FrameImage;
+use crate::tui::recovery::{self, Answer};
+use crate::tui::save::{edit_room_text, save_with_curves};
+use crate::tui::signals::{self, PendingEdits};
+use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
+use crate::tui::workers::{
+    AppEvent, EncodeJob, EncodedFrame, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
+};
+use crate::tui::{Mode, Model, PreviewArea, update, view};
 
-/// Runs the editor on the room file `room` with the `graphics` protocol choice. A bad room
-/// fails before the terminal is touched; the terminal is restored however the editor ends.
+/// How the editor talks to the terminal (the `haiko edit` flags, README "Terminals").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EditorOptions {
+    /// The image protocol asked for.
+    pub graphics: Graphics,
+    /// The polar diagram's style; `None`: [`PolarStyle::detect`] (`$HAIKO_POLAR`, the terminal).
+    pub polar: Option<PolarStyle>,
+    /// The byte budget of an interactive frame.
+    pub budget: Budget,
+}
+
+impl Default for EditorOptions {
+    fn default() -> Self {
+        EditorOptions {
+            graphics: Graphics::Auto,
+            polar: None,
+            budget: Budget::Auto,
+        }
+    }
+}
+
+/// Runs the editor on the room file `room` with `options`. A recovery file of the room is
+/// offered first (on the standard streams, before the terminal is taken); a bad room fails
+/// before the terminal is touched; the terminal is restored however the editor ends, also on
+/// SIGTERM, SIGHUP, SIGINT and SIGQUIT (`tui::signals`), which keep unsaved edits in the
+/// recovery file.
 ///
-/// Errors: the room file (bad input), the terminal or a worker (internal).
-pub fn run(room: &Path, graphics: Graphics) -> Result<()> {
-    let scene = Arc::new(scene::load(room)?);
-    let mut session = TerminalSession::enter(graphics)?;
-    let mut app = App::start(scene, room, &session)?;
+/// Errors: the room file or the recovery file (bad input), the terminal or a worker (internal).
+pub fn run(room: &Path, options: EditorOptions) -> Result<()> {
+    let saved_scene = scene::load(room)?;
+    let restored = match recovery::find(room)? {
+        Some(found) => {
+            let room_text = std::fs::read_to_string(room).map_err(|e| Error::unreadable(room, &e))?;
+            let answer = recovery::ask(
+                &found,
+                &room_text,
+                &mut std::io::stdin().lock(),
+                &mut std::io::stderr(),
+            )
+            .map_err(|e| Error::internal(format!("asking about the recovery file: {e}")))?;
+            match answer {
+                Answer::Restore => Some(scene::load(&found.path)?),
+                Answer::Discard => {
+                    recovery::discard(room)?;
+                    None
+                }
+                Answer::Keep => None,
+            }
+        }
+        None => None,
+    };
+    let mut session = TerminalSession::enter(options.graphics)?;
+    let mut app = App::start(saved_scene, restored, room, &session, options)?;
     app.run(&mut session)
 }
 
 /// The running editor: the model and the app's side of the workers.
 struct App {
     model: Model,
-    scene: Arc<Scene>,
     room: PathBuf,
     events: Receiver<AppEvent>,
-    render_jobs: Sender<crate::tui::renderer::FrameRequest>,
+    engine: Sender<EngineRequest>,
     encode_jobs: Sender<EncodeJob>,
-    /// The latest rendered frame (for picks).
-    latest: Option<Arc<PreviewFrame>>,
+    /// Requests for the engine from this loop turn, sent in order at its end.
+    outbox: Vec<EngineRequest>,
+    /// True when the frame the model shows changed this turn.
+    frame_changed: bool,
     /// The latest encoded image on screen.
-    image: Option<Protocol>,
-    /// The last frame asked of the render worker.
-    requested: Option<FrameRequest>,
+    image: Option<FrameImage>,
+    /// A new image's plan and bytes, recorded once it is written.
+    unrecorded: Option<(FramePlan, usize)>,
+    /// The budget of interactive frames.
+    budget: FrameBudget,
+    /// The plan of the last frame asked of the engine.
+    requested: Option<FramePlan>,
+    /// When the last key or click came.
+    last_input: Instant,
+    /// The room file's text the edits are made on, and the edits to keep on a signal.
+    room_text: String,
+    pending: PendingEdits,
+    /// True when the edits changed this turn (the recovery text is made again).
+    edits_changed: bool,
+    suspend: bool,
     quit: bool,
 }
 
 impl App {
-    fn start(scene: Arc<Scene>, room: &Path, session: &TerminalSession) -> Result<App> {
-        let mut model = Model::new(&scene, session.size()?, preview::cell_px(session.picker()));
-        model.protocol = preview::protocol_label(session.picker());
-        let planned = plan(&scene, PlanOptions::default());
-        for (i, (light, choice)) in scene.lights.iter().zip(&planned.lights).enumerate() {
-            if light.order.is_none() {
-                model.set_planned_order(i, choice.order);
-            }
+    /// The editor on `saved` (the room as saved), showing `restored` (the room with recovered
+    /// edits) when given.
+    fn start(
+        saved: scene::Scene,
+        restored: Option<scene::Scene>,
+        room: &Path,
+        session: &TerminalSession,
+        options: EditorOptions,
+    ) -> Result<App> {
+        let setup = session.setup().clone();
+        let saved_lights = Model::new(&saved, (1, 1), (1, 1)).saved;
+        let edited = restored.is_some();
+        let scene = restored.unwrap_or(saved);
+        let mut model = Model::new(&scene, session.size()?, setup.cell_px);
+        model.protocol = setup.label();
+        model.message = setup.hint.clone();
+        model.polar = PolarOptions {
+            style: options
+                .polar
+                .unwrap_or_else(|| PolarStyle::detect(|name| std::env::var(name).ok())),
+            scale: None,
+        };
+        if edited {
+            model.saved = saved_lights;
+            model.refresh_dirty();
+            model.message = Some("restored the unsaved edits from the recovery file (s saves them)".into());
         }
+        let planned = initial_lights(&scene, &plan(&scene, PlanOptions::default()));
+        for (i, light) in planned.iter().enumerate() {
+            model.set_planned_order(i, light.order);
+        }
+        model.lid_files = luminaires::read_lid_infos(&model.lights);
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
-        let render_jobs = spawn_render_worker(Arc::clone(&scene), sender.clone());
-        let encode_jobs = spawn_encode_worker(session.picker().clone(), sender);
-        let mut app = App {
+        let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
+        let compressed = setup.protocol == crate::tui::multiplexer::Protocol::Kitty
+            || setup.protocol == crate::tui::multiplexer::Protocol::Iterm2;
+        let encode_jobs = spawn_encode_worker(setup, sender);
+        let pending = PendingEdits::default();
+        signals::watch(room.to_path_buf(), pending.clone())
+            .map_err(|e| Error::internal(format!("cannot watch for signals: {e}")))?;
+        let room_text = std::fs::read_to_string(room).map_err(|e| Error::unreadable(room, &e))?;
+        Ok(App {
             model,
-            scene,
             room: room.to_path_buf(),
             events,
-            render_jobs,
+            engine,
             encode_jobs,
-            latest: None,
+            outbox: Vec::new(),
+            frame_changed: true,
             image: None,
+            unrecorded: None,
+            budget: FrameBudget::new(options.budget, prior_bytes_per_pixel(compressed)),
             requested: None,
+            last_input: Instant::now(),
+            room_text,
+            pending,
+            edits_changed: edited,
+            suspend: false,
             quit: false,
-        };
-        for i in 0..app.model.lights.len() {
-            app.dispatch(series_msg(i, &app.model.lights[i]))?;
-        }
-        Ok(app)
+        })
     }
 
     fn run(&mut self, session: &mut TerminalSession) -> Result<()> {
-        self.request_frame()?;
+        self.flush()?;
         self.draw(session)?;
         while !self.quit {
-            let event = self.events.recv().map_err(|_| worker_stopped())?;
-            self.handle(event)?;
+            match self.next_event()? {
+                Some(event) => self.handle(event)?,
+                // Input went idle after reduced frames: the full frame is due.
+                None => self.frame_changed = true,
+            }
             // Handle whatever else is already queued before drawing once.
             while !self.quit
                 && let Ok(event) = self.events.try_recv()
             {
                 self.handle(event)?;
             }
+            if self.suspend {
+                self.suspend = false;
+                session.suspend()?;
+                self.frame_changed = true;
+            }
             if !self.quit {
-                self.request_frame()?;
+                self.keep_edits();
+                self.follow_polar_scale();
+                self.flush()?;
                 self.draw(session)?;
             }
         }
         Ok(())
     }
 
+    /// The next event; `None` when the full frame is due first (the last frame asked for was
+    /// reduced and input has since been idle, [`FrameBudget::full_frame_in`]).
+    fn next_event(&self) -> Result<Option<AppEvent>> {
+        let reduced = self
+            .requested
+            .is_some_and(|p| !matches!(p, FramePlan::Full { .. }));
+        if !reduced {
+            return self.events.recv().map(Some).map_err(|_| worker_stopped());
+        }
+        match self
+            .events
+            .recv_timeout(self.budget.full_frame_in(self.last_input.elapsed()))
+        {
+            Ok(event) => Ok(Some(event)),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(worker_stopped()),
+        }
+    }
+
+    /// Keeps the room text with the unsaved edits ready for the signal watcher.
+    fn keep_edits(&mut self) {
+        if !std::mem::take(&mut self.edits_changed) {
+            return;
+        }
+        if !self.model.dirty {
+            self.pending.clear();
+        } else if let Ok(edited) = edit_room_text(&self.room, &self.room_text, &self.model) {
+            self.pending.set(edited.text, recovery::fnv1a64(&self.room_text));
+        }
+    }
+
+    /// The polar diagram's scale after this turn's edits (it changes in round steps).
+    fn follow_polar_scale(&mut self) {
+        if let Some(peak) = crate::tui::view::polar_peak(&self.model) {
+            let scale = self.model.polar.scale;
+            self.model.polar.scale =
+                Some(scale.map_or_else(|| PolarScale::fitting(peak), |s| s.follow(peak)));
+        }
+    }
+
     fn handle(&mut self, event: AppEvent) -> Result<()> {
         match event {
             AppEvent::Input(event) => match input_msg(event) {
-                Some(msg) => self.dispatch(msg),
+                Some(msg) => {
+                    if matches!(msg, Msg::Key(_) | Msg::Click { .. }) {
+                        self.last_input = Instant::now();
+                    }
+                    self.dispatch(msg)
+                }
                 None => Ok(()),
             },
             AppEvent::InputFailed(message) => {
@@ -119,32 +274,47 @@ impl App {
             AppEvent::Msg(msg) => self.dispatch(msg),
             AppEvent::Rendered(frame) => self.on_rendered(frame),
             AppEvent::Encoded(encoded) => {
-                if let Some(image) = encoded.protocol {
+                let EncodedFrame {
+                    image,
+                    plan,
+                    bytes,
+                    rendered,
+                    encode_ms,
+                } = encoded;
+                if let Some(image) = image {
                     self.image = Some(image);
+                    self.unrecorded = Some((plan, bytes));
                 }
-                let (relight_ms, render_ms) = encoded.rendered;
+                let (relight_ms, render_ms) = rendered;
                 self.dispatch(Msg::Frame {
                     relight_ms,
                     render_ms,
-                    encode_ms: encoded.encode_ms,
+                    encode_ms,
                 })
             }
         }
     }
 
     fn on_rendered(&mut self, frame: RenderedFrame) -> Result<()> {
-        self.latest = Some(Arc::clone(&frame.preview));
-        if frame.rebuilt {
-            self.dispatch(Msg::BakeDone)?;
-        }
         let (cell_w, cell_h) = self.model.cell_px;
-        let view = &frame.preview.view;
         let cells = Size::new(
-            u16::try_from(view.width() / u32::from(cell_w)).unwrap_or(u16::MAX),
-            u16::try_from(view.height() / u32::from(cell_h)).unwrap_or(u16::MAX),
+            u16::try_from(frame.pixmap.width() / u32::from(cell_w)).unwrap_or(u16::MAX),
+            u16::try_from(frame.pixmap.height() / u32::from(cell_h)).unwrap_or(u16::MAX),
         );
+        let full = self.model.preview_px;
+        let size = (frame.pixmap.width(), frame.pixmap.height());
+        let plan = self
+            .requested
+            .filter(|p| p.size(full) == size)
+            .or_else(|| {
+                DIVISORS
+                    .iter()
+                    .map(|&divisor| FramePlan::Interactive { divisor })
+                    .find(|p| p.size(full) == size)
+            })
+            .unwrap_or(FramePlan::Full { dither: false });
         self.encode_jobs
-            .send(EncodeJob { frame, cells })
+            .send(EncodeJob { frame, plan, cells })
             .map_err(|_| worker_stopped())
     }
 
@@ -154,21 +324,23 @@ impl App {
         while let Some(msg) = queue.pop_front() {
             for effect in update(&mut self.model, msg) {
                 match effect {
-                    Effect::Relight { light } => {
-                        queue.push_back(series_msg(light, &self.model.lights[light]))
+                    Effect::Engine(command) => {
+                        self.edits_changed = true;
+                        match self.outbox.last_mut() {
+                            Some(EngineRequest::Commands(commands)) => commands.push(command),
+                            _ => self.outbox.push(EngineRequest::Commands(vec![command])),
+                        }
                     }
-                    Effect::Rebake { light } => {
-                        queue.push_back(series_msg(light, &self.model.lights[light]));
-                        queue.push_back(Msg::BakeProgress { done: 0, total: 1 });
-                    }
-                    // The next frame request follows from the model (request_frame).
-                    Effect::Render => {}
-                    Effect::Pick { pixel, aim } => queue.push_back(Msg::Picked {
+                    Effect::Render => self.frame_changed = true,
+                    Effect::Pick { pixel, aim } => self.outbox.push(EngineRequest::Pick {
                         pixel,
-                        hit: self.pick(pixel),
+                        preview_px: self.model.preview_px,
                         aim,
                     }),
-                    Effect::Save => queue.push_back(self.save()),
+                    Effect::Save(curves) => queue.push_back(self.save(curves)),
+                    Effect::LoadLid(typed) => queue.push_back(self.load_lid(&typed)),
+                    Effect::Report => self.outbox.push(EngineRequest::Report(report_path(&self.room))),
+                    Effect::Suspend => self.suspend = true,
                     Effect::Quit => self.quit = true,
                 }
             }
@@ -176,52 +348,104 @@ impl App {
         Ok(())
     }
 
-    /// The point and illuminance under preview `pixel` of the latest frame (scaled when that
-    /// frame was rendered at another size).
-    fn pick(&self, pixel: (u32, u32)) -> Option<(glam::DVec3, f64)> {
-        let frame = self.latest.as_ref()?;
-        let (w, h) = self.model.preview_px;
-        let scale = |p: u32, from: u32, to: u32| {
-            u32::try_from(u64::from(p) * u64::from(to) / u64::from(from.max(1))).unwrap_or(u32::MAX)
-        };
-        let at = (
-            scale(pixel.0, w, frame.view.width()),
-            scale(pixel.1, h, frame.view.height()),
-        );
-        frame.pick(&self.scene.fine, at)
-    }
-
-    fn save(&self) -> Msg {
-        let saved = fs::read_to_string(&self.room)
-            .map_err(|e| Error::unreadable(&self.room, &e))
-            .and_then(|text| save_room(&self.room, &text, &self.model));
-        match saved {
-            Ok(message) => Msg::Saved { message },
+    /// Saves the room file ([`save_with_curves`]); the recovery file, if any, is then stale
+    /// and removed.
+    fn save(&mut self, curves: CurveSave) -> Msg {
+        match save_with_curves(&self.room, &self.model, curves) {
+            Ok((message, sources)) => {
+                self.edits_changed = true;
+                if let Ok(text) = std::fs::read_to_string(&self.room) {
+                    self.room_text = text;
+                }
+                let _ = recovery::discard(&self.room);
+                Msg::Saved { message, sources }
+            }
             Err(e) => Msg::Failed {
                 message: e.to_string(),
             },
         }
     }
 
-    /// Sends the render worker the frame the model now shows, unless it was already asked for.
-    fn request_frame(&mut self) -> Result<()> {
-        let request = FrameRequest::from_model(&self.model);
-        if request.is_some() && request != self.requested {
-            if let Some(r) = &request {
-                self.render_jobs.send(r.clone()).map_err(|_| worker_stopped())?;
+    /// Reads the photometric file the user typed.
+    fn load_lid(&self, typed: &str) -> Msg {
+        let home = std::env::var_os("HOME").map(PathBuf::from);
+        let path = luminaires::resolve_typed_path(&self.room, typed, home.as_deref());
+        Msg::LidLoaded {
+            result: read_lid_file(&path)
+                .map(|lid| std::sync::Arc::new(LidInfo::of(lid)))
+                .map_err(|e| e.to_string()),
+            path,
+        }
+    }
+
+    /// Sends the engine this turn's requests, in order, with the frame the model now shows
+    /// when it changed.
+    fn flush(&mut self) -> Result<()> {
+        if self.frame_changed {
+            self.frame_changed = false;
+            if let Some(full) = frame_spec(&self.model) {
+                let plan = self.budget.plan(self.last_input.elapsed(), full.size_px);
+                self.requested = Some(plan);
+                // Before picks of this turn, so they see the new frame.
+                self.outbox.insert(0, EngineRequest::Frame(reduced(full, plan)));
             }
-            self.requested = request;
+        }
+        for request in self.outbox.drain(..) {
+            self.engine.send(request).map_err(|_| worker_stopped())?;
         }
         Ok(())
     }
 
-    fn draw(&self, session: &mut TerminalSession) -> Result<()> {
+    /// Draws the screen; a new image's bytes and write time go to the frame budget.
+    fn draw(&mut self, session: &mut TerminalSession) -> Result<()> {
         let (model, image) = (&self.model, self.image.as_ref());
+        let start = Instant::now();
         session.draw(|frame| {
             let mut preview = |f: &mut Frame<'_>, area: Rect| draw_preview(model, image, f, area);
             view(model, frame, PreviewArea::Draw(&mut preview));
-        })
+        })?;
+        if let Some((plan, bytes)) = self.unrecorded.take() {
+            self.budget
+                .record(plan, self.model.preview_px, bytes, start.elapsed());
+        }
+        Ok(())
     }
+}
+
+/// `full` rendered for `plan`: its size reduced, the aim cursor scaled with it.
+fn reduced(full: FrameSpec, plan: FramePlan) -> FrameSpec {
+    let d = plan.divisor().max(1);
+    FrameSpec {
+        size_px: plan.size(full.size_px),
+        cursor: full.cursor.map(|(x, y)| (x / d, y / d)),
+        ..full
+    }
+}
+
+/// The frame `model` shows; `None` while the preview has no pixels (terminal too small).
+pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
+    let (width, height) = model.preview_px;
+    (width > 0 && height > 0).then(|| FrameSpec {
+        size_px: model.preview_px,
+        mode: if model.false_colour {
+            DisplayMode::FalseColor
+        } else {
+            DisplayMode::Photo
+        },
+        selected_light: model.light().map(|_| model.selected_light),
+        cursor: match model.mode {
+            Mode::Aim { cursor } => Some(cursor),
+            _ => None,
+        },
+    })
+}
+
+/// Where the editor writes the report: `ROOM-report.html` next to the room file.
+pub fn report_path(room: &Path) -> PathBuf {
+    let stem = room
+        .file_stem()
+        .map_or_else(|| "room".into(), |s| s.to_string_lossy().into_owned());
+    room.with_file_name(format!("{stem}-report.html"))
 }
 
 fn worker_stopped() -> Error {
@@ -244,11 +468,12 @@ fn input_msg(event: Event) -> Option<Msg> {
 }
 
 /// The preview pane's inside: the image when one fits, else the bake gauge or a note.
-fn draw_preview(model: &Model, image: Option<&Protocol>, frame: &mut Frame<'_>, area: Rect) {
+fn draw_preview(model: &Model, image: Option<&FrameImage>, frame: &mut Frame<'_>, area: Rect) {
     if let Some(image) = image
-        && preview::fits(image, area)
+        && image.size().width <= area.width
+        && image.size().height <= area.height
     {
-        preview::draw(image, area, frame.buffer_mut());
+        image.draw(area, frame.buffer_mut());
         return;
     }
     let [middle] = Layout::vertical([Constraint::Length(1)])

@@ -1,22 +1,35 @@
-//! Undo and redo of light edits: each record keeps the edited light's whole state before and
-//! after, so undo restores it exactly (no inverse arithmetic, no rounding).
+//! Undo and redo as commands: each record keeps the commands that were applied and those that
+//! undo them exactly ([`crate::session::Command::apply`] returns each inverse), so undo restores
+//! the lights bit for bit without snapshots. A group edit (several lights at once) is one record
+//! of several commands.
 
 use std::collections::VecDeque;
 
-use crate::tui::model::LightEdit;
+use crate::session::Command;
 
 /// Most edits kept for undo; older ones are forgotten.
 pub const UNDO_LIMIT: usize = 1000;
 
-/// One edit of one light.
+/// One edit: of one light, or of a group of lights at once.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Change {
-    /// Index of the edited light.
+    /// Index of the light that was selected (selected again on undo and redo).
     pub light: usize,
-    /// Its state before the edit.
-    pub before: LightEdit,
-    /// Its state after the edit.
-    pub after: LightEdit,
+    /// The commands that made the edit, in the order they were applied.
+    pub forward: Vec<Command>,
+    /// The commands that undo it, in the order to apply them (the inverses, last first).
+    pub inverse: Vec<Command>,
+}
+
+impl Change {
+    /// The record of one command and its inverse.
+    pub fn single(light: usize, forward: Command, inverse: Command) -> Self {
+        Change {
+            light,
+            forward: vec![forward],
+            inverse: vec![inverse],
+        }
+    }
 }
 
 /// The undo and redo stacks.

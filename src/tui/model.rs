@@ -4,110 +4,19 @@
 //! Plain data; changed only by [`crate::tui::update::update`] (and by the app for the fields it
 //! documents as its own, such as [`Model::protocol`]). World frame: metres, z up (docs/METHOD.md §1).
 
+use std::collections::BTreeSet;
+
 use glam::DVec3;
 
-use crate::photometry::Curve;
-use crate::scene::{AimSpec, Camera, LidSource, Light, Scene};
+use crate::scene::{Camera, Scene};
+pub use crate::session::light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
+use crate::session::{LightStatus, RoomBounds, Series};
 use crate::tui::history::History;
 use crate::tui::keys::ModeKind;
+use crate::tui::luminaires::LidInfos;
+use crate::tui::panel::PanelNumbers;
+use crate::tui::polar::PolarOptions;
 use crate::tui::view::preview_rect;
-
-/// SH order shown for a light whose room file fixes none (the app replaces it with the plan's
-/// choice through [`Model::set_planned_order`]).
-pub const DEFAULT_ORDER: usize = 16;
-/// Highest SH order the editor offers (docs/METHOD.md §2 shows the recurrence accurate to l = 150).
-pub const MAX_ORDER: usize = 150;
-
-/// The ringing window applied to a light's truncated series (docs/METHOD.md §4). Not stored in the
-/// room file: it is a session choice (the plan decides it when `Auto`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Window {
-    /// The plan decides: Hann only where the series dips below −0.5 % of the peak.
-    #[default]
-    Auto,
-    /// No window (σ_l = 1).
-    None,
-    /// Hann `½(1 + cos(π l / (N + 1)))`.
-    Hann,
-    /// Lanczos `sinc(l / (N + 1))`.
-    Lanczos,
-    /// Cesàro (C, 2): a positive kernel, never negative, but blurs edges.
-    Cesaro2,
-}
-
-impl Window {
-    /// The next window in the cycle the `w` key walks through.
-    pub fn next(self) -> Self {
-        match self {
-            Window::Auto => Window::None,
-            Window::None => Window::Hann,
-            Window::Hann => Window::Lanczos,
-            Window::Lanczos => Window::Cesaro2,
-            Window::Cesaro2 => Window::Auto,
-        }
-    }
-
-    /// The name shown in the UI.
-    pub fn label(self) -> &'static str {
-        match self {
-            Window::Auto => "auto",
-            Window::None => "none",
-            Window::Hann => "Hann",
-            Window::Lanczos => "Lanczos",
-            Window::Cesaro2 => "Cesàro-2",
-        }
-    }
-}
-
-/// The editable state of one light: everything an edit (and so undo) can change.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LightEdit {
-    /// Name from the room file.
-    pub name: String,
-    /// Position (world, m).
-    pub position: DVec3,
-    /// Unit aim axis (world); γ = 0 points along it.
-    pub aim: DVec3,
-    /// The aim as it will be written to the room file.
-    pub aim_spec: AimSpec,
-    /// Intensity curve (cd), before the dimmer.
-    pub curve: Curve,
-    /// Where the curve came from (a file-backed curve is written inline once edited).
-    pub lid_source: LidSource,
-    /// Dimmer factor, ≥ 0.
-    pub dimmer: f64,
-    /// SH order of the light's series.
-    pub order: usize,
-    /// Ringing window of the light's series.
-    pub window: Window,
-}
-
-impl LightEdit {
-    /// The editable state of a scene light; `order` defaults to [`DEFAULT_ORDER`].
-    pub fn from_light(light: &Light) -> Self {
-        LightEdit {
-            name: light.name.clone(),
-            position: light.position,
-            aim: light.aim,
-            aim_spec: light.aim_spec,
-            curve: light.curve.clone(),
-            lid_source: light.lid_source.clone(),
-            dimmer: light.dimmer,
-            order: light.order.unwrap_or(DEFAULT_ORDER),
-            window: Window::Auto,
-        }
-    }
-
-    /// True when the values a save writes (curve, aim, position, dimmer, order) are equal; the
-    /// window is a session choice and not compared.
-    pub fn same_saved_values(&self, other: &LightEdit) -> bool {
-        self.curve == other.curve
-            && self.aim_spec == other.aim_spec
-            && self.position == other.position
-            && self.dimmer == other.dimmer
-            && self.order == other.order
-    }
-}
 
 /// What the editor is doing; decides which key table applies.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,8 +30,9 @@ pub enum Mode {
     },
     /// Moving the selected light's position with the arrow keys.
     Move {
-        /// The light's state when the move started (for cancel and the undo record).
-        start: Box<LightEdit>,
+        /// The light's position when the move started (world, m; for cancel and the undo
+        /// record).
+        start: DVec3,
     },
     /// The key help overlay.
     Help,
@@ -131,6 +41,18 @@ pub enum Mode {
         /// What was typed so far.
         buffer: String,
     },
+    /// Typing a dimmer in percent for the selected (or marked) lights.
+    DimmerEntry {
+        /// What was typed so far.
+        buffer: String,
+    },
+    /// Typing the path of a photometric file for the selected (or marked) lights.
+    PathEntry {
+        /// What was typed so far.
+        buffer: String,
+    },
+    /// "Edited file curves: write new files or save inline?" prompt before a save.
+    ConfirmSave,
     /// "Unsaved changes: quit?" prompt.
     ConfirmQuit,
 }
@@ -143,7 +65,9 @@ impl Mode {
             Mode::Aim { .. } => ModeKind::Aim,
             Mode::Move { .. } => ModeKind::Move,
             Mode::Help => ModeKind::Help,
-            Mode::ValueEntry { .. } => ModeKind::ValueEntry,
+            Mode::ValueEntry { .. } | Mode::DimmerEntry { .. } => ModeKind::ValueEntry,
+            Mode::PathEntry { .. } => ModeKind::PathEntry,
+            Mode::ConfirmSave => ModeKind::ConfirmSave,
             Mode::ConfirmQuit => ModeKind::ConfirmQuit,
         }
     }
@@ -156,6 +80,9 @@ impl Mode {
             Mode::Move { .. } => "MOVE",
             Mode::Help => "HELP",
             Mode::ValueEntry { .. } => "VALUE",
+            Mode::DimmerEntry { .. } => "DIMMER",
+            Mode::PathEntry { .. } => "FILE",
+            Mode::ConfirmSave => "SAVE?",
             Mode::ConfirmQuit => "QUIT?",
         }
     }
@@ -181,15 +108,6 @@ pub struct Picked {
     pub lux: f64,
 }
 
-/// The truncated series of one light as the app last computed it, for the polar diagram.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SeriesView {
-    /// Samples `(γ in radians, intensity in cd)`, γ increasing over 0..=π.
-    pub samples: Vec<(f64, f64)>,
-    /// Relative L2 truncation error of the series against the curve (0.01 = 1 %).
-    pub relative_error: f64,
-}
-
 /// The editor's whole state.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -197,6 +115,8 @@ pub struct Model {
     pub room_name: String,
     /// Room interior extent (m): positions are kept within (0, 0, 0)..room_size.
     pub room_size: DVec3,
+    /// Where lights may stand (the room and its furniture), for commands.
+    pub bounds: RoomBounds,
     /// Every light's current editable state, in file order.
     pub lights: Vec<LightEdit>,
     /// The state as last loaded or saved: a save writes what differs from it.
@@ -225,16 +145,27 @@ pub struct Model {
     pub timings: Option<Timings>,
     /// Name of the image protocol in use (set by the app).
     pub protocol: String,
-    /// Bake progress `(done, total)` while a bake runs.
+    /// Progress `(done, total)` of the start-up bake while it runs.
     pub bake: Option<(usize, usize)>,
+    /// Per light, whether its result is final or a re-bake (after a move) is pending.
+    pub light_status: Vec<LightStatus>,
     /// True when some saved value differs from the file on disk.
     pub dirty: bool,
     /// A message for the user (an error or a confirmation), shown until the next key.
     pub message: Option<String>,
-    /// Per light, the truncated series last computed by the app (None until then).
-    pub series: Vec<Option<SeriesView>>,
+    /// Per light, the truncated series the engine last computed (None until then).
+    pub series: Vec<Option<Series>>,
     /// Undo and redo stacks.
     pub history: History,
+    /// Names of the marked lights: edits apply to them and the selected light together.
+    pub marked: BTreeSet<String>,
+    /// The photometric files the lights come from (set by the app, which reads them).
+    pub lid_files: LidInfos,
+    /// The latest numbers from the engine (None until the first are computed).
+    pub numbers: Option<PanelNumbers>,
+    /// How the polar diagram is drawn and its scale (kept across edits: it changes in round
+    /// steps, [`crate::tui::polar::PolarScale::follow`]).
+    pub polar: PolarOptions,
 }
 
 impl Model {
@@ -245,7 +176,9 @@ impl Model {
         let mut model = Model {
             room_name: scene.name.clone(),
             room_size: scene.room_size,
+            bounds: RoomBounds::of(scene),
             saved: lights.clone(),
+            light_status: vec![LightStatus::Ready; lights.len()],
             series: vec![None; lights.len()],
             lights,
             selected_light: 0,
@@ -264,6 +197,10 @@ impl Model {
             dirty: false,
             message: None,
             history: History::default(),
+            marked: BTreeSet::new(),
+            lid_files: LidInfos::new(),
+            numbers: None,
+            polar: PolarOptions::default(),
         };
         model.preview_px = model.compute_preview_px();
         model
@@ -293,12 +230,12 @@ impl Model {
         )
     }
 
-    /// Recomputes [`Model::dirty`]: whether any light's saved values differ from the file's.
+    /// Recomputes [`Model::dirty`]: whether a light was added or removed, or any light's saved
+    /// values or photometric file differ from the file's.
     pub fn refresh_dirty(&mut self) {
-        self.dirty = self
-            .lights
-            .iter()
-            .zip(&self.saved)
-            .any(|(now, saved)| !now.same_saved_values(saved));
+        self.dirty = self.lights.len() != self.saved.len()
+            || self.lights.iter().zip(&self.saved).any(|(now, saved)| {
+                now.name != saved.name || now.lid_source != saved.lid_source || !now.same_saved_values(saved)
+            });
     }
 }

@@ -33,6 +33,8 @@ pub const GRID_COLOR: Color = Color::DarkGray;
 pub const SELECTED_COLOR: Color = Color::LightRed;
 /// Colour of the ring and angle labels.
 pub const LABEL_COLOR: Color = Color::Gray;
+/// Colour of the C-plane spread (lowest and highest plane) of an asymmetric file.
+pub const SPREAD_COLOR: Color = Color::Magenta;
 
 /// Largest γ step (degrees) between two drawn samples of the control-point curve.
 const SAMPLE_STEP_DEG: f64 = 1.0;
@@ -166,6 +168,9 @@ pub struct PolarDiagram<'a> {
     pub curve: &'a Curve,
     /// The truncated series as samples `(γ rad, cd)` over 0..=π, if known.
     pub series: Option<&'a [(f64, f64)]>,
+    /// The spread of an asymmetric file's C-planes around their average, as
+    /// `(γ rad, lowest cd, highest cd)`: drawn as two thin curves.
+    pub spread: Option<&'a [(f64, f64, f64)]>,
     /// Index of the selected control point.
     pub selected: usize,
     /// The surrounding block.
@@ -324,7 +329,16 @@ impl PolarDiagram<'_> {
                     .fold(0.0, f64::max)
             })
             .unwrap_or(0.0);
-        self.curve.peak_cd().max(series_max)
+        let spread_max = self
+            .spread
+            .map(|s| {
+                s.iter()
+                    .map(|p| p.2)
+                    .filter(|cd| cd.is_finite())
+                    .fold(0.0, f64::max)
+            })
+            .unwrap_or(0.0);
+        self.curve.peak_cd().max(series_max).max(spread_max)
     }
 
     /// Draws the diagram in `area` with `options`.
@@ -368,6 +382,12 @@ impl PolarDiagram<'_> {
                     }
                 }
                 ctx.layer();
+                if let Some(spread) = self.spread {
+                    for bound in [spread_bound(spread, false), spread_bound(spread, true)] {
+                        draw_polyline(ctx, &bound, SPREAD_COLOR);
+                    }
+                    ctx.layer();
+                }
                 if let Some(series) = self.series {
                     draw_polyline(ctx, series, SERIES_COLOR);
                     ctx.layer();
@@ -429,6 +449,15 @@ impl PolarDiagram<'_> {
     }
 }
 
+/// One side of a C-plane spread as `(γ rad, cd)` samples: the lowest (`high` false) or highest
+/// plane at each point.
+pub fn spread_bound(spread: &[(f64, f64, f64)], high: bool) -> Vec<(f64, f64)> {
+    spread
+        .iter()
+        .map(|&(gamma, lo, hi)| (gamma, if high { hi } else { lo }))
+        .collect()
+}
+
 impl Widget for PolarDiagram<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         self.render_with(PolarOptions::default(), area, buf);
@@ -466,11 +495,6 @@ pub fn legend_for(order: usize, style: PolarStyle) -> TextLine<'static> {
     ])
 }
 
-/// The legend line in the default (Braille) style.
-pub fn legend(order: usize) -> TextLine<'static> {
-    legend_for(order, PolarStyle::Braille)
-}
-
 #[cfg(test)]
 mod tests {
     use insta::assert_snapshot;
@@ -491,6 +515,7 @@ mod tests {
                 PolarDiagram {
                     curve,
                     series: None,
+                    spread: None,
                     selected: 1,
                     block: Block::bordered().title_bottom(legend_for(5, options.style)),
                 }
@@ -625,6 +650,7 @@ mod tests {
                     PolarDiagram {
                         curve: &curve,
                         series: None,
+                        spread: None,
                         selected: 0,
                         block: Block::bordered(),
                     }

@@ -1,5 +1,5 @@
-//! The preview image on the terminal: every ratatui-image call lives here (docs/DECISIONS.md "Editor": its
-//! 12.0 will change the API). Picks the graphics protocol (asking the terminal, or as forced by
+//! The preview image on the terminal: every ratatui-image call lives here (its 12.0 release
+//! will change the API). Picks the graphics protocol (asking the terminal, or as forced by
 //! `--graphics`), encodes rendered pixmaps into a [`Protocol`] and measures what a frame costs
 //! on the wire.
 //!
@@ -17,8 +17,7 @@ use ratatui::buffer::Buffer;
 use ratatui::crossterm::terminal::window_size;
 use ratatui::layout::{Rect, Size};
 use ratatui::widgets::Widget;
-use ratatui_image::picker::cap_parser::QueryStdioOptions;
-use ratatui_image::picker::{Picker, ProtocolType};
+use ratatui_image::picker::Picker;
 use ratatui_image::protocol::Protocol;
 use ratatui_image::protocol::halfblocks::Halfblocks;
 use ratatui_image::protocol::iterm2::Iterm2;
@@ -31,50 +30,6 @@ use crate::tui::frame_budget::FramePlan;
 use crate::tui::multiplexer as mux;
 use crate::tui::terminal::Graphics;
 use crate::tui::{kitty, png, probe, sixel};
-
-/// The environment variable OpenSSH sets in a remote session (turns on kitty compression).
-pub const SSH_ENV: &str = "SSH_CONNECTION";
-
-/// The picker for `graphics`. `Auto` asks the terminal (call it after entering the alternate
-/// screen and before anything reads events); a terminal that does not answer within the
-/// query's timeout gets half-blocks. A forced protocol still asks for the cell size in pixels.
-/// Over SSH ([`SSH_ENV`] set), kitty's zlib compression is probed for and used if offered.
-pub fn detect_picker(graphics: Graphics) -> Picker {
-    let forced = match graphics {
-        Graphics::Halfblocks => return Picker::halfblocks(),
-        Graphics::Auto => None,
-        Graphics::Sixel => Some(ProtocolType::Sixel),
-        Graphics::Kitty => Some(ProtocolType::Kitty),
-        Graphics::Iterm2 => Some(ProtocolType::Iterm2),
-    };
-    let options = QueryStdioOptions {
-        kitty_compression: std::env::var_os(SSH_ENV).is_some_and(|v| !v.is_empty()),
-        ..QueryStdioOptions::default()
-    };
-    let mut picker = Picker::from_query_stdio_with_options(options).unwrap_or_else(|_| Picker::halfblocks());
-    if let Some(protocol) = forced {
-        picker.set_protocol_type(protocol);
-    }
-    picker
-}
-
-/// The picker's cell size in pixels (width, height).
-pub fn cell_px(picker: &Picker) -> (u16, u16) {
-    let size = picker.font_size();
-    (size.width.max(1), size.height.max(1))
-}
-
-/// The protocol's name for the status line, e.g. `sixel 9×18 px`.
-pub fn protocol_label(picker: &Picker) -> String {
-    let name = match picker.protocol_type() {
-        ProtocolType::Halfblocks => "half-blocks",
-        ProtocolType::Sixel => "sixel",
-        ProtocolType::Kitty => "kitty",
-        ProtocolType::Iterm2 => "iTerm2",
-    };
-    let (w, h) = cell_px(picker);
-    format!("{name} {w}×{h} px")
-}
 
 /// A hash of the pixmap's size and pixels: equal hashes mean an unchanged frame, which is
 /// neither re-encoded nor re-sent.
@@ -101,12 +56,6 @@ pub fn encode(picker: &Picker, pixmap: &Pixmap, cells: Size) -> Result<Protocol>
 /// Draws `protocol` into `area` of `buffer` (nothing when it does not fit).
 pub fn draw(protocol: &Protocol, area: Rect, buffer: &mut Buffer) {
     Image::new(protocol).render(area, buffer);
-}
-
-/// True when `protocol`'s image fits in `area` (cells).
-pub fn fits(protocol: &Protocol, area: Rect) -> bool {
-    let size = protocol.size();
-    size.width <= area.width && size.height <= area.height
 }
 
 /// Bytes a terminal receives to show `protocol` once in an empty `area` (cells): the escape
@@ -350,6 +299,8 @@ pub fn frame_bytes(frame: &FrameImage, area: Rect) -> Result<usize> {
 
 #[cfg(test)]
 mod tests {
+    use ratatui_image::picker::ProtocolType;
+
     use super::*;
 
     /// A `width × height` opaque pixmap with a colour gradient.
@@ -390,8 +341,6 @@ mod tests {
         ] {
             let image = encode(&picker(protocol), &gradient(160, 160), cells).unwrap();
             assert_eq!(image.size(), cells, "{protocol:?}");
-            assert!(fits(&image, Rect::new(0, 0, 16, 8)));
-            assert!(!fits(&image, Rect::new(0, 0, 15, 8)));
         }
     }
 

@@ -18,7 +18,7 @@
 //! since). The module takes the text to write and knows nothing of the editor's model.
 
 use std::fs;
-use std::io;
+use std::io::{self, BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -158,6 +158,49 @@ pub fn find(room: &Path) -> Result<Option<Recovery>> {
     }
 }
 
+/// What the user chose when offered a recovery file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Answer {
+    /// Open the room with the recovered edits (unsaved until `s`).
+    Restore,
+    /// Delete the recovery file and open the room as saved.
+    Discard,
+    /// Keep the file for later and open the room as saved.
+    Keep,
+}
+
+/// Offers `found` (the room file's text now being `room_text`) on `output` and reads the
+/// answer, one line, from `input`: `y` restores, `n` discards, anything else (Enter, end of
+/// input) keeps the file.
+///
+/// Errors: reading or writing failed.
+pub fn ask(
+    found: &Recovery,
+    room_text: &str,
+    input: &mut impl BufRead,
+    output: &mut impl Write,
+) -> io::Result<Answer> {
+    let changed = if found.room_changed_since(room_text) {
+        "; the room file changed since, restoring replaces those changes"
+    } else {
+        ""
+    };
+    write!(
+        output,
+        "haiko: {} are kept in {}{changed}.\nRestore them? [y] restore  [n] discard  [Enter] keep the file, open the room as saved: ",
+        found.summary(now()),
+        found.path.display()
+    )?;
+    output.flush()?;
+    let mut line = String::new();
+    input.read_line(&mut line)?;
+    Ok(match line.trim().to_ascii_lowercase().as_str() {
+        "y" | "yes" => Answer::Restore,
+        "n" | "no" => Answer::Discard,
+        _ => Answer::Keep,
+    })
+}
+
 /// Deletes the recovery file of `room` (nothing if there is none).
 ///
 /// Errors (bad input): it exists and cannot be deleted.
@@ -284,5 +327,50 @@ mod tests {
         discard(&room).unwrap();
         assert_eq!(find(&room).unwrap(), None);
         discard(&room).unwrap();
+    }
+
+    #[test]
+    fn the_offer_names_the_file_and_reads_one_answer() {
+        let found = Recovery {
+            path: PathBuf::from("rooms/office.toml.recovery"),
+            reason: "SIGHUP".into(),
+            time: now(),
+            base: fnv1a64("[room]\n"),
+            text: "[room]\n# edited\n".into(),
+        };
+        for (typed, answer) in [
+            ("y\n", Answer::Restore),
+            ("Yes\n", Answer::Restore),
+            ("n\n", Answer::Discard),
+            ("\n", Answer::Keep),
+            ("", Answer::Keep),
+            ("maybe\n", Answer::Keep),
+        ] {
+            let mut shown = Vec::new();
+            assert_eq!(
+                ask(&found, "[room]\n", &mut typed.as_bytes(), &mut shown).unwrap(),
+                answer,
+                "{typed:?}"
+            );
+            let shown = String::from_utf8(shown).unwrap();
+            assert!(shown.starts_with("haiko: unsaved edits from "), "{shown}");
+            assert!(
+                shown.contains(" s ago (SIGHUP) are kept in rooms/office.toml.recovery.\nRestore them?"),
+                "{shown}"
+            );
+        }
+        let mut shown = Vec::new();
+        ask(
+            &found,
+            "[room]\n# changed by hand\n",
+            &mut "\n".as_bytes(),
+            &mut shown,
+        )
+        .unwrap();
+        assert!(
+            String::from_utf8(shown)
+                .unwrap()
+                .contains("the room file changed since")
+        );
     }
 }

@@ -4,16 +4,19 @@
 
 use std::fs::{self, File};
 use std::io::{self, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use toml_edit::{Array, DocumentMut, Item, Key, Table, Value};
 
 use crate::error::{Error, Result};
-use crate::scene::AimSpec;
+use crate::photometry::write_ies_with_area;
+use crate::scene::light_tables::align_light_tables;
+use crate::scene::{AimSpec, LidSource};
+use crate::tui::luminaires;
 use crate::tui::model::{LightEdit, Model};
+use crate::tui::msg::CurveSave;
 
-/// Significant digits of the numbers written (no `1.0000000000000002` noise).
-pub const SIGNIFICANT_DIGITS: usize = 6;
+pub use crate::scene::light_tables::{SIGNIFICANT_DIGITS, number, round_significant, vector};
 
 /// The room text after a save, and what it changed.
 #[derive(Debug, Clone, PartialEq)]
@@ -22,6 +25,56 @@ pub struct EditedRoom {
     pub text: String,
     /// Names of the lights whose `lid_file` was replaced by an inline `lid`.
     pub inlined: Vec<String>,
+}
+
+/// Saves `model` into the room file `room` (read from disk now): each light whose curve came
+/// from a photometric file and was edited ([`luminaires::edited_file_curves`]) is first written
+/// as a new IES file next to the room (with its luminous area) and pointed at, or made inline,
+/// as `curves` says. Returns the status message and every light's photometric source as
+/// written. On failure nothing is left behind: new IES files are removed again.
+///
+/// Errors: the room file unreadable or refused by the save (bad input), a file not writable.
+pub fn save_with_curves(room: &Path, model: &Model, curves: CurveSave) -> Result<(String, Vec<LidSource>)> {
+    let mut model = model.clone();
+    let mut written: Vec<PathBuf> = Vec::new();
+    let mut save = || -> Result<String> {
+        for i in luminaires::edited_file_curves(&model) {
+            let light = &mut model.lights[i];
+            light.lid_source = match curves {
+                CurveSave::NewFiles => {
+                    let path = luminaires::edited_curve_path(room, &light.name, |p| {
+                        p.exists() || written.iter().any(|w| w == p)
+                    });
+                    let text = write_ies_with_area(&light.curve, &light.name, light.luminous.as_ref());
+                    write_atomically(&path, &text)?;
+                    written.push(path.clone());
+                    LidSource::File { path, asymmetry: 0.0 }
+                }
+                CurveSave::Inline => LidSource::Inline,
+            };
+        }
+        let text = fs::read_to_string(room).map_err(|e| Error::unreadable(room, &e))?;
+        save_room(room, &text, &model)
+    };
+    match save() {
+        Ok(mut message) => {
+            if !written.is_empty() {
+                let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+                message.push_str(&format!("; edited curves written to {}", names.join(", ")));
+            }
+            Ok((
+                message,
+                model.lights.iter().map(|l| l.lid_source.clone()).collect(),
+            ))
+        }
+        Err(e) => {
+            // The room file was not changed: the new curve files would name nothing.
+            for path in &written {
+                fs::remove_file(path).ok();
+            }
+            Err(e)
+        }
+    }
 }
 
 /// Writes `model`'s changes (against [`Model::saved`]) into the room file at `path`, whose
@@ -40,19 +93,30 @@ pub fn save_room(path: &Path, original_text: &str, model: &Model) -> Result<Stri
 }
 
 /// The room text with `model`'s changed values written in; `file` names the file in errors.
+/// Added and removed lights and changed photometric files are handled first
+/// ([`align_light_tables`]), then each light's changed values.
 pub fn edit_room_text(file: &Path, original_text: &str, model: &Model) -> Result<EditedRoom> {
-    let mut doc: DocumentMut = original_text
+    let scene_lights = |lights: &[LightEdit]| lights.iter().map(LightEdit::to_light).collect::<Vec<_>>();
+    let aligned = align_light_tables(
+        file,
+        original_text,
+        &scene_lights(&model.saved),
+        &scene_lights(&model.lights),
+    )?;
+    let saved: Vec<LightEdit> = aligned.saved.iter().map(LightEdit::from_light).collect();
+    let text = aligned.text.as_str();
+    let mut doc: DocumentMut = text
         .parse()
-        .map_err(|e: toml_edit::TomlError| Error::input(file, place_of(&e, original_text), e.message()))?;
+        .map_err(|e: toml_edit::TomlError| Error::input(file, place_of(&e, text), e.message()))?;
     let mut inlined = Vec::new();
     let changed = model
         .lights
         .iter()
-        .zip(&model.saved)
+        .zip(&saved)
         .any(|(now, saved)| !now.same_saved_values(saved));
     if !changed {
         return Ok(EditedRoom {
-            text: original_text.to_string(),
+            text: aligned.text,
             inlined,
         });
     }
@@ -71,11 +135,7 @@ pub fn edit_room_text(file: &Path, original_text: &str, model: &Model) -> Result
             ),
         ));
     }
-    for (i, (table, (now, saved))) in tables
-        .iter_mut()
-        .zip(model.lights.iter().zip(&model.saved))
-        .enumerate()
-    {
+    for (i, (table, (now, saved))) in tables.iter_mut().zip(model.lights.iter().zip(&saved)).enumerate() {
         let name = table.get("name").and_then(Item::as_str);
         if name != Some(now.name.as_str()) {
             return Err(Error::input(
@@ -158,31 +218,6 @@ fn set_replacing(table: &mut Table, key: &str, replaced: &str, mut value: Value)
 fn formatted(mut array: Array) -> Array {
     array.fmt();
     array
-}
-
-/// `[x, y, z]` with [`SIGNIFICANT_DIGITS`].
-fn vector(v: [f64; 3]) -> Value {
-    Value::Array(formatted(Array::from_iter(v.map(|x| number(x, false)))))
-}
-
-/// `x` rounded to [`SIGNIFICANT_DIGITS`]; written as an integer when `integral_as_int` and it is
-/// one (as in `lid = [[0, 1000], …]`), else as a float.
-pub fn number(x: f64, integral_as_int: bool) -> Value {
-    let rounded = round_significant(x);
-    if integral_as_int && rounded.fract() == 0.0 && rounded.abs() < 1e15 {
-        Value::from(rounded as i64)
-    } else {
-        Value::from(rounded)
-    }
-}
-
-/// `x` rounded to [`SIGNIFICANT_DIGITS`] significant digits (−0 becomes 0).
-pub fn round_significant(x: f64) -> f64 {
-    if !x.is_finite() || x == 0.0 {
-        return if x == 0.0 { 0.0 } else { x };
-    }
-    let text = format!("{:.*e}", SIGNIFICANT_DIGITS - 1, x);
-    text.parse().unwrap_or(x)
 }
 
 /// `line L, column C` of a parse error, when it has a span.

@@ -146,6 +146,14 @@ pub fn watch(room: PathBuf, pending: PendingEdits) -> io::Result<()> {
     Ok(())
 }
 
+/// Stops the process as Ctrl-Z does outside raw mode (SIGTSTP, default action); returns once
+/// the shell continues it.
+///
+/// Errors: the signal could not be raised.
+pub fn stop_self() -> io::Result<()> {
+    signal_hook::low_level::raise(signal_hook::consts::signal::SIGTSTP)
+}
+
 /// File descriptor 1, unbuffered and without std's lock.
 struct RawStdout;
 

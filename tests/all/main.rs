@@ -1,14 +1,20 @@
 //! One integration-test binary for the whole crate (fast to build): each area is a module.
 
 mod direct;
+mod editor_design;
+mod layering;
 mod lidfiles;
+mod numbers;
 mod photometry;
 mod scene;
+mod session;
 
 fn main() {}
 mod accuracy;
 mod bake;
 mod cli;
+mod design;
+mod design_e2e;
 mod radiosity;
 mod render;
 mod render_rooms;
