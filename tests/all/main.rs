@@ -18,5 +18,6 @@ mod design_e2e;
 mod radiosity;
 mod render;
 mod render_rooms;
+mod terminal_e2e;
 mod tui;
 mod tui_e2e;

@@ -29,6 +29,11 @@ impl TmuxSession {
         session
     }
 
+    /// The session's name (a tmux target).
+    pub(crate) fn name(&self) -> &str {
+        &self.name
+    }
+
     pub(crate) fn capture(&self) -> String {
         tmux(&["capture-pane", "-p", "-t", &self.name])
     }
