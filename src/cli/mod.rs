@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::photometry::Window;
 use crate::scene::Scene;
 use crate::session::{Session, SessionOptions};
@@ -22,6 +22,7 @@ pub mod pick;
 pub mod probe;
 pub mod render;
 pub mod report;
+pub mod terminal_frames;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -152,9 +153,22 @@ pub enum Command {
     Render {
         /// The room file.
         room: PathBuf,
-        /// Output PNG file.
-        #[arg(short, long)]
-        output: PathBuf,
+        /// Output PNG file (with --terminal: the frames go to OUTPUT.full, OUTPUT.interactive).
+        #[arg(short, long, required_unless_present = "terminal")]
+        output: Option<PathBuf>,
+        /// Instead of a PNG: the editor's preview frames for this terminal protocol, their
+        /// bytes and encode times.
+        #[arg(long, value_enum)]
+        terminal: Option<terminal_frames::TerminalArg>,
+        /// With --terminal: the terminal's size, COLUMNSxROWS.
+        #[arg(long, default_value = "160x48", requires = "terminal")]
+        cells: String,
+        /// With --terminal: a cell's size in pixels, WIDTHxHEIGHT.
+        #[arg(long, default_value = "10x20", requires = "terminal")]
+        font: String,
+        /// With --terminal: print one JSON object.
+        #[arg(long, requires = "terminal")]
+        json: bool,
         /// Image width, pixels (1..=8192).
         #[arg(long, default_value_t = 1024)]
         width: u32,
@@ -350,10 +364,20 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render {
             room,
             output,
+            terminal,
+            cells,
+            font,
+            json,
             width,
             height,
             mode,
-        } => render::run(&room, &output, width, height, mode.into()),
+        } => match (terminal, output) {
+            (Some(terminal), output) => {
+                terminal_frames::run(&room, terminal, &cells, &font, output.as_deref(), json)
+            }
+            (None, Some(output)) => render::run(&room, &output, width, height, mode.into()),
+            (None, None) => Err(Error::input("--output", "", "required without --terminal")),
+        },
         Command::Pick {
             room,
             pixel,

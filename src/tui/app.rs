@@ -134,7 +134,9 @@ impl App {
         options: EditorOptions,
     ) -> Result<App> {
         let setup = session.setup().clone();
-        let saved_lights = Model::new(&saved, (1, 1), (1, 1)).saved;
+        // The saved state, with the orders the plan chooses for the room as saved.
+        let mut saved_model = Model::new(&saved, (1, 1), (1, 1));
+        plan_orders(&mut saved_model, &saved);
         let edited = restored.is_some();
         let scene = restored.unwrap_or(saved);
         let mut model = Model::new(&scene, session.size()?, setup.cell_px);
@@ -146,21 +148,16 @@ impl App {
                 .unwrap_or_else(|| PolarStyle::detect(|name| std::env::var(name).ok())),
             scale: None,
         };
+        plan_orders(&mut model, &scene);
         if edited {
-            model.saved = saved_lights;
+            model.saved = saved_model.saved;
             model.refresh_dirty();
             model.message = Some("restored the unsaved edits from the recovery file (s saves them)".into());
-        }
-        let planned = initial_lights(&scene, &plan(&scene, PlanOptions::default()));
-        for (i, light) in planned.iter().enumerate() {
-            model.set_planned_order(i, light.order);
         }
         model.lid_files = luminaires::read_lid_infos(&model.lights);
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
         let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
-        let compressed = setup.protocol == crate::tui::multiplexer::Protocol::Kitty
-            || setup.protocol == crate::tui::multiplexer::Protocol::Iterm2;
         let encode_jobs = spawn_encode_worker(setup, sender);
         let pending = PendingEdits::default();
         signals::watch(room.to_path_buf(), pending.clone())
@@ -176,7 +173,8 @@ impl App {
             frame_changed: true,
             image: None,
             unrecorded: None,
-            budget: FrameBudget::new(options.budget, prior_bytes_per_pixel(compressed)),
+            // Every protocol sent is compressed (sixel runs, PNG); half-blocks do not shrink.
+            budget: FrameBudget::new(options.budget, prior_bytes_per_pixel(true)),
             requested: None,
             last_input: Instant::now(),
             room_text,
@@ -409,6 +407,14 @@ impl App {
                 .record(plan, self.model.preview_px, bytes, start.elapsed());
         }
         Ok(())
+    }
+}
+
+/// Gives `model`'s lights (and their saved state) the orders the plan chooses for `scene`.
+fn plan_orders(model: &mut Model, scene: &scene::Scene) {
+    let planned = initial_lights(scene, &plan(scene, PlanOptions::default()));
+    for (i, light) in planned.iter().enumerate() {
+        model.set_planned_order(i, light.order);
     }
 }
 

@@ -126,6 +126,8 @@ impl fmt::Display for Key {
 pub enum Action {
     /// Show or hide the help overlay.
     ToggleHelp,
+    /// Turn the help's page by this many (negative: back).
+    HelpPage(i8),
     /// Quit (asks first when there are unsaved changes).
     Quit,
     /// Suspend the editor to the shell (Ctrl-Z); it redraws when resumed.
@@ -363,6 +365,8 @@ pub const BINDINGS: &[Binding] = &[
     bind(ConfirmSave, &[C('i')], A::SaveInline, "inline curves", Some("inline")),
     bind(ConfirmSave, &[Code(KeyCode::Esc)], A::Cancel, "do not save", Some("cancel")),
     bind(Help, &[C('?'), Code(KeyCode::Esc), C('q')], A::ToggleHelp, "close the help", Some("close")),
+    bind(Help, &[Code(KeyCode::PageDown), C(' '), Code(KeyCode::Down), C('j')], A::HelpPage(1), "next page", Some("next page")),
+    bind(Help, &[Code(KeyCode::PageUp), Code(KeyCode::Up), C('k')], A::HelpPage(-1), "previous page", Some("previous")),
     bind(ConfirmQuit, &[C('y')], A::ConfirmQuit, "quit without saving", Some("quit")),
     bind(ConfirmQuit, &[C('n'), Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
 ];

@@ -9,6 +9,7 @@ pub mod app;
 pub mod camera_nav;
 pub mod edits;
 pub mod frame_budget;
+pub mod frame_cost;
 pub mod history;
 pub mod keys;
 pub mod kitty;

@@ -166,6 +166,8 @@ pub struct Model {
     /// How the polar diagram is drawn and its scale (kept across edits: it changes in round
     /// steps, [`crate::tui::polar::PolarScale::follow`]).
     pub polar: PolarOptions,
+    /// The help overlay's page (0 first; the view clamps it to the pages there are).
+    pub help_page: usize,
 }
 
 impl Model {
@@ -201,6 +203,7 @@ impl Model {
             lid_files: LidInfos::new(),
             numbers: None,
             polar: PolarOptions::default(),
+            help_page: 0,
         };
         model.preview_px = model.compute_preview_px();
         model

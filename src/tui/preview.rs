@@ -282,11 +282,11 @@ pub fn iterm2_sequence(png: &[u8], cells: Size, tmux: bool) -> String {
     }
 }
 
-/// Bytes a terminal receives to show `frame` once in an empty `area` (cells): the escape
+/// What a terminal receives to show `frame` once in an empty `area` (cells): the escape
 /// sequences crossterm writes for the drawn cells, image payload, colours and cursor moves.
 ///
 /// Errors (internal): writing to the in-memory buffer failed.
-pub fn frame_bytes(frame: &FrameImage, area: Rect) -> Result<usize> {
+pub fn frame_sequence(frame: &FrameImage, area: Rect) -> Result<Vec<u8>> {
     let mut buffer = Buffer::empty(area);
     frame.draw(area, &mut buffer);
     let changes = Buffer::empty(area).diff(&buffer);
@@ -294,7 +294,14 @@ pub fn frame_bytes(frame: &FrameImage, area: Rect) -> Result<usize> {
     CrosstermBackend::new(&mut written)
         .draw(changes.into_iter())
         .map_err(|e| Error::internal(format!("preview: measuring bytes failed: {e}")))?;
-    Ok(written.len())
+    Ok(written)
+}
+
+/// The length of [`frame_sequence`].
+///
+/// Errors (internal): writing to the in-memory buffer failed.
+pub fn frame_bytes(frame: &FrameImage, area: Rect) -> Result<usize> {
+    Ok(frame_sequence(frame, area)?.len())
 }
 
 #[cfg(test)]

@@ -113,8 +113,18 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             model.mode = if model.mode == Mode::Help {
                 Mode::Normal
             } else {
+                model.help_page = 0;
                 Mode::Help
             };
+            Vec::new()
+        }
+        Action::HelpPage(step) => {
+            // The view shows the last page for anything past it.
+            let pages = crate::tui::view::help_page_count(model.terminal_size);
+            model.help_page = model
+                .help_page
+                .saturating_add_signed(isize::from(step))
+                .min(pages.saturating_sub(1));
             Vec::new()
         }
         Action::Quit if model.dirty => {

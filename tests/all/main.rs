@@ -19,5 +19,6 @@ mod radiosity;
 mod render;
 mod render_rooms;
 mod terminal_e2e;
+mod terminal_frames;
 mod tui;
 mod tui_e2e;
