@@ -43,7 +43,7 @@ struct CheckJson<'a> {
 
 /// `Some(true)` when every judged result passes, `Some(false)` when one fails, `None` when
 /// nothing is judged.
-pub fn overall(verdicts: impl IntoIterator<Item = Option<bool>>) -> Option<bool> {
+pub(crate) fn overall(verdicts: impl IntoIterator<Item = Option<bool>>) -> Option<bool> {
     verdicts
         .into_iter()
         .flatten()
@@ -93,7 +93,12 @@ fn judged(check: &Check, digits: usize) -> (String, String) {
 }
 
 /// The numbers as a text table, one row per surface, and a last line with the verdict.
-pub fn to_text(room: &str, maintenance_factor: f64, direct_only: bool, surfaces: &[SurfaceResult]) -> String {
+pub(crate) fn to_text(
+    room: &str,
+    maintenance_factor: f64,
+    direct_only: bool,
+    surfaces: &[SurfaceResult],
+) -> String {
     let mut out = format!(
         "{room}: maintenance factor {maintenance_factor:.2} (maintained = new × factor){}\n",
         if direct_only { ", direct light only" } else { "" }

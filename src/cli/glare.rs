@@ -35,7 +35,7 @@ pub fn to_json(room: &str, direct_only: bool, observers: &[ObserverGlare]) -> Re
 }
 
 /// The ratings as text: per observer a heading line, then one row per luminaire.
-pub fn to_text(room: &str, direct_only: bool, observers: &[ObserverGlare]) -> String {
+pub(crate) fn to_text(room: &str, direct_only: bool, observers: &[ObserverGlare]) -> String {
     let mut out = format!(
         "{room}: UGR by CIE 117 (Guth position index){}\n",
         if direct_only {

@@ -399,7 +399,7 @@ pub fn run(cli: Cli) -> Result<()> {
 /// standard error, cache notices printed; `indirect` false for direct light only (no bake).
 ///
 /// Errors: the bake failing (internal).
-pub fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
+pub(crate) fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
     let options = SessionOptions {
         indirect,
         ..SessionOptions::with_user_cache()

@@ -11,7 +11,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use crate::cli::open_session;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check_finite, printable};
 use crate::render::{DisplayMode, aim_direction};
 use crate::scene::{self, DirectMode, Receiver};
 use crate::session::frame::check_size;
@@ -138,7 +138,7 @@ pub fn pick_pixel(
 }
 
 /// Refuses a bad image size or a pixel outside the image (bad input naming the flag).
-pub fn check_pixel(pixel: Pixel, width: u32, height: u32) -> Result<()> {
+pub(crate) fn check_pixel(pixel: Pixel, width: u32, height: u32) -> Result<()> {
     check_size(width, height, ["--width", "--height"])?;
     if pixel.x >= width || pixel.y >= height {
         return Err(Error::input(
@@ -205,18 +205,18 @@ impl serde_json::ser::Formatter for SpacedFormatter {
 }
 
 /// The report as text, one item per line.
-pub fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
+pub(crate) fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
     let v = |d: DVec3| format!("[{:.4}, {:.4}, {:.4}]", d.x, d.y, d.z);
     let mut text = format!(
         "patch   {} (surface {})\npoint   {} m\nnormal  {}\nE       {:.1} lx\n",
         report.patch,
-        report.surface,
+        printable(&report.surface),
         v(report.point),
         v(report.normal),
         report.lux
     );
     if let (Some(aim), Some(name)) = (report.aim, aim_light) {
-        text.push_str(&format!("aim     {} (light {name})\n", v(aim)));
+        text.push_str(&format!("aim     {} (light {})\n", v(aim), printable(name)));
     }
     text
 }
@@ -236,6 +236,15 @@ pub fn run(
     check_pixel(pixel, width, height)?;
     let mut session = open_session(scene, !direct_only)?;
     let report = pick_pixel(&mut session, width, height, pixel, aim_light, direct_only)?;
+    let vectors = [Some(report.point), Some(report.normal), report.aim];
+    check_finite(
+        "pick: a coordinate",
+        vectors
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_array())
+            .chain([report.lux]),
+    )?;
     if json {
         println!("{}", to_json(&report)?);
     } else {

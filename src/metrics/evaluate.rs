@@ -54,7 +54,7 @@ pub struct SurfaceSummary<'a> {
 
 impl SurfaceResult {
     /// The summary for reports.
-    pub fn summary(&self) -> SurfaceSummary<'_> {
+    pub(crate) fn summary(&self) -> SurfaceSummary<'_> {
         SurfaceSummary {
             name: &self.grid.name,
             task: self.task.map(|t| t.name),
@@ -104,7 +104,7 @@ pub fn surface_results(scene: &Scene, grids: Vec<CalcGrid>, lux: &[f64]) -> Vec<
 }
 
 /// The scene's lights as glare sources (dimmed, weighted by their colour's luminance).
-pub fn glare_sources(scene: &Scene) -> Vec<GlareSource<'_>> {
+pub(crate) fn glare_sources(scene: &Scene) -> Vec<GlareSource<'_>> {
     scene
         .lights
         .iter()

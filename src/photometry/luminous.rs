@@ -79,6 +79,11 @@ pub enum LuminousShape {
     },
 }
 
+/// The largest luminous dimension (length, width, height, diameter) Haiko accepts, metres: larger
+/// than any luminaire, and small enough that projected areas and glare terms stay finite
+/// (docs/DECISIONS.md, "Bad input").
+pub(crate) const MAX_LUMINOUS_SIZE_M: f64 = 100.0;
+
 /// C-planes sampled when averaging a projected area over C (midpoints of 0.5° intervals, so the
 /// kinks of `|cos C|` at 90° and 270° fall on interval ends).
 const C_SAMPLES: usize = 720;
@@ -87,7 +92,7 @@ impl LuminousShape {
     /// The shape an IES LM-63 file's `width length height` describe (LM-63-2019 Table 1), in
     /// metres (`to_m` converts the file's unit). `Ok(None)` for a point source (all zero);
     /// `Err` with a description for a sign pattern the table does not have.
-    pub fn from_ies(width: f64, length: f64, height: f64, to_m: f64) -> Result<Option<Self>, String> {
+    pub(crate) fn from_ies(width: f64, length: f64, height: f64, to_m: f64) -> Result<Option<Self>, String> {
         use std::cmp::Ordering::{Equal, Greater, Less};
         let sign = |v: f64| v.partial_cmp(&0.0).unwrap_or(Equal);
         let (w, l, h) = (width.abs() * to_m, length.abs() * to_m, height.abs() * to_m);
@@ -193,7 +198,7 @@ impl LuminousShape {
     /// (or diameter) and width (0 = circular), and the luminous heights on the C0, C90, C180 and
     /// C270 sides. `None` when the length is 0 (no luminous area given). A circular area with
     /// luminous sides uses the mean of the four heights.
-    pub fn from_eulumdat(length_mm: f64, width_mm: f64, heights_mm: [f64; 4]) -> Option<Self> {
+    pub(crate) fn from_eulumdat(length_mm: f64, width_mm: f64, heights_mm: [f64; 4]) -> Option<Self> {
         let mm = 1e-3;
         if length_mm <= 0.0 {
             return None;
@@ -278,7 +283,7 @@ impl LuminousShape {
     /// The projected area (m²) at γ (radians from the aim axis) averaged over all C-planes.
     /// Haiko's luminaires are axially symmetric (the curve is the C-plane average and no C0
     /// direction is placed in the room), so the luminance `I(γ) / A_p(γ)` uses this average.
-    pub fn mean_projected_area_m2(&self, gamma_rad: f64) -> f64 {
+    pub(crate) fn mean_projected_area_m2(&self, gamma_rad: f64) -> f64 {
         let (sin_g, cos_g) = gamma_rad.sin_cos();
         let step = std::f64::consts::TAU / C_SAMPLES as f64;
         let sum: f64 = (0..C_SAMPLES)
@@ -291,7 +296,7 @@ impl LuminousShape {
     }
 
     /// A short description for tables: `0.60 × 0.60 m`, `Ø 0.66 m`, …
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         match *self {
             LuminousShape::Rectangle {
                 length_m,

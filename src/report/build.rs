@@ -46,7 +46,7 @@ const PLAN_MARGIN: f64 = 0.04;
 /// x to the right and y up in the image, the footprint filling an image of `aspect`
 /// (width / height) with a margin. The ceiling faces away from it and is culled, so the floor,
 /// the furniture tops and the walls' top edges show.
-pub fn plan_camera(room_size: DVec3, aspect: f64) -> Camera {
+pub(crate) fn plan_camera(room_size: DVec3, aspect: f64) -> Camera {
     let centre = DVec3::new(0.5 * room_size.x, 0.5 * room_size.y, 0.0);
     let distance = PLAN_EYE_DISTANCE * room_size.x.max(room_size.y) + room_size.z;
     let half_height = 0.5 * (1.0 + 2.0 * PLAN_MARGIN) * room_size.y.max(room_size.x / aspect);
@@ -81,14 +81,14 @@ fn view_png(
 }
 
 /// The plan view as PNG bytes: for now a false-colour view through [`plan_camera`].
-pub fn plan_image(session: &mut Session, options: &ReportOptions) -> Result<Vec<u8>> {
+pub(crate) fn plan_image(session: &mut Session, options: &ReportOptions) -> Result<Vec<u8>> {
     let aspect = f64::from(options.width_px) / f64::from(options.height_px);
     let camera = plan_camera(session.scene().room_size, aspect);
     view_png(session, camera, DisplayMode::FalseColor, options)
 }
 
 /// The accuracy settings of the session as (setting, value) rows.
-pub fn accuracy_rows(session: &Session) -> Vec<(String, String)> {
+pub(crate) fn accuracy_rows(session: &Session) -> Vec<(String, String)> {
     let scene = session.scene();
     let settings = &scene.settings;
     let mut rows = vec![

@@ -234,9 +234,9 @@ fn surfaces(out: &mut String, results: &[SurfaceResult]) {
 }
 
 /// Most columns a grid may have for its values to be printed as a table.
-pub const MAX_VALUE_COLUMNS: usize = 20;
+pub(crate) const MAX_VALUE_COLUMNS: usize = 20;
 /// Most rows a grid may have for its values to be printed as a table.
-pub const MAX_VALUE_ROWS: usize = 40;
+pub(crate) const MAX_VALUE_ROWS: usize = 40;
 
 /// The maintained illuminance at every point of each single-rectangle grid small enough to
 /// print, laid out as seen in plan (first edge to the right, second edge up); points under

@@ -18,7 +18,7 @@ use crate::scene::model::{AimSpec, LidSource, Light};
 /// The room text with its light tables aligned, and what the value-by-value save compares the
 /// lights against (one per light of `now`, in order).
 #[derive(Debug, Clone)]
-pub struct AlignedLights {
+pub(crate) struct AlignedLights {
     /// The new room text.
     pub text: String,
     /// Per light of `now`: its saved state, or (for an added light, or a light whose `lid_file`
@@ -32,7 +32,12 @@ pub struct AlignedLights {
 ///
 /// Errors (bad input naming the file): the text does not parse, or its light tables no longer
 /// match `saved` (count or names: the file was changed on disk).
-pub fn align_light_tables(file: &Path, text: &str, saved: &[Light], now: &[Light]) -> Result<AlignedLights> {
+pub(crate) fn align_light_tables(
+    file: &Path,
+    text: &str,
+    saved: &[Light],
+    now: &[Light],
+) -> Result<AlignedLights> {
     let same_names = saved.len() == now.len() && saved.iter().zip(now).all(|(s, n)| s.name == n.name);
     let sources_changed = now
         .iter()

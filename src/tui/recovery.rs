@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use crate::error::{Error, Result};
-use crate::tui::save::write_atomically;
+use crate::fsio;
 
 /// Appended to the room file's name.
 pub const SUFFIX: &str = ".recovery";
@@ -39,11 +39,9 @@ pub fn path_for(room: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
-/// The 64-bit FNV-1a hash of `text`.
+/// The 64-bit FNV-1a hash of `text` (the file-content hash of `fsio`).
 pub fn fnv1a64(text: &str) -> u64 {
-    text.bytes().fold(0xcbf2_9ce4_8422_2325, |hash, byte| {
-        (hash ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
+    fsio::content_hash(text.as_bytes())
 }
 
 /// A recovery file read back.
@@ -105,10 +103,10 @@ pub fn contents(room: &Path, edited: &str, base: u64, reason: &str, time: u64) -
 
 /// Writes the recovery file of `room` (atomically) and returns its path.
 ///
-/// Errors (bad input): the file cannot be written (named in the message).
+/// Errors (internal): the file cannot be written (named in the message).
 pub fn write(room: &Path, edited: &str, base: u64, reason: &str) -> Result<PathBuf> {
     let path = path_for(room);
-    write_atomically(&path, &contents(room, edited, base, reason, now()))?;
+    fsio::write_atomic(&path, contents(room, edited, base, reason, now()).as_bytes())?;
     Ok(path)
 }
 

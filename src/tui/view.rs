@@ -8,6 +8,7 @@ use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
 
+use crate::error::printable;
 use crate::session::LightStatus;
 use crate::tui::keys::{self, ModeKind};
 use crate::tui::luminaires::{self, lid_info};
@@ -208,9 +209,10 @@ fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &
     let title = match info {
         Some(info) if info.n_planes > 1 => format!(
             " {} · I(γ) cd · C-plane average, asym {:.2} ",
-            light.name, info.asymmetry
+            printable(&light.name),
+            info.asymmetry
         ),
-        _ => format!(" {} · I(γ) cd · C0–C180 ", light.name),
+        _ => format!(" {} · I(γ) cd · C0–C180 ", printable(&light.name)),
     };
     // The C-planes' spread is drawn while the curve is still the file's.
     let spread = spread_samples(model, light);
@@ -374,7 +376,7 @@ fn status_parts(model: &Model) -> Vec<(u8, String)> {
             3,
             format!(
                 "{} ({}/{})",
-                light.name,
+                printable(&light.name),
                 model.selected_light + 1,
                 model.lights.len()
             ),
@@ -399,12 +401,12 @@ fn status_parts(model: &Model) -> Vec<(u8, String)> {
     if let Some((done, total)) = model.bake {
         parts.push((4, format!("baking {done}/{total}")));
     }
-    let updating: Vec<&str> = model
+    let updating: Vec<_> = model
         .lights
         .iter()
         .zip(&model.light_status)
         .filter(|(_, status)| **status == LightStatus::Updating)
-        .map(|(light, _)| light.name.as_str())
+        .map(|(light, _)| printable(&light.name))
         .collect();
     if !updating.is_empty() {
         parts.push((4, format!("updating {}", updating.join(", "))));

@@ -274,14 +274,14 @@ fn room_surface_names_and_their_exclusions_are_checked() {
 fn targets_out_of_range_are_rejected() {
     let m = design_error("[[surface]]\ntarget_u0 = 1.5\n");
     assert!(
-        m.contains("line 19, column 13 (surface[0].target_u0)") && m.contains("(0, 1]"),
+        m.contains("line 19, column 13 (surface[0].target_u0)") && m.contains("> 0 and ≤ 1"),
         "{m}"
     );
     let m = design_error("[[surface]]\ntarget_lux = -5\n");
     assert!(m.contains("(surface[0].target_lux)"), "{m}");
     let m = design_error("[[surface]]\ntarget_ugr = 45\n");
     assert!(
-        m.contains("(surface[0].target_ugr)") && m.contains("(0, 40]"),
+        m.contains("(surface[0].target_ugr)") && m.contains("> 0 and ≤ 40"),
         "{m}"
     );
     let m = design_error("[settings]\nmaintenance_factor = 1.2\n");

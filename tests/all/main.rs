@@ -3,6 +3,7 @@
 mod direct;
 mod editor_design;
 mod layering;
+mod library;
 mod lidfiles;
 mod numbers;
 mod photometry;
@@ -11,6 +12,7 @@ mod session;
 
 fn main() {}
 mod accuracy;
+mod badinput;
 mod bake;
 mod cli;
 mod design;
@@ -18,6 +20,7 @@ mod design_e2e;
 mod radiosity;
 mod render;
 mod render_rooms;
+mod save;
 mod terminal_e2e;
 mod terminal_frames;
 mod tui;

@@ -1428,3 +1428,21 @@ fn snapshot_80x24_help() {
     update(&mut m, ch('?'));
     insta::assert_snapshot!(draw(&m, 80, 24).backend());
 }
+
+#[test]
+fn light_names_are_escaped_in_the_panels() {
+    let mut s = scene();
+    s.lights[0].name = "red\u{1b}[31m\nx\u{202e}".into();
+    let m = Model::new(&s, (120, 40), (8, 16));
+    let terminal = draw(&m, 120, 40);
+    let text: String = terminal
+        .backend()
+        .buffer()
+        .content()
+        .iter()
+        .map(|c| c.symbol())
+        .collect();
+    // The curve panel's title and the status line both show the escaped name.
+    assert_eq!(text.matches("red\\u{1b}[31m\\nx\\u{202e}").count(), 2, "{text}");
+    assert!(!text.contains('\u{1b}') && !text.contains('\u{202e}'));
+}
