@@ -119,6 +119,8 @@ struct App {
     pending: PendingEdits,
     /// True when the edits changed this turn (the recovery text is made again).
     edits_changed: bool,
+    /// True while the last screen drawn had an overlay.
+    overlay_shown: bool,
     suspend: bool,
     quit: bool,
 }
@@ -180,6 +182,7 @@ impl App {
             room_text,
             pending,
             edits_changed: edited,
+            overlay_shown: false,
             suspend: false,
             quit: false,
         })
@@ -394,11 +397,18 @@ impl App {
         Ok(())
     }
 
-    /// Draws the screen; a new image's bytes and write time go to the frame budget.
+    /// Draws the screen; a new image's bytes and write time go to the frame budget. When an
+    /// overlay (help, a prompt) closed, the whole screen is written again: the image's cells are
+    /// not redrawn by a diff, so a piece of the overlay would stay over the picture.
     fn draw(&mut self, session: &mut TerminalSession) -> Result<()> {
+        let overlay = matches!(
+            self.model.mode,
+            Mode::Help | Mode::ConfirmQuit | Mode::ConfirmSave
+        );
+        let closed = std::mem::replace(&mut self.overlay_shown, overlay) && !overlay;
         let (model, image) = (&self.model, self.image.as_ref());
         let start = Instant::now();
-        session.draw(|frame| {
+        session.draw(closed, |frame| {
             let mut preview = |f: &mut Frame<'_>, area: Rect| draw_preview(model, image, f, area);
             view(model, frame, PreviewArea::Draw(&mut preview));
         })?;

@@ -96,12 +96,16 @@ impl TerminalSession {
         Ok((size.width, size.height))
     }
 
-    /// Draws one frame inside a synchronized update, so the terminal shows it at once.
+    /// Draws one frame inside a synchronized update, so the terminal shows it at once; `whole`
+    /// clears the screen first (in the same update) and writes every cell.
     ///
     /// Errors (internal): writing to the terminal failed.
-    pub fn draw(&mut self, render: impl FnOnce(&mut Frame<'_>)) -> Result<()> {
+    pub fn draw(&mut self, whole: bool, render: impl FnOnce(&mut Frame<'_>)) -> Result<()> {
         let failed = |e: std::io::Error| Error::internal(format!("cannot draw: {e}"));
         execute!(stdout(), BeginSynchronizedUpdate).map_err(failed)?;
+        if whole {
+            self.terminal.clear().map_err(failed)?;
+        }
         let drawn = self.terminal.draw(render).map(|_| ()).map_err(failed);
         execute!(stdout(), EndSynchronizedUpdate).map_err(failed)?;
         stdout().flush().map_err(failed)?;
