@@ -13,6 +13,7 @@ use crate::fsio;
 use crate::render::{DisplayMode, DisplayShader, LuxScale};
 use crate::scene;
 use crate::session::FrameSpec;
+use crate::session::budget::MemoryLimit;
 use crate::session::frame::check_size;
 
 /// `--mode` values.
@@ -39,7 +40,14 @@ fn ms_since(start: Instant) -> f64 {
 
 /// Runs the command: renders `room` into the PNG `output` and prints the stage times (and the
 /// lux range in false-colour mode, the exposure in photo mode).
-pub fn run(room: &Path, output: &Path, width: u32, height: u32, mode: DisplayMode) -> Result<()> {
+pub fn run(
+    room: &Path,
+    output: &Path,
+    width: u32,
+    height: u32,
+    mode: DisplayMode,
+    limit: &MemoryLimit,
+) -> Result<()> {
     let start = Instant::now();
     let scene = scene::load(room)?;
     check_size(width, height, ["--width", "--height"])?;
@@ -48,7 +56,7 @@ pub fn run(room: &Path, output: &Path, width: u32, height: u32, mode: DisplayMod
     let load_ms = ms_since(start);
 
     let start = Instant::now();
-    let mut session = open_session(scene, true)?;
+    let mut session = open_session(scene, true, limit)?;
     let bake_ms = ms_since(start);
 
     let start = Instant::now();

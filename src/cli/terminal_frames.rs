@@ -10,6 +10,7 @@ use clap::ValueEnum;
 use crate::cli::open_session;
 use crate::error::{Error, Result};
 use crate::scene;
+use crate::session::budget::MemoryLimit;
 use crate::tui::frame_budget::DEFAULT_BUDGET;
 use crate::tui::frame_cost::{FrameCost, FrameCosts, measure, preview_cells};
 use crate::tui::multiplexer::Protocol;
@@ -65,12 +66,13 @@ pub fn run(
     font: &str,
     output: Option<&Path>,
     json: bool,
+    limit: &MemoryLimit,
 ) -> Result<()> {
     let cells = parse_pair("--cells", cells)?;
     let font = parse_pair("--font", font)?;
     preview_cells(cells)?;
     let scene = scene::load(room)?;
-    let mut session = open_session(scene.clone(), true)?;
+    let mut session = open_session(scene.clone(), true, limit)?;
     session.relight();
     let costs = measure(&mut session, &scene, terminal.into(), cells, font, DEFAULT_BUDGET)?;
     let files = match output {

@@ -20,7 +20,9 @@ use ratatui::widgets::{Gauge, Paragraph};
 use crate::error::{Error, Result};
 use crate::photometry::read_lid_file;
 use crate::render::DisplayMode;
-use crate::scene;
+use crate::scene::save::{IfChanged, SaveError, Saved};
+use crate::scene::{self, LidSource, RoomText};
+use crate::session::budget::{self, MemoryLimit};
 use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::frame_budget::{Budget, DIVISORS, FrameBudget, FramePlan, prior_bytes_per_pixel};
@@ -29,13 +31,13 @@ use crate::tui::msg::{CurveSave, Effect, Msg};
 use crate::tui::polar::{PolarOptions, PolarScale, PolarStyle};
 use crate::tui::preview::FrameImage;
 use crate::tui::recovery::{self, Answer};
-use crate::tui::save::{edit_room_text, save_with_curves};
+use crate::tui::save::{SaveTarget, edit_room_text};
 use crate::tui::signals::{self, PendingEdits};
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
 use crate::tui::workers::{
     AppEvent, EncodeJob, EncodedFrame, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
 };
-use crate::tui::{Mode, Model, PreviewArea, update, view};
+use crate::tui::{Mode, Model, PreviewArea, save, update, view};
 
 /// How the editor talks to the terminal (the `haiko edit` flags, README "Terminals").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,14 +67,16 @@ impl Default for EditorOptions {
 /// recovery file.
 ///
 /// Errors: the room file or the recovery file (bad input), the terminal or a worker (internal).
-pub fn run(room: &Path, options: EditorOptions) -> Result<()> {
-    let saved_scene = scene::load(room)?;
+pub fn run(room: &Path, options: EditorOptions, limit: &MemoryLimit) -> Result<()> {
+    let loaded = scene::read_room(room)?;
+    let saved_scene = scene::load::load_text(room, &loaded.text)?;
+    // Before the terminal is taken: a room too large for memory is refused on a sane screen.
+    budget::check_scene(&saved_scene, PlanOptions::default(), true, limit)?;
     let restored = match recovery::find(room)? {
         Some(found) => {
-            let room_text = std::fs::read_to_string(room).map_err(|e| Error::unreadable(room, &e))?;
             let answer = recovery::ask(
                 &found,
-                &room_text,
+                &loaded.text,
                 &mut std::io::stdin().lock(),
                 &mut std::io::stderr(),
             )
@@ -88,16 +92,48 @@ pub fn run(room: &Path, options: EditorOptions) -> Result<()> {
         }
         None => None,
     };
+    // Temporaries of a save that was killed midway (docs/DECISIONS.md "Saving").
+    let removed = scene::save::remove_stale_temporaries(room).unwrap_or_default();
     let mut session = TerminalSession::enter(options.graphics)?;
-    let mut app = App::start(saved_scene, restored, room, &session, options)?;
+    let mut app = App::start(saved_scene, restored, loaded, room, *limit, &session, options)?;
+    if !removed.is_empty() {
+        app.model.message = Some(format!(
+            "removed {} temporary file(s) an interrupted save left beside the room file",
+            removed.len()
+        ));
+    }
     app.run(&mut session)
+}
+
+/// The editor's model for a freshly loaded scene: the plan's orders, as if the file said them.
+fn fresh_model(
+    scene: &scene::Scene,
+    terminal_size: (u16, u16),
+    cell_px: (u16, u16),
+    protocol: String,
+) -> Model {
+    let mut model = Model::new(scene, terminal_size, cell_px);
+    model.protocol = protocol;
+    let planned = initial_lights(scene, &plan(scene, PlanOptions::default()));
+    for (i, light) in planned.iter().enumerate() {
+        model.set_planned_order(i, light.order);
+    }
+    model.lid_files = luminaires::read_lid_infos(&model.lights);
+    model
 }
 
 /// The running editor: the model and the app's side of the workers.
 struct App {
     model: Model,
+    /// The room file being edited (changes with "save as").
     room: PathBuf,
+    /// Its text as last read or saved: what a save edits and compares the file against.
+    loaded: RoomText,
+    /// The memory limit (checked again on reload).
+    limit: MemoryLimit,
     events: Receiver<AppEvent>,
+    /// For the workers of a reloaded room.
+    sender: Sender<AppEvent>,
     engine: Sender<EngineRequest>,
     encode_jobs: Sender<EncodeJob>,
     /// Requests for the engine from this loop turn, sent in order at its end.
@@ -114,8 +150,7 @@ struct App {
     requested: Option<FramePlan>,
     /// When the last key or click came.
     last_input: Instant,
-    /// The room file's text the edits are made on, and the edits to keep on a signal.
-    room_text: String,
+    /// The edits to keep on a signal (made on `loaded`).
     pending: PendingEdits,
     /// True when the edits changed this turn (the recovery text is made again).
     edits_changed: bool,
@@ -126,23 +161,23 @@ struct App {
 }
 
 impl App {
-    /// The editor on `saved` (the room as saved), showing `restored` (the room with recovered
-    /// edits) when given.
+    /// The editor on `saved` (the room as saved, its text `loaded`), showing `restored` (the
+    /// room with recovered edits) when given.
     fn start(
         saved: scene::Scene,
         restored: Option<scene::Scene>,
+        loaded: RoomText,
         room: &Path,
+        limit: MemoryLimit,
         session: &TerminalSession,
         options: EditorOptions,
     ) -> Result<App> {
         let setup = session.setup().clone();
         // The saved state, with the orders the plan chooses for the room as saved.
-        let mut saved_model = Model::new(&saved, (1, 1), (1, 1));
-        plan_orders(&mut saved_model, &saved);
+        let saved_lights = fresh_model(&saved, (1, 1), (1, 1), String::new()).saved;
         let edited = restored.is_some();
         let scene = restored.unwrap_or(saved);
-        let mut model = Model::new(&scene, session.size()?, setup.cell_px);
-        model.protocol = setup.label();
+        let mut model = fresh_model(&scene, session.size()?, setup.cell_px, setup.label());
         model.message = setup.hint.clone();
         model.polar = PolarOptions {
             style: options
@@ -150,25 +185,25 @@ impl App {
                 .unwrap_or_else(|| PolarStyle::detect(|name| std::env::var(name).ok())),
             scale: None,
         };
-        plan_orders(&mut model, &scene);
         if edited {
-            model.saved = saved_model.saved;
+            model.saved = saved_lights;
             model.refresh_dirty();
             model.message = Some("restored the unsaved edits from the recovery file (s saves them)".into());
         }
-        model.lid_files = luminaires::read_lid_infos(&model.lights);
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
         let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
-        let encode_jobs = spawn_encode_worker(setup, sender);
+        let encode_jobs = spawn_encode_worker(setup, sender.clone());
         let pending = PendingEdits::default();
         signals::watch(room.to_path_buf(), pending.clone())
             .map_err(|e| Error::internal(format!("cannot watch for signals: {e}")))?;
-        let room_text = std::fs::read_to_string(room).map_err(|e| Error::unreadable(room, &e))?;
         Ok(App {
             model,
             room: room.to_path_buf(),
+            loaded,
+            limit,
             events,
+            sender,
             engine,
             encode_jobs,
             outbox: Vec::new(),
@@ -179,7 +214,6 @@ impl App {
             budget: FrameBudget::new(options.budget, prior_bytes_per_pixel(true)),
             requested: None,
             last_input: Instant::now(),
-            room_text,
             pending,
             edits_changed: edited,
             overlay_shown: false,
@@ -244,8 +278,9 @@ impl App {
         }
         if !self.model.dirty {
             self.pending.clear();
-        } else if let Ok(edited) = edit_room_text(&self.room, &self.room_text, &self.model) {
-            self.pending.set(edited.text, recovery::fnv1a64(&self.room_text));
+        } else if let Ok(edited) = edit_room_text(&self.room, &self.loaded.text, &self.model) {
+            self.pending
+                .set(edited.text, recovery::fnv1a64(&self.loaded.text));
         }
     }
 
@@ -338,7 +373,9 @@ impl App {
                         preview_px: self.model.preview_px,
                         aim,
                     }),
-                    Effect::Save(curves) => queue.push_back(self.save(curves)),
+                    Effect::Save { curves, overwrite } => queue.push_back(self.save(curves, overwrite)),
+                    Effect::SaveAs(name) => queue.push_back(self.save_as(&name)),
+                    Effect::Reload => self.reload(),
                     Effect::LoadLid(typed) => queue.push_back(self.load_lid(&typed)),
                     Effect::Report => self.outbox.push(EngineRequest::Report(report_path(&self.room))),
                     Effect::Suspend => self.suspend = true,
@@ -349,22 +386,87 @@ impl App {
         Ok(())
     }
 
-    /// Saves the room file ([`save_with_curves`]); the recovery file, if any, is then stale
-    /// and removed.
-    fn save(&mut self, curves: CurveSave) -> Msg {
-        match save_with_curves(&self.room, &self.model, curves) {
-            Ok((message, sources)) => {
-                self.edits_changed = true;
-                if let Ok(text) = std::fs::read_to_string(&self.room) {
-                    self.room_text = text;
-                }
+    /// Saves into the room file; a refusal becomes the prompt that asks what to do.
+    fn save(&mut self, curves: CurveSave, overwrite: bool) -> Msg {
+        let if_changed = if overwrite {
+            IfChanged::Overwrite
+        } else {
+            IfChanged::Refuse
+        };
+        let target = SaveTarget::Room(if_changed);
+        let result = save::save_curves_to(&self.room, &self.loaded, &self.model, curves, target);
+        self.saved(result, curves, None)
+    }
+
+    /// Saves as `name` (relative to the room file's folder; edited file curves inline); the
+    /// editor then edits that file.
+    fn save_as(&mut self, name: &str) -> Msg {
+        let folder = self.room.parent().unwrap_or(Path::new("."));
+        let path = folder.join(name);
+        let (curves, target) = (CurveSave::Inline, SaveTarget::As(&path));
+        let result = save::save_curves_to(&self.room, &self.loaded, &self.model, curves, target);
+        self.saved(result, curves, Some(path.clone()))
+    }
+
+    /// The message for a save's `result`; on success the room as written is what the next save
+    /// compares against, and `new_room` (a "save as") becomes the file edited.
+    fn saved(
+        &mut self,
+        result: std::result::Result<(Saved, Vec<LidSource>), SaveError>,
+        curves: CurveSave,
+        new_room: Option<PathBuf>,
+    ) -> Msg {
+        match result {
+            Ok((saved, sources)) => {
+                // The edits are in a file now: the recovery file is stale.
                 let _ = recovery::discard(&self.room);
-                Msg::Saved { message, sources }
+                self.edits_changed = true;
+                self.loaded = saved.room;
+                if let Some(path) = new_room {
+                    self.room = path;
+                }
+                Msg::Saved {
+                    message: saved.message,
+                    sources,
+                }
             }
-            Err(e) => Msg::Failed {
-                message: e.to_string(),
-            },
+            Err(e) => save::refusal(e, curves),
         }
+    }
+
+    /// Reads the room file again and starts over on it (the user chose "reload"): a new model,
+    /// a new engine (the old one is stopped). A room that no longer loads keeps the session.
+    fn reload(&mut self) {
+        let read = scene::read_room(&self.room).and_then(|loaded| {
+            let scene = scene::load::load_text(&self.room, &loaded.text)?;
+            budget::check_scene(&scene, PlanOptions::default(), true, &self.limit)?;
+            Ok((loaded, scene))
+        });
+        let (loaded, scene) = match read {
+            Ok(read) => read,
+            Err(e) => {
+                self.model.message = Some(format!("cannot reload: {e}"));
+                return;
+            }
+        };
+        let _ = self.engine.send(EngineRequest::Stop);
+        self.outbox.clear();
+        let model = &self.model;
+        let mut fresh = fresh_model(&scene, model.terminal_size, model.cell_px, model.protocol.clone());
+        fresh.false_colour = model.false_colour;
+        fresh.polar = PolarOptions {
+            scale: None,
+            ..model.polar
+        };
+        fresh.message = Some(format!(
+            "reloaded {} (the edits were dropped)",
+            self.room.display()
+        ));
+        self.model = fresh;
+        self.loaded = loaded;
+        self.edits_changed = true;
+        self.engine = spawn_engine(scene, SessionOptions::with_user_cache(), self.sender.clone());
+        self.frame_changed = true;
     }
 
     /// Reads the photometric file the user typed.
@@ -403,7 +505,11 @@ impl App {
     fn draw(&mut self, session: &mut TerminalSession) -> Result<()> {
         let overlay = matches!(
             self.model.mode,
-            Mode::Help | Mode::ConfirmQuit | Mode::ConfirmSave
+            Mode::Help
+                | Mode::ConfirmQuit
+                | Mode::ConfirmSave
+                | Mode::SaveConflict { .. }
+                | Mode::SaveAs { .. }
         );
         let closed = std::mem::replace(&mut self.overlay_shown, overlay) && !overlay;
         let (model, image) = (&self.model, self.image.as_ref());
@@ -417,14 +523,6 @@ impl App {
                 .record(plan, self.model.preview_px, bytes, start.elapsed());
         }
         Ok(())
-    }
-}
-
-/// Gives `model`'s lights (and their saved state) the orders the plan chooses for `scene`.
-fn plan_orders(model: &mut Model, scene: &scene::Scene) {
-    let planned = initial_lights(scene, &plan(scene, PlanOptions::default()));
-    for (i, light) in planned.iter().enumerate() {
-        model.set_planned_order(i, light.order);
     }
 }
 
@@ -464,8 +562,14 @@ pub fn report_path(room: &Path) -> PathBuf {
     room.with_file_name(format!("{stem}-report.html"))
 }
 
+/// A worker's channel closed: it ended, most likely by a panic, whose recorded message is given.
 fn worker_stopped() -> Error {
-    Error::internal("a background worker of the editor stopped")
+    match crate::error::take_recorded_panic() {
+        Some(panic) => Error::internal(format!(
+            "internal error: a background worker of the editor panicked: {panic}"
+        )),
+        None => Error::internal("a background worker of the editor stopped"),
+    }
 }
 
 /// The message for a terminal event the editor reacts to.
