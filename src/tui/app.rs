@@ -154,8 +154,6 @@ struct App {
     pending: PendingEdits,
     /// True when the edits changed this turn (the recovery text is made again).
     edits_changed: bool,
-    /// True while the last screen drawn had an overlay.
-    overlay_shown: bool,
     suspend: bool,
     quit: bool,
 }
@@ -216,7 +214,6 @@ impl App {
             last_input: Instant::now(),
             pending,
             edits_changed: edited,
-            overlay_shown: false,
             suspend: false,
             quit: false,
         })
@@ -499,22 +496,11 @@ impl App {
         Ok(())
     }
 
-    /// Draws the screen; a new image's bytes and write time go to the frame budget. When an
-    /// overlay (help, a prompt) closed, the whole screen is written again: the image's cells are
-    /// not redrawn by a diff, so a piece of the overlay would stay over the picture.
+    /// Draws the screen; a new image's bytes and write time go to the frame budget.
     fn draw(&mut self, session: &mut TerminalSession) -> Result<()> {
-        let overlay = matches!(
-            self.model.mode,
-            Mode::Help
-                | Mode::ConfirmQuit
-                | Mode::ConfirmSave
-                | Mode::SaveConflict { .. }
-                | Mode::SaveAs { .. }
-        );
-        let closed = std::mem::replace(&mut self.overlay_shown, overlay) && !overlay;
         let (model, image) = (&self.model, self.image.as_ref());
         let start = Instant::now();
-        session.draw(closed, |frame| {
+        session.draw(|frame| {
             let mut preview = |f: &mut Frame<'_>, area: Rect| draw_preview(model, image, f, area);
             view(model, frame, PreviewArea::Draw(&mut preview));
         })?;

@@ -8,7 +8,7 @@ use std::thread;
 
 use ratatui::crossterm::event::{self, DisableMouseCapture, EnableMouseCapture};
 use ratatui::crossterm::execute;
-use ratatui::crossterm::terminal::{BeginSynchronizedUpdate, EndSynchronizedUpdate};
+use ratatui::crossterm::terminal::{BeginSynchronizedUpdate, Clear, ClearType, EndSynchronizedUpdate};
 use ratatui::{DefaultTerminal, Frame};
 
 use crate::error::{Error, Result};
@@ -80,9 +80,10 @@ impl TerminalSession {
         execute!(stdout(), DisableMouseCapture).map_err(failed)?;
         ratatui::restore();
         signals::stop_self().map_err(failed)?;
+        // A new terminal has empty buffers: the next draw writes every cell. (Terminal::clear
+        // would ask for the cursor position, whose answer the input thread takes.)
         self.terminal = ratatui::try_init().map_err(failed)?;
-        execute!(stdout(), EnableMouseCapture).map_err(failed)?;
-        self.terminal.clear().map_err(failed)
+        execute!(stdout(), Clear(ClearType::All), EnableMouseCapture).map_err(failed)
     }
 
     /// The terminal's size in cells (columns, rows).
@@ -96,16 +97,12 @@ impl TerminalSession {
         Ok((size.width, size.height))
     }
 
-    /// Draws one frame inside a synchronized update, so the terminal shows it at once; `whole`
-    /// clears the screen first (in the same update) and writes every cell.
+    /// Draws one frame inside a synchronized update, so the terminal shows it at once.
     ///
     /// Errors (internal): writing to the terminal failed.
-    pub fn draw(&mut self, whole: bool, render: impl FnOnce(&mut Frame<'_>)) -> Result<()> {
+    pub fn draw(&mut self, render: impl FnOnce(&mut Frame<'_>)) -> Result<()> {
         let failed = |e: std::io::Error| Error::internal(format!("cannot draw: {e}"));
         execute!(stdout(), BeginSynchronizedUpdate).map_err(failed)?;
-        if whole {
-            self.terminal.clear().map_err(failed)?;
-        }
         let drawn = self.terminal.draw(render).map(|_| ()).map_err(failed);
         execute!(stdout(), EndSynchronizedUpdate).map_err(failed)?;
         stdout().flush().map_err(failed)?;
