@@ -25,6 +25,7 @@ pub mod pick;
 pub mod probe;
 pub mod render;
 pub mod report;
+pub mod terminal_frames;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -42,9 +43,17 @@ pub enum Command {
     Edit {
         /// The room file (rooms/*.toml).
         room: PathBuf,
-        /// Inline image protocol for the preview.
+        /// Inline image protocol for the preview (auto: what reaches the screen, also through
+        /// tmux and screen; half-blocks when nothing else does).
         #[arg(long, value_enum, default_value_t = GraphicsArg::Auto)]
         graphics: GraphicsArg,
+        /// Polar diagram style: braille, blocks or ascii (default: $HAIKO_POLAR, else by terminal).
+        #[arg(long, value_enum)]
+        polar: Option<PolarArg>,
+        /// Byte budget of an interactive frame while keys repeat: auto (from the link's speed)
+        /// or a size such as 64k.
+        #[arg(long, default_value = "auto")]
+        frame_budget: String,
         #[command(flatten)]
         memory: MemoryArg,
     },
@@ -163,9 +172,22 @@ pub enum Command {
     Render {
         /// The room file.
         room: PathBuf,
-        /// Output PNG file.
-        #[arg(short, long)]
-        output: PathBuf,
+        /// Output PNG file (with --terminal: the frames go to OUTPUT.full, OUTPUT.interactive).
+        #[arg(short, long, required_unless_present = "terminal")]
+        output: Option<PathBuf>,
+        /// Instead of a PNG: the editor's preview frames for this terminal protocol, their
+        /// bytes and encode times.
+        #[arg(long, value_enum)]
+        terminal: Option<terminal_frames::TerminalArg>,
+        /// With --terminal: the terminal's size, COLUMNSxROWS.
+        #[arg(long, default_value = "160x48", requires = "terminal")]
+        cells: String,
+        /// With --terminal: a cell's size in pixels, WIDTHxHEIGHT.
+        #[arg(long, default_value = "10x20", requires = "terminal")]
+        font: String,
+        /// With --terminal: print one JSON object.
+        #[arg(long, requires = "terminal")]
+        json: bool,
         /// Image width, pixels (1..=8192).
         #[arg(long, default_value_t = 1024)]
         width: u32,
@@ -271,6 +293,28 @@ impl From<GraphicsArg> for Graphics {
     }
 }
 
+/// `--polar` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PolarArg {
+    /// Braille dots (2 × 4 a cell).
+    Braille,
+    /// Quadrant blocks (2 × 2 a cell).
+    Blocks,
+    /// ASCII only.
+    Ascii,
+}
+
+impl From<PolarArg> for crate::tui::polar::PolarStyle {
+    fn from(p: PolarArg) -> Self {
+        use crate::tui::polar::PolarStyle;
+        match p {
+            PolarArg::Braille => PolarStyle::Braille,
+            PolarArg::Blocks => PolarStyle::Blocks,
+            PolarArg::Ascii => PolarStyle::Ascii,
+        }
+    }
+}
+
 /// `--mode` values of `probe`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum DirectArg {
@@ -308,8 +352,18 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Edit {
             room,
             graphics,
+            polar,
+            frame_budget,
             memory,
-        } => crate::tui::app::run(&room, graphics.into(), &memory.limit()),
+        } => crate::tui::app::run(
+            &room,
+            crate::tui::app::EditorOptions {
+                graphics: graphics.into(),
+                polar: polar.map(Into::into),
+                budget: crate::tui::frame_budget::Budget::parse("--frame-budget", &frame_budget)?,
+            },
+            &memory.limit(),
+        ),
         Command::Lid {
             source,
             order,
@@ -356,11 +410,27 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render {
             room,
             output,
+            terminal,
+            cells,
+            font,
+            json,
             width,
             height,
             mode,
             memory,
-        } => render::run(&room, &output, width, height, mode.into(), &memory.limit()),
+        } => match (terminal, output) {
+            (Some(terminal), output) => terminal_frames::run(
+                &room,
+                terminal,
+                &cells,
+                &font,
+                output.as_deref(),
+                json,
+                &memory.limit(),
+            ),
+            (None, Some(output)) => render::run(&room, &output, width, height, mode.into(), &memory.limit()),
+            (None, None) => Err(Error::input("--output", "", "required without --terminal")),
+        },
         Command::Pick {
             room,
             pixel,

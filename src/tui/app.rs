@@ -1,19 +1,21 @@
-//! `haiko edit ROOM`: the app loop. Loads the room (before the screen is taken), enters the
-//! terminal, starts the workers, then blocks on one channel: each event becomes a [`Msg`] for
-//! [`update`], whose [`Effect`]s are carried out here — commands and frame requests collected
-//! and sent to the engine once per loop turn (in order), picks asked of the engine, saves
-//! written, quitting.
+//! `haiko edit ROOM`: the app loop. Loads the room (before the screen is taken; a recovery file
+//! left by a signal is offered first), enters the terminal, starts the workers and the signal
+//! watcher, then blocks on one channel: each event becomes a [`Msg`] for [`update`], whose
+//! [`Effect`]s are carried out here — commands and frame requests collected and sent to the
+//! engine once per loop turn (in order), picks asked of the engine, saves written, suspending,
+//! quitting. While keys repeat the frames are reduced to fit the frame budget; the full frame
+//! follows once input has been idle ([`FrameBudget`]).
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{self, Receiver, Sender};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::time::Instant;
 
 use ratatui::Frame;
 use ratatui::crossterm::event::{Event, MouseButton, MouseEvent, MouseEventKind};
 use ratatui::layout::{Alignment, Constraint, Flex, Layout, Rect, Size};
 use ratatui::style::Stylize;
 use ratatui::widgets::{Gauge, Paragraph};
-use ratatui_image::protocol::Protocol;
 
 use crate::error::{Error, Result};
 use crate::photometry::read_lid_file;
@@ -23,28 +25,77 @@ use crate::scene::{self, LidSource, RoomText};
 use crate::session::budget::{self, MemoryLimit};
 use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
+use crate::tui::frame_budget::{Budget, DIVISORS, FrameBudget, FramePlan, prior_bytes_per_pixel};
 use crate::tui::luminaires::{self, LidInfo};
 use crate::tui::msg::{CurveSave, Effect, Msg};
-use crate::tui::save::SaveTarget;
+use crate::tui::polar::{PolarOptions, PolarScale, PolarStyle};
+use crate::tui::preview::FrameImage;
+use crate::tui::recovery::{self, Answer};
+use crate::tui::save::{SaveTarget, edit_room_text};
+use crate::tui::signals::{self, PendingEdits};
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
 use crate::tui::workers::{
-    AppEvent, EncodeJob, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
+    AppEvent, EncodeJob, EncodedFrame, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
 };
-use crate::tui::{Mode, Model, PreviewArea, preview, save, update, view};
+use crate::tui::{Mode, Model, PreviewArea, save, update, view};
 
-/// Runs the editor on the room file `room` with the `graphics` protocol choice. A bad room
-/// fails before the terminal is touched; the terminal is restored however the editor ends.
+/// How the editor talks to the terminal (the `haiko edit` flags, README "Terminals").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EditorOptions {
+    /// The image protocol asked for.
+    pub graphics: Graphics,
+    /// The polar diagram's style; `None`: [`PolarStyle::detect`] (`$HAIKO_POLAR`, the terminal).
+    pub polar: Option<PolarStyle>,
+    /// The byte budget of an interactive frame.
+    pub budget: Budget,
+}
+
+impl Default for EditorOptions {
+    fn default() -> Self {
+        EditorOptions {
+            graphics: Graphics::Auto,
+            polar: None,
+            budget: Budget::Auto,
+        }
+    }
+}
+
+/// Runs the editor on the room file `room` with `options`. A recovery file of the room is
+/// offered first (on the standard streams, before the terminal is taken); a bad room fails
+/// before the terminal is touched; the terminal is restored however the editor ends, also on
+/// SIGTERM, SIGHUP, SIGINT and SIGQUIT (`tui::signals`), which keep unsaved edits in the
+/// recovery file.
 ///
-/// Errors: the room file (bad input), the terminal or a worker (internal).
-pub fn run(room: &Path, graphics: Graphics, limit: &MemoryLimit) -> Result<()> {
+/// Errors: the room file or the recovery file (bad input), the terminal or a worker (internal).
+pub fn run(room: &Path, options: EditorOptions, limit: &MemoryLimit) -> Result<()> {
     let loaded = scene::read_room(room)?;
-    let scene = scene::load::load_text(room, &loaded.text)?;
+    let saved_scene = scene::load::load_text(room, &loaded.text)?;
     // Before the terminal is taken: a room too large for memory is refused on a sane screen.
-    budget::check_scene(&scene, PlanOptions::default(), true, limit)?;
+    budget::check_scene(&saved_scene, PlanOptions::default(), true, limit)?;
+    let restored = match recovery::find(room)? {
+        Some(found) => {
+            let answer = recovery::ask(
+                &found,
+                &loaded.text,
+                &mut std::io::stdin().lock(),
+                &mut std::io::stderr(),
+            )
+            .map_err(|e| Error::internal(format!("asking about the recovery file: {e}")))?;
+            match answer {
+                Answer::Restore => Some(scene::load(&found.path)?),
+                Answer::Discard => {
+                    recovery::discard(room)?;
+                    None
+                }
+                Answer::Keep => None,
+            }
+        }
+        None => None,
+    };
     // Temporaries of a save that was killed midway (docs/DECISIONS.md "Saving").
     let removed = scene::save::remove_stale_temporaries(room).unwrap_or_default();
-    let mut session = TerminalSession::enter(graphics)?;
-    let mut app = App::start(scene, loaded, room, *limit, &session)?;
+    let mut session = TerminalSession::enter(options.graphics)?;
+    let mut app = App::start(saved_scene, restored, loaded, room, *limit, &session, options)?;
     if !removed.is_empty() {
         app.model.message = Some(format!(
             "removed {} temporary file(s) an interrupted save left beside the room file",
@@ -90,28 +141,60 @@ struct App {
     /// True when the frame the model shows changed this turn.
     frame_changed: bool,
     /// The latest encoded image on screen.
-    image: Option<Protocol>,
+    image: Option<FrameImage>,
+    /// A new image's plan and bytes, recorded once it is written.
+    unrecorded: Option<(FramePlan, usize)>,
+    /// The budget of interactive frames.
+    budget: FrameBudget,
+    /// The plan of the last frame asked of the engine.
+    requested: Option<FramePlan>,
+    /// When the last key or click came.
+    last_input: Instant,
+    /// The edits to keep on a signal (made on `loaded`).
+    pending: PendingEdits,
+    /// True when the edits changed this turn (the recovery text is made again).
+    edits_changed: bool,
+    suspend: bool,
     quit: bool,
 }
 
 impl App {
+    /// The editor on `saved` (the room as saved, its text `loaded`), showing `restored` (the
+    /// room with recovered edits) when given.
     fn start(
-        scene: scene::Scene,
+        saved: scene::Scene,
+        restored: Option<scene::Scene>,
         loaded: RoomText,
         room: &Path,
         limit: MemoryLimit,
         session: &TerminalSession,
+        options: EditorOptions,
     ) -> Result<App> {
-        let model = fresh_model(
-            &scene,
-            session.size()?,
-            preview::cell_px(session.picker()),
-            preview::protocol_label(session.picker()),
-        );
+        let setup = session.setup().clone();
+        // The saved state, with the orders the plan chooses for the room as saved.
+        let saved_lights = fresh_model(&saved, (1, 1), (1, 1), String::new()).saved;
+        let edited = restored.is_some();
+        let scene = restored.unwrap_or(saved);
+        let mut model = fresh_model(&scene, session.size()?, setup.cell_px, setup.label());
+        model.message = setup.hint.clone();
+        model.polar = PolarOptions {
+            style: options
+                .polar
+                .unwrap_or_else(|| PolarStyle::detect(|name| std::env::var(name).ok())),
+            scale: None,
+        };
+        if edited {
+            model.saved = saved_lights;
+            model.refresh_dirty();
+            model.message = Some("restored the unsaved edits from the recovery file (s saves them)".into());
+        }
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
         let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
-        let encode_jobs = spawn_encode_worker(session.picker().clone(), sender.clone());
+        let encode_jobs = spawn_encode_worker(setup, sender.clone());
+        let pending = PendingEdits::default();
+        signals::watch(room.to_path_buf(), pending.clone())
+            .map_err(|e| Error::internal(format!("cannot watch for signals: {e}")))?;
         Ok(App {
             model,
             room: room.to_path_buf(),
@@ -124,6 +207,14 @@ impl App {
             outbox: Vec::new(),
             frame_changed: true,
             image: None,
+            unrecorded: None,
+            // Every protocol sent is compressed (sixel runs, PNG); half-blocks do not shrink.
+            budget: FrameBudget::new(options.budget, prior_bytes_per_pixel(true)),
+            requested: None,
+            last_input: Instant::now(),
+            pending,
+            edits_changed: edited,
+            suspend: false,
             quit: false,
         })
     }
@@ -132,15 +223,25 @@ impl App {
         self.flush()?;
         self.draw(session)?;
         while !self.quit {
-            let event = self.events.recv().map_err(|_| worker_stopped())?;
-            self.handle(event)?;
+            match self.next_event()? {
+                Some(event) => self.handle(event)?,
+                // Input went idle after reduced frames: the full frame is due.
+                None => self.frame_changed = true,
+            }
             // Handle whatever else is already queued before drawing once.
             while !self.quit
                 && let Ok(event) = self.events.try_recv()
             {
                 self.handle(event)?;
             }
+            if self.suspend {
+                self.suspend = false;
+                session.suspend()?;
+                self.frame_changed = true;
+            }
             if !self.quit {
+                self.keep_edits();
+                self.follow_polar_scale();
                 self.flush()?;
                 self.draw(session)?;
             }
@@ -148,10 +249,56 @@ impl App {
         Ok(())
     }
 
+    /// The next event; `None` when the full frame is due first (the last frame asked for was
+    /// reduced and input has since been idle, [`FrameBudget::full_frame_in`]).
+    fn next_event(&self) -> Result<Option<AppEvent>> {
+        let reduced = self
+            .requested
+            .is_some_and(|p| !matches!(p, FramePlan::Full { .. }));
+        if !reduced {
+            return self.events.recv().map(Some).map_err(|_| worker_stopped());
+        }
+        match self
+            .events
+            .recv_timeout(self.budget.full_frame_in(self.last_input.elapsed()))
+        {
+            Ok(event) => Ok(Some(event)),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(worker_stopped()),
+        }
+    }
+
+    /// Keeps the room text with the unsaved edits ready for the signal watcher.
+    fn keep_edits(&mut self) {
+        if !std::mem::take(&mut self.edits_changed) {
+            return;
+        }
+        if !self.model.dirty {
+            self.pending.clear();
+        } else if let Ok(edited) = edit_room_text(&self.room, &self.loaded.text, &self.model) {
+            self.pending
+                .set(edited.text, recovery::fnv1a64(&self.loaded.text));
+        }
+    }
+
+    /// The polar diagram's scale after this turn's edits (it changes in round steps).
+    fn follow_polar_scale(&mut self) {
+        if let Some(peak) = crate::tui::view::polar_peak(&self.model) {
+            let scale = self.model.polar.scale;
+            self.model.polar.scale =
+                Some(scale.map_or_else(|| PolarScale::fitting(peak), |s| s.follow(peak)));
+        }
+    }
+
     fn handle(&mut self, event: AppEvent) -> Result<()> {
         match event {
             AppEvent::Input(event) => match input_msg(event) {
-                Some(msg) => self.dispatch(msg),
+                Some(msg) => {
+                    if matches!(msg, Msg::Key(_) | Msg::Click { .. }) {
+                        self.last_input = Instant::now();
+                    }
+                    self.dispatch(msg)
+                }
                 None => Ok(()),
             },
             AppEvent::InputFailed(message) => {
@@ -160,14 +307,22 @@ impl App {
             AppEvent::Msg(msg) => self.dispatch(msg),
             AppEvent::Rendered(frame) => self.on_rendered(frame),
             AppEvent::Encoded(encoded) => {
-                if let Some(image) = encoded.protocol {
+                let EncodedFrame {
+                    image,
+                    plan,
+                    bytes,
+                    rendered,
+                    encode_ms,
+                } = encoded;
+                if let Some(image) = image {
                     self.image = Some(image);
+                    self.unrecorded = Some((plan, bytes));
                 }
-                let (relight_ms, render_ms) = encoded.rendered;
+                let (relight_ms, render_ms) = rendered;
                 self.dispatch(Msg::Frame {
                     relight_ms,
                     render_ms,
-                    encode_ms: encoded.encode_ms,
+                    encode_ms,
                 })
             }
         }
@@ -179,8 +334,20 @@ impl App {
             u16::try_from(frame.pixmap.width() / u32::from(cell_w)).unwrap_or(u16::MAX),
             u16::try_from(frame.pixmap.height() / u32::from(cell_h)).unwrap_or(u16::MAX),
         );
+        let full = self.model.preview_px;
+        let size = (frame.pixmap.width(), frame.pixmap.height());
+        let plan = self
+            .requested
+            .filter(|p| p.size(full) == size)
+            .or_else(|| {
+                DIVISORS
+                    .iter()
+                    .map(|&divisor| FramePlan::Interactive { divisor })
+                    .find(|p| p.size(full) == size)
+            })
+            .unwrap_or(FramePlan::Full { dither: false });
         self.encode_jobs
-            .send(EncodeJob { frame, cells })
+            .send(EncodeJob { frame, plan, cells })
             .map_err(|_| worker_stopped())
     }
 
@@ -190,10 +357,13 @@ impl App {
         while let Some(msg) = queue.pop_front() {
             for effect in update(&mut self.model, msg) {
                 match effect {
-                    Effect::Engine(command) => match self.outbox.last_mut() {
-                        Some(EngineRequest::Commands(commands)) => commands.push(command),
-                        _ => self.outbox.push(EngineRequest::Commands(vec![command])),
-                    },
+                    Effect::Engine(command) => {
+                        self.edits_changed = true;
+                        match self.outbox.last_mut() {
+                            Some(EngineRequest::Commands(commands)) => commands.push(command),
+                            _ => self.outbox.push(EngineRequest::Commands(vec![command])),
+                        }
+                    }
                     Effect::Render => self.frame_changed = true,
                     Effect::Pick { pixel, aim } => self.outbox.push(EngineRequest::Pick {
                         pixel,
@@ -205,6 +375,7 @@ impl App {
                     Effect::Reload => self.reload(),
                     Effect::LoadLid(typed) => queue.push_back(self.load_lid(&typed)),
                     Effect::Report => self.outbox.push(EngineRequest::Report(report_path(&self.room))),
+                    Effect::Suspend => self.suspend = true,
                     Effect::Quit => self.quit = true,
                 }
             }
@@ -244,6 +415,9 @@ impl App {
     ) -> Msg {
         match result {
             Ok((saved, sources)) => {
+                // The edits are in a file now: the recovery file is stale.
+                let _ = recovery::discard(&self.room);
+                self.edits_changed = true;
                 self.loaded = saved.room;
                 if let Some(path) = new_room {
                     self.room = path;
@@ -277,12 +451,17 @@ impl App {
         let model = &self.model;
         let mut fresh = fresh_model(&scene, model.terminal_size, model.cell_px, model.protocol.clone());
         fresh.false_colour = model.false_colour;
+        fresh.polar = PolarOptions {
+            scale: None,
+            ..model.polar
+        };
         fresh.message = Some(format!(
             "reloaded {} (the edits were dropped)",
             self.room.display()
         ));
         self.model = fresh;
         self.loaded = loaded;
+        self.edits_changed = true;
         self.engine = spawn_engine(scene, SessionOptions::with_user_cache(), self.sender.clone());
         self.frame_changed = true;
     }
@@ -304,9 +483,11 @@ impl App {
     fn flush(&mut self) -> Result<()> {
         if self.frame_changed {
             self.frame_changed = false;
-            if let Some(spec) = frame_spec(&self.model) {
+            if let Some(full) = frame_spec(&self.model) {
+                let plan = self.budget.plan(self.last_input.elapsed(), full.size_px);
+                self.requested = Some(plan);
                 // Before picks of this turn, so they see the new frame.
-                self.outbox.insert(0, EngineRequest::Frame(spec));
+                self.outbox.insert(0, EngineRequest::Frame(reduced(full, plan)));
             }
         }
         for request in self.outbox.drain(..) {
@@ -315,12 +496,29 @@ impl App {
         Ok(())
     }
 
-    fn draw(&self, session: &mut TerminalSession) -> Result<()> {
+    /// Draws the screen; a new image's bytes and write time go to the frame budget.
+    fn draw(&mut self, session: &mut TerminalSession) -> Result<()> {
         let (model, image) = (&self.model, self.image.as_ref());
+        let start = Instant::now();
         session.draw(|frame| {
             let mut preview = |f: &mut Frame<'_>, area: Rect| draw_preview(model, image, f, area);
             view(model, frame, PreviewArea::Draw(&mut preview));
-        })
+        })?;
+        if let Some((plan, bytes)) = self.unrecorded.take() {
+            self.budget
+                .record(plan, self.model.preview_px, bytes, start.elapsed());
+        }
+        Ok(())
+    }
+}
+
+/// `full` rendered for `plan`: its size reduced, the aim cursor scaled with it.
+fn reduced(full: FrameSpec, plan: FramePlan) -> FrameSpec {
+    let d = plan.divisor().max(1);
+    FrameSpec {
+        size_px: plan.size(full.size_px),
+        cursor: full.cursor.map(|(x, y)| (x / d, y / d)),
+        ..full
     }
 }
 
@@ -376,11 +574,12 @@ fn input_msg(event: Event) -> Option<Msg> {
 }
 
 /// The preview pane's inside: the image when one fits, else the bake gauge or a note.
-fn draw_preview(model: &Model, image: Option<&Protocol>, frame: &mut Frame<'_>, area: Rect) {
+fn draw_preview(model: &Model, image: Option<&FrameImage>, frame: &mut Frame<'_>, area: Rect) {
     if let Some(image) = image
-        && preview::fits(image, area)
+        && image.size().width <= area.width
+        && image.size().height <= area.height
     {
-        preview::draw(image, area, frame.buffer_mut());
+        image.draw(area, frame.buffer_mut());
         return;
     }
     let [middle] = Layout::vertical([Constraint::Length(1)])

@@ -134,8 +134,12 @@ impl fmt::Display for Key {
 pub enum Action {
     /// Show or hide the help overlay.
     ToggleHelp,
+    /// Turn the help's page by this many (negative: back).
+    HelpPage(i8),
     /// Quit (asks first when there are unsaved changes).
     Quit,
+    /// Suspend the editor to the shell (Ctrl-Z); it redraws when resumed.
+    Suspend,
     /// Save the room file.
     Save,
     /// Save the room as another file (type its name).
@@ -300,7 +304,8 @@ use ModeKind::{
 #[rustfmt::skip]
 pub const BINDINGS: &[Binding] = &[
     bind(Normal, &[C('?')], A::ToggleHelp, "show this help", Some("help")),
-    bind(Normal, &[C('q')], A::Quit, "quit (asks if unsaved)", Some("quit")),
+    bind(Normal, &[C('q'), Ctrl('c')], A::Quit, "quit (asks if unsaved)", Some("quit")),
+    bind(Normal, &[Ctrl('z')], A::Suspend, "suspend (fg resumes)", None),
     bind(Normal, &[C('s')], A::Save, "save the room file", Some("save")),
     bind(Normal, &[C('S')], A::SaveAs, "save as another file", None),
     bind(Normal, &[Code(KeyCode::Tab)], A::NextLight, "next light", Some("light")),
@@ -377,6 +382,8 @@ pub const BINDINGS: &[Binding] = &[
     bind(ConfirmSave, &[C('i')], A::SaveInline, "inline curves", Some("inline")),
     bind(ConfirmSave, &[Code(KeyCode::Esc)], A::Cancel, "do not save", Some("cancel")),
     bind(Help, &[C('?'), Code(KeyCode::Esc), C('q')], A::ToggleHelp, "close the help", Some("close")),
+    bind(Help, &[Code(KeyCode::PageDown), C(' '), Code(KeyCode::Down), C('j')], A::HelpPage(1), "next page", Some("next page")),
+    bind(Help, &[Code(KeyCode::PageUp), Code(KeyCode::Up), C('k')], A::HelpPage(-1), "previous page", Some("previous")),
     bind(ConfirmQuit, &[C('y')], A::ConfirmQuit, "quit without saving", Some("quit")),
     bind(ConfirmQuit, &[C('n'), Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
     bind(SaveConflict, &[C('o')], A::Overwrite, "overwrite with yours", Some("overwrite")),

@@ -16,6 +16,7 @@ use crate::tui::keys::ModeKind;
 use crate::tui::luminaires::LidInfos;
 use crate::tui::msg::CurveSave;
 use crate::tui::panel::PanelNumbers;
+use crate::tui::polar::PolarOptions;
 use crate::tui::view::preview_rect;
 
 /// What the editor is doing; decides which key table applies.
@@ -181,6 +182,11 @@ pub struct Model {
     pub lid_files: LidInfos,
     /// The latest numbers from the engine (None until the first are computed).
     pub numbers: Option<PanelNumbers>,
+    /// How the polar diagram is drawn and its scale (kept across edits: it changes in round
+    /// steps, [`crate::tui::polar::PolarScale::follow`]).
+    pub polar: PolarOptions,
+    /// The help overlay's page (0 first; the view clamps it to the pages there are).
+    pub help_page: usize,
 }
 
 impl Model {
@@ -215,6 +221,8 @@ impl Model {
             marked: BTreeSet::new(),
             lid_files: LidInfos::new(),
             numbers: None,
+            polar: PolarOptions::default(),
+            help_page: 0,
         };
         model.preview_px = model.compute_preview_px();
         model

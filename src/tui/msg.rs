@@ -152,6 +152,8 @@ pub enum Effect {
     /// Write the report next to the room file; answer with [`Msg::Reported`] or [`Msg::Failed`].
     Report,
     /// Leave the editor.
+    /// Give the terminal back and stop the process until the shell continues it.
+    Suspend,
     Quit,
 }
 

@@ -8,12 +8,12 @@ use std::thread;
 
 use ratatui::crossterm::event::{self, DisableMouseCapture, EnableMouseCapture};
 use ratatui::crossterm::execute;
-use ratatui::crossterm::terminal::{BeginSynchronizedUpdate, EndSynchronizedUpdate};
+use ratatui::crossterm::terminal::{BeginSynchronizedUpdate, Clear, ClearType, EndSynchronizedUpdate};
 use ratatui::{DefaultTerminal, Frame};
-use ratatui_image::picker::Picker;
 
 use crate::error::{Error, Result};
-use crate::tui::preview;
+use crate::tui::preview::ImageSetup;
+use crate::tui::signals;
 use crate::tui::workers::AppEvent;
 
 /// Which inline image protocol the preview uses.
@@ -35,13 +35,14 @@ pub enum Graphics {
 /// the terminal.
 pub struct TerminalSession {
     terminal: DefaultTerminal,
-    picker: Picker,
+    setup: ImageSetup,
 }
 
 impl TerminalSession {
     /// Takes the terminal: raw mode, alternate screen and a panic hook that restores both
-    /// (ratatui), the graphics query ([`preview::detect_picker`], before any event is read),
-    /// then mouse capture (also released by the panic hook).
+    /// (ratatui) and writes [`signals::RESTORE`] (mouse off, cursor on, a cut-off image
+    /// ended), the graphics query ([`ImageSetup::detect`], before any event is read), then
+    /// mouse capture.
     ///
     /// Errors (internal): the terminal refused (e.g. stdout is not a terminal).
     pub fn enter(graphics: Graphics) -> Result<TerminalSession> {
@@ -51,22 +52,38 @@ impl TerminalSession {
         })?;
         let previous_hook = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            let _ = execute!(stdout(), DisableMouseCapture);
+            let _ = stdout().write_all(signals::RESTORE.as_bytes());
+            let _ = stdout().flush();
             previous_hook(info);
         }));
-        let mut session = TerminalSession {
+        let session = TerminalSession {
             terminal,
-            picker: Picker::halfblocks(),
+            setup: ImageSetup::detect(graphics),
         };
-        session.picker = preview::detect_picker(graphics);
         execute!(stdout(), EnableMouseCapture)
             .map_err(|e| Error::internal(format!("cannot enable the mouse: {e}")))?;
         Ok(session)
     }
 
     /// The graphics protocol and cell size in use.
-    pub fn picker(&self) -> &Picker {
-        &self.picker
+    pub fn setup(&self) -> &ImageSetup {
+        &self.setup
+    }
+
+    /// Suspends the editor (Ctrl-Z): the terminal is given back as the shell had it, the
+    /// process stops (SIGTSTP); once the shell continues it, the terminal is taken again and
+    /// the whole screen is drawn anew.
+    ///
+    /// Errors (internal): the terminal could not be restored or taken again.
+    pub fn suspend(&mut self) -> Result<()> {
+        let failed = |e: std::io::Error| Error::internal(format!("suspending: {e}"));
+        execute!(stdout(), DisableMouseCapture).map_err(failed)?;
+        ratatui::restore();
+        signals::stop_self().map_err(failed)?;
+        // A new terminal has empty buffers: the next draw writes every cell. (Terminal::clear
+        // would ask for the cursor position, whose answer the input thread takes.)
+        self.terminal = ratatui::try_init().map_err(failed)?;
+        execute!(stdout(), Clear(ClearType::All), EnableMouseCapture).map_err(failed)
     }
 
     /// The terminal's size in cells (columns, rows).

@@ -126,8 +126,18 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             model.mode = if model.mode == Mode::Help {
                 Mode::Normal
             } else {
+                model.help_page = 0;
                 Mode::Help
             };
+            Vec::new()
+        }
+        Action::HelpPage(step) => {
+            // The view shows the last page for anything past it.
+            let pages = crate::tui::view::help_page_count(model.terminal_size);
+            model.help_page = model
+                .help_page
+                .saturating_add_signed(isize::from(step))
+                .min(pages.saturating_sub(1));
             Vec::new()
         }
         Action::Quit if model.dirty => {
@@ -135,6 +145,7 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             Vec::new()
         }
         Action::Quit | Action::ConfirmQuit => vec![Effect::Quit],
+        Action::Suspend => vec![Effect::Suspend],
         Action::Save => luminaires::save(model),
         Action::SaveCurveFiles => {
             model.mode = Mode::Normal;
@@ -539,16 +550,12 @@ fn on_click(model: &mut Model, cell: Position) -> Vec<Effect> {
     let area = preview_rect(Rect::new(0, 0, w, h));
     let (pw, ph) = model.preview_px;
     match cell_to_pixel(cell, area, pw, ph) {
-        Some(pixel) => {
-            let left_aim_mode = matches!(model.mode, Mode::Aim { .. });
+        // Only aim mode aims; otherwise a click reads the point (lux, numbers cursor).
+        Some(pixel) if matches!(model.mode, Mode::Aim { .. }) => {
             model.mode = Mode::Normal;
-            let pick = Effect::Pick { pixel, aim: true };
-            if left_aim_mode {
-                vec![Effect::Render, pick]
-            } else {
-                vec![pick]
-            }
+            vec![Effect::Render, Effect::Pick { pixel, aim: true }]
         }
+        Some(pixel) => vec![Effect::Pick { pixel, aim: false }],
         None => Vec::new(),
     }
 }

@@ -19,6 +19,19 @@ use crate::tui::polar::{self, PolarDiagram};
 /// Smallest terminal (columns, rows) the layout needs.
 pub const MIN_SIZE: (u16, u16) = (80, 24);
 
+/// Editor widths from which the points table has its wide columns.
+const WIDE_EDITOR: u16 = 48;
+/// The points table's width (border included), wide and narrow.
+const WIDE_TABLE: u16 = 22;
+const NARROW_TABLE: u16 = 18;
+/// The light panel's label column.
+const LABEL_WIDTH: usize = 8;
+
+/// Rows the light panel needs for its eight values and its border.
+const LIGHT_PANEL_ROWS: u16 = 10;
+/// The polar diagram never gets fewer rows than this (when the terminal has them).
+const MIN_POLAR_ROWS: u16 = 8;
+
 /// What to draw in the preview pane's inner rectangle.
 pub enum PreviewArea<'a> {
     /// A placeholder naming the preview's pixel size (tests, and before the first frame).
@@ -55,11 +68,23 @@ fn areas(area: Rect) -> Areas {
         Constraint::Length(panel::panel_rows(area.height)),
     ])
     .areas(right);
-    // A square diagram: Braille cells are about twice as tall as wide.
-    let polar_height = (editor.width / 2 + 2).min(main.height.saturating_sub(8));
+    // A square diagram: Braille cells are about twice as tall as wide. On short terminals the
+    // diagram gives up rows first (docs/DECISIONS.md "Terminal": the collapse order), so the
+    // light panel keeps all its values, position and aim included.
+    let polar_height = (editor.width / 2 + 2)
+        .min(main.height.saturating_sub(LIGHT_PANEL_ROWS))
+        .max(MIN_POLAR_ROWS.min(main.height));
     let [polar, below] =
         Layout::vertical([Constraint::Length(polar_height), Constraint::Min(0)]).areas(editor);
-    let [table, numbers] = Layout::horizontal([Constraint::Length(22), Constraint::Min(0)]).areas(below);
+    // Narrow editors (80 columns) take the points table's slimmer layout, so the light panel
+    // keeps room for a position.
+    let table_width = if below.width < WIDE_EDITOR {
+        NARROW_TABLE
+    } else {
+        WIDE_TABLE
+    };
+    let [table, numbers] =
+        Layout::horizontal([Constraint::Length(table_width), Constraint::Min(0)]).areas(below);
     Areas {
         polar,
         table,
@@ -134,10 +159,13 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
     }
     draw_preview(model, frame, areas.preview, preview);
     draw_panel(model.numbers.as_ref(), frame, areas.panel);
-    frame.render_widget(Paragraph::new(status_line(model)).reversed(), areas.status);
+    frame.render_widget(
+        Paragraph::new(status_line(model, area.width)).reversed(),
+        areas.status,
+    );
     frame.render_widget(Paragraph::new(hint_line(model)), areas.hints);
     match &model.mode {
-        Mode::Help => draw_help(frame, area),
+        Mode::Help => draw_help(model, frame, area),
         Mode::ConfirmQuit => draw_quit_prompt(frame, area),
         Mode::SaveConflict { reason, .. } => draw_prompt(
             frame,
@@ -168,6 +196,37 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
     }
 }
 
+/// The C-planes' spread of `light`'s file while its curve is still the file's.
+fn spread_samples(model: &Model, light: &LightEdit) -> Option<Vec<(f64, f64, f64)>> {
+    lid_info(model, light)
+        .filter(|i| i.n_planes > 1 && i.curve == light.curve)
+        .map(|i| i.spread_samples())
+}
+
+/// The polar diagram of the selected light without its block, and the spread it draws.
+fn diagram<'a>(
+    model: &'a Model,
+    light: &'a LightEdit,
+    spread: Option<&'a [(f64, f64, f64)]>,
+) -> PolarDiagram<'a> {
+    let series = model.series.get(model.selected_light).and_then(Option::as_ref);
+    PolarDiagram {
+        curve: &light.curve,
+        series: series.map(|s| s.samples.as_slice()),
+        spread,
+        selected: model.selected_point,
+        block: Block::default(),
+    }
+}
+
+/// The peak (cd) the selected light's polar diagram shows, if there is a light: the app keeps
+/// the diagram's scale following it ([`crate::tui::polar::PolarScale::follow`]).
+pub fn polar_peak(model: &Model) -> Option<f64> {
+    let light = model.light()?;
+    let spread = spread_samples(model, light);
+    Some(diagram(model, light, spread.as_deref()).peak_cd())
+}
+
 fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &Areas) {
     let series = model.series.get(model.selected_light).and_then(Option::as_ref);
     let info = lid_info(model, light);
@@ -180,32 +239,41 @@ fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &
         _ => format!(" {} · I(γ) cd · C0–C180 ", printable(&light.name)),
     };
     // The C-planes' spread is drawn while the curve is still the file's.
-    let spread = info
-        .filter(|i| i.n_planes > 1 && i.curve == light.curve)
-        .map(|i| i.spread_samples());
-    let mut legend = polar::legend(light.order);
+    let spread = spread_samples(model, light);
+    let mut legend = polar::legend_for(light.order, model.polar.style);
     if spread.is_some() {
         legend
             .spans
             .push(Span::styled(" ━ C-planes", Style::new().fg(polar::SPREAD_COLOR)));
     }
     let diagram = PolarDiagram {
-        curve: &light.curve,
-        series: series.map(|s| s.samples.as_slice()),
-        spread: spread.as_deref(),
-        selected: model.selected_point,
         block: Block::bordered().title(title).title_bottom(legend),
+        ..diagram(model, light, spread.as_deref())
     };
-    frame.render_widget(diagram, areas.polar);
+    diagram.render_with(model.polar, areas.polar, frame.buffer_mut());
 
+    let wide = areas.table.width >= WIDE_TABLE;
     let rows = light.curve.points().map(|(gamma_deg, cd)| {
-        Row::new([
-            Cell::from(format!("{gamma_deg:>6.1}")),
-            Cell::from(format!("{cd:>9.1}")),
-        ])
+        let cd = if wide {
+            format!("{cd:>9.1}")
+        } else {
+            format!("{cd:>8.1}")
+        };
+        Row::new([Cell::from(format!("{gamma_deg:>6.1}")), Cell::from(cd)])
     });
-    let table = Table::new(rows, [Constraint::Length(7), Constraint::Length(10)])
-        .header(Row::new(["   γ °", "     I cd"]).style(Style::new().bold()))
+    let (widths, header) = if wide {
+        (
+            [Constraint::Length(7), Constraint::Length(10)],
+            ["   γ °", "     I cd"],
+        )
+    } else {
+        (
+            [Constraint::Length(6), Constraint::Length(8)],
+            ["   γ °", "    I cd"],
+        )
+    };
+    let table = Table::new(rows, widths)
+        .header(Row::new(header).style(Style::new().bold()))
         .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
         .highlight_symbol("▶")
         .block(Block::bordered().title(" points "));
@@ -241,11 +309,27 @@ fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &
         ("pos m", format_vec(light.position.to_array())),
         ("aim", format_vec(light.aim.to_array())),
     ];
-    lines.extend(
-        numbers
-            .into_iter()
-            .map(|(name, value)| Line::from(vec![Span::from(format!("{name:<8}")).dim(), Span::from(value)])),
-    );
+    // Vectors to one decimal where two do not fit (80 columns).
+    let inner_width = usize::from(areas.numbers.width.saturating_sub(2));
+    let numbers = numbers.map(|(name, value)| {
+        let vector = name == "pos m" || name == "aim";
+        let short = match name {
+            "pos m" => format_vec_to(light.position.to_array(), 1),
+            _ => format_vec_to(light.aim.to_array(), 1),
+        };
+        let value = if vector && LABEL_WIDTH + value.chars().count() > inner_width {
+            short
+        } else {
+            value
+        };
+        (name, value)
+    });
+    lines.extend(numbers.into_iter().map(|(name, value)| {
+        Line::from(vec![
+            Span::from(format!("{name:<LABEL_WIDTH$}")).dim(),
+            Span::from(value),
+        ])
+    }));
     frame.render_widget(
         Paragraph::new(lines).block(Block::bordered().title(" light ")),
         areas.numbers,
@@ -263,7 +347,12 @@ pub fn dimmer_label(dimmer: f64) -> String {
 }
 
 fn format_vec(v: [f64; 3]) -> String {
-    format!("{:.2} {:.2} {:.2}", v[0], v[1], v[2])
+    format_vec_to(v, 2)
+}
+
+/// `v` with `decimals` decimals, space-separated.
+fn format_vec_to(v: [f64; 3], decimals: usize) -> String {
+    format!("{:.decimals$} {:.decimals$} {:.decimals$}", v[0], v[1], v[2])
 }
 
 fn draw_preview(model: &Model, frame: &mut Frame<'_>, pane: Rect, preview: PreviewArea<'_>) {
@@ -300,31 +389,41 @@ fn draw_preview(model: &Model, frame: &mut Frame<'_>, pane: Rect, preview: Previ
     }
 }
 
-fn status_line(model: &Model) -> Line<'static> {
+/// The status line's parts, each with its rank: when the line is wider than the terminal the
+/// lowest ranks go first — timings (0), the protocol (1), the marked count (2), the light's name
+/// (3), bake and update progress (4); the mode, the lux at the cursor and the unsaved mark (5)
+/// always stay.
+fn status_parts(model: &Model) -> Vec<(u8, String)> {
     let mut parts = Vec::new();
     if let Some(light) = model.light() {
-        parts.push(format!(
-            " {} ({}/{})",
-            printable(&light.name),
-            model.selected_light + 1,
-            model.lights.len()
+        parts.push((
+            3,
+            format!(
+                "{} ({}/{})",
+                printable(&light.name),
+                model.selected_light + 1,
+                model.lights.len()
+            ),
         ));
     }
     if !model.marked.is_empty() {
-        parts.push(format!("{} marked", model.marked.len()));
+        parts.push((2, format!("{} marked", model.marked.len())));
     }
-    parts.push(model.mode.label().to_string());
+    parts.push((5, model.mode.label().to_string()));
     if let Some(t) = model.timings {
-        parts.push(format!(
-            "relight {:.1} · render {:.1} · encode {:.1} ms",
-            t.relight_ms, t.render_ms, t.encode_ms
+        parts.push((
+            0,
+            format!(
+                "relight {:.1} · render {:.1} · encode {:.1} ms",
+                t.relight_ms, t.render_ms, t.encode_ms
+            ),
         ));
     }
     if !model.protocol.is_empty() {
-        parts.push(model.protocol.clone());
+        parts.push((1, model.protocol.clone()));
     }
     if let Some((done, total)) = model.bake {
-        parts.push(format!("baking {done}/{total}"));
+        parts.push((4, format!("baking {done}/{total}")));
     }
     let updating: Vec<_> = model
         .lights
@@ -334,15 +433,31 @@ fn status_line(model: &Model) -> Line<'static> {
         .map(|(light, _)| printable(&light.name))
         .collect();
     if !updating.is_empty() {
-        parts.push(format!("updating {}", updating.join(", ")));
+        parts.push((4, format!("updating {}", updating.join(", "))));
     }
     if let Some(picked) = model.picked {
-        parts.push(format!("E {:.0} lx", picked.lux));
+        parts.push((5, format!("E {:.0} lx", picked.lux)));
     }
     if model.dirty {
-        parts.push("● unsaved".into());
+        parts.push((5, "● unsaved".into()));
     }
-    Line::from(parts.join(" │ "))
+    parts
+}
+
+/// The status line for a terminal `width` columns wide ([`status_parts`]).
+fn status_line(model: &Model, width: u16) -> Line<'static> {
+    let mut parts = status_parts(model);
+    let text = |parts: &[(u8, String)]| {
+        let joined: Vec<&str> = parts.iter().map(|(_, t)| t.as_str()).collect();
+        format!(" {}", joined.join(" │ "))
+    };
+    for rank in 0..5 {
+        if Line::from(text(&parts)).width() <= usize::from(width) {
+            break;
+        }
+        parts.retain(|(r, _)| *r != rank);
+    }
+    Line::from(text(&parts))
 }
 
 fn hint_line(model: &Model) -> Line<'static> {
@@ -399,8 +514,22 @@ fn help_lines() -> Vec<Line<'static>> {
     lines
 }
 
-fn draw_help(frame: &mut Frame<'_>, area: Rect) {
-    // Over the panes only: the status line and the hint bar stay visible.
+/// The help's pages for an inner area of `width × height` cells: as many columns as fit lines
+/// of the widest entry, and as many pages as the lines need (one when they all fit).
+fn help_pages(width: u16, height: u16) -> Vec<Vec<Vec<Line<'static>>>> {
+    let lines = help_lines();
+    let widest = lines.iter().map(Line::width).max().unwrap_or(1) as u16;
+    let columns = usize::from(((width + HELP_SPACING) / (widest + HELP_SPACING)).max(1));
+    let per_column = usize::from(height.max(1));
+    lines
+        .chunks(columns * per_column)
+        .map(|page| page.chunks(per_column).map(<[Line]>::to_vec).collect())
+        .collect()
+}
+
+/// The help overlay's rectangle and its inside for a terminal of `area`: over the panes only,
+/// so the status line and the hint bar stay visible.
+fn help_area(area: Rect) -> (Rect, Rect) {
     let panes = Rect {
         height: area.height.saturating_sub(2),
         ..area
@@ -410,18 +539,43 @@ fn draw_help(frame: &mut Frame<'_>, area: Rect) {
         panes.width.saturating_sub(4),
         panes.height.saturating_sub(2),
     );
+    (popup, Block::bordered().inner(popup))
+}
+
+/// How many pages the help has in a terminal of `size` (columns, rows).
+pub fn help_page_count((width, height): (u16, u16)) -> usize {
+    let (_, inner) = help_area(Rect::new(0, 0, width, height));
+    help_pages(inner.width, inner.height).len()
+}
+
+/// Columns between two help columns.
+const HELP_SPACING: u16 = 2;
+
+/// The help overlay; long help is split into pages (`model.help_page`, PgDn/PgUp).
+fn draw_help(model: &Model, frame: &mut Frame<'_>, area: Rect) {
+    let (popup, inner) = help_area(area);
     frame.render_widget(Clear, popup);
-    let block = Block::bordered().title(" keys · ? or Esc closes ");
-    let inner = block.inner(popup);
-    frame.render_widget(block, popup);
-    let lines = help_lines();
-    let per_column = usize::from(inner.height.max(1));
-    let columns = lines.len().div_ceil(per_column).max(1);
-    let column_areas = Layout::horizontal(vec![Constraint::Fill(1); columns])
-        .spacing(2)
+    let pages = help_pages(inner.width, inner.height);
+    let page = model.help_page.min(pages.len().saturating_sub(1));
+    let title = if pages.len() > 1 {
+        format!(
+            " keys · page {}/{} · PgDn/PgUp turn · ? or Esc closes ",
+            page + 1,
+            pages.len()
+        )
+    } else {
+        " keys · ? or Esc closes ".to_string()
+    };
+    frame.render_widget(Block::bordered().title(title), popup);
+    let Some(columns) = pages.get(page) else {
+        return;
+    };
+    let widest = help_lines().iter().map(Line::width).max().unwrap_or(1) as u16;
+    let column_areas = Layout::horizontal(vec![Constraint::Length(widest); columns.len()])
+        .spacing(HELP_SPACING)
         .split(inner);
-    for (chunk, column) in lines.chunks(per_column).zip(column_areas.iter()) {
-        frame.render_widget(Paragraph::new(chunk.to_vec()), *column);
+    for (lines, column) in columns.iter().zip(column_areas.iter()) {
+        frame.render_widget(Paragraph::new(lines.clone()), *column);
     }
 }
 

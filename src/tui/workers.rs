@@ -13,8 +13,6 @@ use std::time::Instant;
 
 use ratatui::crossterm::event::Event;
 use ratatui::layout::Size;
-use ratatui_image::picker::Picker;
-use ratatui_image::protocol::Protocol;
 use tiny_skia::Pixmap;
 
 use glam::DVec3;
@@ -25,9 +23,10 @@ use crate::session::{
     BakeJob, BakeOutcome, Change, Command, FrameSpec, LightStatus, Session, SessionOptions, WatchId,
 };
 use crate::transport::bake::Progress;
+use crate::tui::frame_budget::FramePlan;
 use crate::tui::msg::Msg;
 use crate::tui::panel::PanelNumbers;
-use crate::tui::preview;
+use crate::tui::preview::{self, FrameImage, ImageSetup};
 
 /// Everything that reaches the app loop.
 pub enum AppEvent {
@@ -58,7 +57,11 @@ pub struct RenderedFrame {
 /// A frame ready for the terminal.
 pub struct EncodedFrame {
     /// The new image, or `None` when the pixels did not change (nothing to re-send).
-    pub protocol: Option<Protocol>,
+    pub image: Option<FrameImage>,
+    /// The plan the frame was rendered for.
+    pub plan: FramePlan,
+    /// Bytes the terminal receives to show the new image ([`preview::frame_bytes`]).
+    pub bytes: usize,
     /// The frame's relight and render times, ms.
     pub rendered: (f64, f64),
     /// Hashing + encoding time, ms.
@@ -69,6 +72,8 @@ pub struct EncodedFrame {
 pub struct EncodeJob {
     /// The rendered frame.
     pub frame: RenderedFrame,
+    /// What it was rendered for (full or reduced).
+    pub plan: FramePlan,
     /// The preview's size in cells.
     pub cells: Size,
 }
@@ -422,35 +427,43 @@ fn spawn_bake_worker(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
 }
 
 /// Starts the encode worker: each [`EncodeJob`] (the latest when several are queued) is encoded
-/// with `picker`'s protocol unless its pixels and size equal the previous job's; answers with
-/// [`AppEvent::Encoded`] or a [`Msg::Failed`].
-pub fn spawn_encode_worker(picker: Picker, events: Sender<AppEvent>) -> Sender<EncodeJob> {
+/// for `setup` ([`preview::encode_frame`]) unless its pixels, size and plan equal the previous
+/// job's; answers with [`AppEvent::Encoded`] or a [`Msg::Failed`].
+pub fn spawn_encode_worker(setup: ImageSetup, events: Sender<AppEvent>) -> Sender<EncodeJob> {
     let (jobs, queue) = mpsc::channel::<EncodeJob>();
     thread::spawn(move || {
-        let mut previous: Option<(u64, Size)> = None;
+        let mut previous: Option<(u64, Size, FramePlan)> = None;
         while let Some(job) = latest(&queue) {
             let start = Instant::now();
             let pixmap = &job.frame.pixmap;
-            let key = (preview::pixmap_hash(pixmap), job.cells);
-            let protocol = if previous == Some(key) {
-                None
+            let key = (preview::pixmap_hash(pixmap), job.cells, job.plan);
+            let encoded = if previous == Some(key) {
+                Ok(None)
             } else {
-                match preview::encode(&picker, pixmap, job.cells) {
-                    Ok(protocol) => Some(protocol),
-                    Err(e) => {
-                        let failed = Msg::Failed {
-                            message: e.to_string(),
-                        };
-                        if events.send(AppEvent::Msg(failed)).is_err() {
-                            return;
-                        }
-                        continue;
+                let size = (pixmap.width(), pixmap.height());
+                preview::encode_frame(&setup, pixmap.data(), size, job.plan, job.cells).and_then(|image| {
+                    let area = ratatui::layout::Rect::new(0, 0, job.cells.width, job.cells.height);
+                    Ok(Some((preview::frame_bytes(&image, area)?, image)))
+                })
+            };
+            let (bytes, image) = match encoded {
+                Ok(Some((bytes, image))) => (bytes, Some(image)),
+                Ok(None) => (0, None),
+                Err(e) => {
+                    let failed = Msg::Failed {
+                        message: e.to_string(),
+                    };
+                    if events.send(AppEvent::Msg(failed)).is_err() {
+                        return;
                     }
+                    continue;
                 }
             };
             previous = Some(key);
             let encoded = EncodedFrame {
-                protocol,
+                image,
+                plan: job.plan,
+                bytes,
                 rendered: (job.frame.relight_ms, job.frame.render_ms),
                 encode_ms: ms_since(start),
             };

@@ -22,5 +22,7 @@ mod radiosity;
 mod render;
 mod render_rooms;
 mod save;
+mod terminal_e2e;
+mod terminal_frames;
 mod tui;
 mod tui_e2e;
