@@ -11,18 +11,27 @@
 
 pub mod camera;
 mod clip;
+pub mod exposure;
 pub mod golden;
+pub mod lighting;
+pub mod lookup;
 pub mod overlay;
 pub mod pick;
 pub mod raster;
 pub mod shade;
+pub mod surface;
 pub mod tone;
 
-pub use camera::View;
+pub use camera::{Projection, View};
+pub use exposure::Exposure;
+pub use lighting::{PixelLight, PixelLighting};
 pub use overlay::{LightMarker, draw_crosshair, draw_lights};
 pub use pick::{Pick, aim_direction, pick};
 pub use raster::{BACKGROUND_ID, Raster, ScreenTriangle, ScreenVertex, Target, rasterize, rasterize_into};
-pub use shade::{DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, vertex_attributes};
+pub use shade::{
+    DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, shade_pixels, vertex_attributes,
+};
+pub use surface::PixelSurfaces;
 
 use tiny_skia::Pixmap;
 

@@ -11,6 +11,7 @@ mod bake;
 mod cli;
 mod radiosity;
 mod render;
+mod render_pixels;
 mod render_rooms;
 mod tui;
 mod tui_e2e;

@@ -1,0 +1,455 @@
+//! Exact direct light at every pixel of a view, kept so that an edit of one light touches only
+//! that light's term (docs/DECISIONS.md, "Per-pixel direct light").
+//!
+//! At each visible point `p` with normal `n` (from [`PixelSurfaces`]) a light at `q` with
+//! luminous radius `a` gives `E = I(γ) · cosθ / (r² + a²) · V` (the same factor as
+//! [`crate::transport::direct::geometry_factor`]), γ the angle between the light's aim and
+//! `p − q`, V the visibility (a shadow ray through [`Occluders`]).
+//!
+//! What is kept, per pixel:
+//! * shared: the [`PixelSurfaces`] (point, triangle, weights) and `others`, the direct light of
+//!   every light but the *active* one (lx, linear RGB, dimmer and colour applied);
+//! * per light: one visibility bit (only when the scene has occluders);
+//! * for the active light (the one edited last): γ (degrees) and `cosθ / (r² + a²) · V`.
+//!
+//! A curve, dimmer or colour edit of the active light evaluates its curve once per lit pixel; a
+//! re-aim re-computes γ; editing another light makes it active (re-summing `others` over the
+//! lights once); moving a light casts its shadow rays again. Nothing accumulates: `others` is
+//! always a fresh sum, so a room whose lights are all off is exactly 0.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::Frame;
+use super::camera::View;
+use super::lookup::{CurveLookup, acos};
+use super::surface::{NO_TRIANGLE, PixelSurfaces};
+use crate::error::{Error, Result};
+use crate::photometry::LightState;
+use crate::scene::model::{PatchMesh, Surface};
+use crate::transport::direct::{Receiver, geometry_factor};
+use crate::transport::occlusion::Occluders;
+
+/// Shadow rays start this far above the visible point, along its normal (m): clear of the f32
+/// rounding of the stored point (≤ 5e-7 m in a room of 10 m).
+const RAY_LIFT_M: f64 = 1e-5;
+
+/// Pixels per parallel task.
+const PIXELS_PER_TASK: usize = 8192;
+
+/// A light as the per-pixel direct light sees it: where it is and what it emits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PixelLight {
+    /// Position (world, m).
+    pub position: DVec3,
+    /// Luminous radius `a` (m): near-field softening `cosθ / (r² + a²)`.
+    pub radius_m: f64,
+    /// Curve, aim, dimmer and colour.
+    pub state: LightState,
+}
+
+impl From<&crate::scene::Light> for PixelLight {
+    fn from(light: &crate::scene::Light) -> Self {
+        PixelLight {
+            position: light.position,
+            radius_m: light.radius,
+            state: LightState::from(light),
+        }
+    }
+}
+
+/// One light's entry: the light, its curve table and its visibility bits.
+#[derive(Debug, Clone)]
+struct Entry {
+    light: PixelLight,
+    lookup: CurveLookup,
+    /// Bit `i` set when pixel `i` sees the light unoccluded; `None` when nothing can occlude.
+    visible: Option<Vec<u64>>,
+}
+
+impl Entry {
+    #[inline]
+    fn sees(&self, i: usize) -> bool {
+        self.visible
+            .as_ref()
+            .is_none_or(|bits| bits[i / 64] >> (i % 64) & 1 == 1)
+    }
+
+    /// `(cos γ, cosθ / (r² + a²) · V)` at pixel `i`, `None` when the pixel cannot be lit.
+    #[inline]
+    fn geometry(&self, surfaces: &PixelSurfaces, i: usize) -> Option<(f64, f64)> {
+        let rx = receiver(surfaces, i)?;
+        let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, &rx)?;
+        self.sees(i).then(|| (self.light.state.aim.dot(dir), factor))
+    }
+
+    /// This light's direct illuminance (lx, linear RGB) at pixel `i`.
+    #[inline]
+    fn illuminance(&self, surfaces: &PixelSurfaces, i: usize) -> [f32; 3] {
+        let state = &self.light.state;
+        match self.geometry(surfaces, i) {
+            Some((cos_gamma, factor)) if state.dimmer > 0.0 => {
+                let e = state.dimmer * self.lookup.eval_cos(cos_gamma) * factor;
+                state.color.map(|c| (c * e) as f32)
+            }
+            _ => [0.0; 3],
+        }
+    }
+
+    fn is_dark(&self) -> bool {
+        let state = &self.light.state;
+        state.dimmer == 0.0 || state.color == [0.0; 3] || state.curve.peak_cd() == 0.0
+    }
+}
+
+/// The receiver (point, normal) at pixel `i`, `None` for the background.
+#[inline]
+fn receiver(surfaces: &PixelSurfaces, i: usize) -> Option<Receiver> {
+    let t = surfaces.triangle_codes()[i];
+    if t == NO_TRIANGLE {
+        return None;
+    }
+    Some(Receiver {
+        point: DVec3::from(surfaces.raw_points()[i].map(f64::from)),
+        normal: DVec3::from(surfaces.patch_normals()[(t / 2) as usize].map(f64::from)),
+    })
+}
+
+/// The active light's per-pixel cache.
+#[derive(Debug, Clone, Default)]
+struct Active {
+    index: usize,
+    /// γ per pixel (degrees).
+    gamma_deg: Vec<f32>,
+    /// `cosθ / (r² + a²) · V` per pixel (1/m²), 0 where the light cannot reach.
+    factor: Vec<f32>,
+}
+
+/// Per-pixel exact direct light of every light of a scene for one view.
+#[derive(Debug, Clone)]
+pub struct PixelLighting {
+    surfaces: PixelSurfaces,
+    entries: Vec<Entry>,
+    /// Direct light of every light but the active one (lx, linear RGB).
+    others: Vec<[f32; 3]>,
+    active: Option<Active>,
+}
+
+impl PixelLighting {
+    /// Per-pixel direct light of `lights` on `surfaces`, with shadow rays through `occluders`
+    /// (none: nothing occludes). Casts one shadow ray per (light, pixel facing it).
+    pub fn new(surfaces: PixelSurfaces, lights: Vec<PixelLight>, occluders: Option<&Occluders>) -> Self {
+        let entries = lights
+            .into_iter()
+            .map(|light| Entry {
+                visible: occluders.map(|o| visibility_bits(&surfaces, &light, o)),
+                lookup: CurveLookup::new(&light.state.curve),
+                light,
+            })
+            .collect();
+        let mut lighting = PixelLighting {
+            others: Vec::new(),
+            surfaces,
+            entries,
+            active: None,
+        };
+        lighting.resum_others();
+        lighting
+    }
+
+    /// Rebuilds the surfaces for a new `view` (a camera move or resize) into `frame` (see
+    /// [`PixelSurfaces::rebuild`]) and casts every light's shadow rays again, reusing the
+    /// buffers. Errors as [`PixelSurfaces::build`].
+    pub fn set_view(
+        &mut self,
+        frame: &mut Frame,
+        mesh: &PatchMesh,
+        surfaces: &[Surface],
+        view: &View,
+        occluders: Option<&Occluders>,
+    ) -> Result<()> {
+        self.surfaces.rebuild(frame, mesh, surfaces, view)?;
+        for entry in &mut self.entries {
+            entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
+        }
+        match self.active_light() {
+            Some(i) => self.activate(i),
+            None => self.resum_others(),
+        }
+        Ok(())
+    }
+
+    /// The surfaces the light is evaluated on.
+    pub fn surfaces(&self) -> &PixelSurfaces {
+        &self.surfaces
+    }
+
+    /// Number of lights.
+    pub fn n_lights(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Light `i` as last set.
+    pub fn light(&self, i: usize) -> &PixelLight {
+        &self.entries[i].light
+    }
+
+    /// The light edited last (whose per-pixel terms are cached), if any.
+    pub fn active_light(&self) -> Option<usize> {
+        self.active.as_ref().map(|a| a.index)
+    }
+
+    /// Sets light `i`'s curve, aim, dimmer and colour (aim normalised here). Only what changed is
+    /// recomputed: nothing cached for a curve, dimmer or colour change, γ per pixel for a re-aim;
+    /// a light other than the active one becomes active first (one pass over all lights).
+    ///
+    /// Errors (internal): `i` is not a light.
+    pub fn set_state(&mut self, i: usize, state: LightState) -> Result<()> {
+        self.check(i)?;
+        let state = LightState {
+            aim: state.aim.normalize(),
+            ..state
+        };
+        let entry = &mut self.entries[i];
+        let re_aimed = entry.light.state.aim != state.aim;
+        if entry.light.state.curve != state.curve {
+            entry.lookup = CurveLookup::new(&state.curve);
+        }
+        entry.light.state = state;
+        if self.active_light() != Some(i) {
+            self.activate(i);
+        } else if re_aimed {
+            self.refresh_active_gamma();
+        }
+        Ok(())
+    }
+
+    /// Moves light `i` to `position` with luminous radius `radius_m`: its shadow rays are cast
+    /// again. Errors (internal): `i` is not a light.
+    pub fn set_position(
+        &mut self,
+        i: usize,
+        position: DVec3,
+        radius_m: f64,
+        occluders: Option<&Occluders>,
+    ) -> Result<()> {
+        self.check(i)?;
+        let entry = &mut self.entries[i];
+        entry.light.position = position;
+        entry.light.radius_m = radius_m;
+        entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
+        if self.active_light() == Some(i) {
+            self.activate(i);
+        } else {
+            self.resum_others();
+        }
+        Ok(())
+    }
+
+    fn check(&self, i: usize) -> Result<()> {
+        if i < self.entries.len() {
+            Ok(())
+        } else {
+            Err(Error::internal(format!(
+                "pixel lighting: light {i} of {}",
+                self.entries.len()
+            )))
+        }
+    }
+
+    /// Makes light `i` the active one: `others` without it, its per-pixel cache built.
+    fn activate(&mut self, i: usize) {
+        let mut active = self.active.take().unwrap_or_default();
+        active.index = i;
+        let n = self.surfaces.len();
+        active.gamma_deg.resize(n, 0.0);
+        active.factor.resize(n, 0.0);
+        self.active = Some(active);
+        self.resum_others();
+        self.refresh_active_factor();
+        self.refresh_active_gamma();
+    }
+
+    /// Re-sums the direct light of every light but the active one.
+    fn resum_others(&mut self) {
+        let n = self.surfaces.len();
+        self.others.resize(n, [0.0; 3]);
+        let skip = self.active_light();
+        let lit: Vec<&Entry> = self
+            .entries
+            .iter()
+            .enumerate()
+            .filter(|&(k, e)| Some(k) != skip && !e.is_dark())
+            .map(|(_, e)| e)
+            .collect();
+        let surfaces = &self.surfaces;
+        self.others
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                let start = chunk * PIXELS_PER_TASK;
+                for (k, o) in out.iter_mut().enumerate() {
+                    let mut sum = [0.0f32; 3];
+                    for entry in &lit {
+                        let e = entry.illuminance(surfaces, start + k);
+                        for ch in 0..3 {
+                            sum[ch] += e[ch];
+                        }
+                    }
+                    *o = sum;
+                }
+            });
+    }
+
+    /// The active light's `cosθ / (r² + a²) · V` per pixel.
+    fn refresh_active_factor(&mut self) {
+        let Some(active) = self.active.as_mut() else {
+            return;
+        };
+        let entry = &self.entries[active.index];
+        let surfaces = &self.surfaces;
+        active
+            .factor
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                let start = chunk * PIXELS_PER_TASK;
+                for (k, f) in out.iter_mut().enumerate() {
+                    *f = entry
+                        .geometry(surfaces, start + k)
+                        .map_or(0.0, |(_, factor)| factor as f32);
+                }
+            });
+    }
+
+    /// The active light's γ per pixel for its current aim.
+    fn refresh_active_gamma(&mut self) {
+        let Some(active) = self.active.as_mut() else {
+            return;
+        };
+        let light = &self.entries[active.index].light;
+        let (position, aim) = (light.position, light.state.aim);
+        let points = self.surfaces.raw_points();
+        active
+            .gamma_deg
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .zip(active.factor.par_chunks(PIXELS_PER_TASK))
+            .enumerate()
+            .for_each(|(chunk, (gamma, factor))| {
+                let start = chunk * PIXELS_PER_TASK;
+                for (k, (g, &f)) in gamma.iter_mut().zip(factor).enumerate() {
+                    if f == 0.0 {
+                        continue;
+                    }
+                    let d = DVec3::from(points[start + k].map(f64::from)) - position;
+                    *g = acos(aim.dot(d) / d.length()).to_degrees() as f32;
+                }
+            });
+    }
+
+    /// Direct illuminance (lx, linear RGB) of every light at every pixel into `out` (resized to
+    /// the pixel count); the background gets 0.
+    pub fn direct_into(&self, out: &mut Vec<[f32; 3]>) {
+        self.compose_into(None, out);
+    }
+
+    /// Direct plus indirect illuminance (lx, linear RGB) at every pixel into `out` (resized to
+    /// the pixel count): `indirect_lx` holds per-vertex indirect light of the mesh the surfaces
+    /// were built from, interpolated over each pixel's triangle (Gouraud). Negative sums (ringing
+    /// of a truncated indirect series) read 0 (+0, never −0); the background gets 0.
+    ///
+    /// Errors (internal): `indirect_lx` does not hold one value per vertex.
+    pub fn illuminance_into(&self, indirect_lx: &[[f32; 3]], out: &mut Vec<[f32; 3]>) -> Result<()> {
+        let needed = self.surfaces.n_vertices();
+        if indirect_lx.len() != needed {
+            return Err(Error::internal(format!(
+                "pixel lighting: {} indirect values for {needed} vertices",
+                indirect_lx.len()
+            )));
+        }
+        self.compose_into(Some(indirect_lx), out);
+        Ok(())
+    }
+
+    fn compose_into(&self, indirect: Option<&[[f32; 3]]>, out: &mut Vec<[f32; 3]>) {
+        let n = self.surfaces.len();
+        out.resize(n, [0.0; 3]);
+        let active = self.active.as_ref().map(|a| (a, &self.entries[a.index]));
+        let term = active.and_then(|(a, entry)| {
+            let s = &entry.light.state;
+            (!entry.is_dark()).then(|| (a, &entry.lookup, s.color.map(|c| (c * s.dimmer) as f32)))
+        });
+        let surfaces = &self.surfaces;
+        out.par_chunks_mut(PIXELS_PER_TASK)
+            .zip(self.others.par_chunks(PIXELS_PER_TASK))
+            .enumerate()
+            .for_each(|(chunk, (out, others))| {
+                let start = chunk * PIXELS_PER_TASK;
+                for (k, (o, other)) in out.iter_mut().zip(others).enumerate() {
+                    let i = start + k;
+                    let mut e = *other;
+                    if let Some((a, lookup, scale)) = &term {
+                        let f = a.factor[i];
+                        if f != 0.0 {
+                            let intensity = lookup.eval_deg(f64::from(a.gamma_deg[i])) as f32 * f;
+                            for ch in 0..3 {
+                                e[ch] += scale[ch] * intensity;
+                            }
+                        }
+                    }
+                    if let Some(values) = indirect {
+                        let ind = surfaces.interpolate(i, values);
+                        for ch in 0..3 {
+                            e[ch] += ind[ch];
+                        }
+                    }
+                    *o = e.map(non_negative);
+                }
+            });
+    }
+
+    /// Bytes held per pixel whatever the number of lights (surfaces, `others`, the active
+    /// light's cache), and per (light, pixel) (a visibility bit when something can occlude).
+    pub fn memory_per_pixel(&self) -> (f64, f64) {
+        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 8;
+        let per_light = if self.entries.iter().any(|e| e.visible.is_some()) {
+            1.0 / 8.0
+        } else {
+            0.0
+        };
+        (shared as f64, per_light)
+    }
+}
+
+/// `x` when positive, else +0 (never −0 or NaN: a dark pixel reads 0 lx).
+#[inline]
+fn non_negative(x: f32) -> f32 {
+    if x > 0.0 { x } else { 0.0 }
+}
+
+/// Visibility bits of `light` at every pixel: set where the pixel faces the light and the shadow
+/// ray from just above the point to the light is free.
+fn visibility_bits(surfaces: &PixelSurfaces, light: &PixelLight, occluders: &Occluders) -> Vec<u64> {
+    let n = surfaces.len();
+    let mut bits = vec![0u64; n.div_ceil(64)];
+    bits.par_iter_mut()
+        .with_min_len(PIXELS_PER_TASK / 64)
+        .enumerate()
+        .for_each(|(word, out)| {
+            for b in 0..64 {
+                let i = word * 64 + b;
+                if i >= n {
+                    break;
+                }
+                let Some(rx) = receiver(surfaces, i) else { continue };
+                if geometry_factor(light.position, light.radius_m, &rx).is_none() {
+                    continue;
+                }
+                let from = rx.point + rx.normal * RAY_LIFT_M;
+                if !occluders.blocked(from, light.position) {
+                    *out |= 1 << b;
+                }
+            }
+        });
+    bits
+}
