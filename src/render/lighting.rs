@@ -10,20 +10,30 @@
 //! * shared: the [`PixelSurfaces`] (point, triangle, weights) and `others`, the direct light of
 //!   every light but the *active* one (lx, linear RGB, dimmer and colour applied);
 //! * per light: one visibility bit (only when the scene has occluders);
-//! * for the active light (the one edited last): γ (degrees) and `cosθ / (r² + a²) · V`.
+//! * for the active light (the one edited last): γ (degrees), its curve coordinate
+//!   ([`super::lookup`]) and `cosθ / (r² + a²) · V`, 12 bytes.
 //!
-//! A curve, dimmer or colour edit of the active light evaluates its curve once per lit pixel; a
-//! re-aim re-computes γ; editing another light makes it active (re-summing `others` over the
+//! A dimmer or colour edit of the active light, or a curve edit that moves no angle, costs one
+//! interpolation per pixel; a curve edit that moves an angle re-derives the coordinates from γ;
+//! a re-aim re-computes γ; editing another light makes it active (re-summing `others` over the
 //! lights once); moving a light casts its shadow rays again. Nothing accumulates: `others` is
 //! always a fresh sum, so a room whose lights are all off is exactly 0.
+//!
+//! Shadow rays are cast per 16 × 16 tile of pixels: when no occluder reaches into the box around
+//! the light and the tile's points ([`Occluders::may_block_within`]), the whole tile sees the
+//! light without a ray.
+//!
+//! [`PixelLighting::render_into`] adds the per-vertex indirect light (Gouraud over each pixel's
+//! triangle) and shades the pixel in the same pass.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::Frame;
 use super::camera::View;
 use super::lookup::{CurveLookup, acos};
+use super::shade::{DisplayShader, Shader};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
+use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::photometry::LightState;
 use crate::scene::model::{PatchMesh, Surface};
@@ -121,6 +131,8 @@ struct Active {
     index: usize,
     /// γ per pixel (degrees).
     gamma_deg: Vec<f32>,
+    /// The curve coordinate of γ per pixel (−1 outside the curve).
+    coordinate: Vec<f32>,
     /// `cosθ / (r² + a²) · V` per pixel (1/m²), 0 where the light cannot reach.
     factor: Vec<f32>,
 }
@@ -212,14 +224,19 @@ impl PixelLighting {
         };
         let entry = &mut self.entries[i];
         let re_aimed = entry.light.state.aim != state.aim;
+        let mut angles_moved = false;
         if entry.light.state.curve != state.curve {
-            entry.lookup = CurveLookup::new(&state.curve);
+            let lookup = CurveLookup::new(&state.curve);
+            angles_moved = !entry.lookup.same_angles(&lookup);
+            entry.lookup = lookup;
         }
         entry.light.state = state;
         if self.active_light() != Some(i) {
             self.activate(i);
         } else if re_aimed {
             self.refresh_active_gamma();
+        } else if angles_moved {
+            self.refresh_active_coordinates();
         }
         Ok(())
     }
@@ -263,6 +280,7 @@ impl PixelLighting {
         active.index = i;
         let n = self.surfaces.len();
         active.gamma_deg.resize(n, 0.0);
+        active.coordinate.resize(n, -1.0);
         active.factor.resize(n, 0.0);
         self.active = Some(active);
         self.resum_others();
@@ -322,7 +340,7 @@ impl PixelLighting {
             });
     }
 
-    /// The active light's γ per pixel for its current aim.
+    /// The active light's γ per pixel for its current aim, and the curve coordinates.
     fn refresh_active_gamma(&mut self) {
         let Some(active) = self.active.as_mut() else {
             return;
@@ -345,6 +363,29 @@ impl PixelLighting {
                     *g = acos(aim.dot(d) / d.length()).to_degrees() as f32;
                 }
             });
+        self.refresh_active_coordinates();
+    }
+
+    /// The active light's curve coordinate per pixel, from γ.
+    fn refresh_active_coordinates(&mut self) {
+        let Some(active) = self.active.as_mut() else {
+            return;
+        };
+        let lookup = &self.entries[active.index].lookup;
+        active
+            .coordinate
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .zip(active.gamma_deg.par_chunks(PIXELS_PER_TASK))
+            .zip(active.factor.par_chunks(PIXELS_PER_TASK))
+            .for_each(|((coordinate, gamma), factor)| {
+                for ((u, &g), &f) in coordinate.iter_mut().zip(gamma).zip(factor) {
+                    *u = if f == 0.0 {
+                        -1.0
+                    } else {
+                        lookup.coordinate_deg(f64::from(g))
+                    };
+                }
+            });
     }
 
     /// Direct illuminance (lx, linear RGB) of every light at every pixel into `out` (resized to
@@ -360,50 +401,158 @@ impl PixelLighting {
     ///
     /// Errors (internal): `indirect_lx` does not hold one value per vertex.
     pub fn illuminance_into(&self, indirect_lx: &[[f32; 3]], out: &mut Vec<[f32; 3]>) -> Result<()> {
-        let needed = self.surfaces.n_vertices();
-        if indirect_lx.len() != needed {
-            return Err(Error::internal(format!(
-                "pixel lighting: {} indirect values for {needed} vertices",
-                indirect_lx.len()
-            )));
-        }
+        self.check_indirect(indirect_lx)?;
         self.compose_into(Some(indirect_lx), out);
         Ok(())
     }
 
-    fn compose_into(&self, indirect: Option<&[[f32; 3]]>, out: &mut Vec<[f32; 3]>) {
+    /// Shades every pixel of `frame` (built with the surfaces) in one pass: the illuminance of
+    /// [`PixelLighting::illuminance_into`] (direct alone when `indirect_lx` is `None`) through
+    /// `shader` (photo shaders see the luminance `ρ E / π` of the pixel's surface, false colour the
+    /// illuminance; the background gets [`BACKGROUND_RGB`]). With `lux` the illuminance is also
+    /// written there (resized), for the legend's isolux lines, picking and PFM files.
+    ///
+    /// Errors (internal): `indirect_lx` is not one value per vertex, or `frame` is not the
+    /// surfaces' size.
+    pub fn render_into(
+        &self,
+        frame: &mut Frame,
+        indirect_lx: Option<&[[f32; 3]]>,
+        shader: &DisplayShader,
+        lux: Option<&mut Vec<[f32; 3]>>,
+    ) -> Result<()> {
+        if let Some(values) = indirect_lx {
+            self.check_indirect(values)?;
+        }
         let n = self.surfaces.len();
-        out.resize(n, [0.0; 3]);
-        let active = self.active.as_ref().map(|a| (a, &self.entries[a.index]));
-        let term = active.and_then(|(a, entry)| {
-            let s = &entry.light.state;
-            (!entry.is_dark()).then(|| (a, &entry.lookup, s.color.map(|c| (c * s.dimmer) as f32)))
-        });
+        if frame.depth.len() != n {
+            return Err(Error::internal(format!(
+                "pixel lighting: a frame of {} pixels for {n} surface pixels",
+                frame.depth.len()
+            )));
+        }
+        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
+        let photo = matches!(shader, DisplayShader::Photo(_));
         let surfaces = &self.surfaces;
+        let shade = |i: usize, e: [f32; 3]| {
+            if surfaces.triangle_codes()[i] == NO_TRIANGLE {
+                return background;
+            }
+            let value = if photo {
+                let f = surfaces.luminance_factor(i);
+                [f[0] * e[0], f[1] * e[1], f[2] * e[2]]
+            } else {
+                e
+            };
+            let [r, g, b] = shader.shade(value);
+            [r, g, b, 255]
+        };
+        let (pixels, _) = frame.pixmap.data_mut().as_chunks_mut::<4>();
+        match lux {
+            Some(lux) => {
+                self.compose_into(indirect_lx, lux);
+                pixels
+                    .par_chunks_mut(PIXELS_PER_TASK)
+                    .zip(lux.par_chunks(PIXELS_PER_TASK))
+                    .enumerate()
+                    .for_each(|(chunk, (pixels, lux))| {
+                        let start = chunk * PIXELS_PER_TASK;
+                        for (k, (p, &e)) in pixels.iter_mut().zip(lux).enumerate() {
+                            *p = shade(start + k, e);
+                        }
+                    });
+            }
+            None => {
+                let term = self.active_term();
+                pixels
+                    .par_chunks_mut(PIXELS_PER_TASK)
+                    .zip(self.others.par_chunks(PIXELS_PER_TASK))
+                    .enumerate()
+                    .for_each(|(chunk, (pixels, others))| {
+                        let start = chunk * PIXELS_PER_TASK;
+                        for (k, (p, other)) in pixels.iter_mut().zip(others).enumerate() {
+                            let i = start + k;
+                            *p = shade(i, self.pixel(i, other, &term, indirect_lx));
+                        }
+                    });
+            }
+        }
+        Ok(())
+    }
+
+    /// The illuminance (lx, linear RGB) at pixel `i` alone, as [`PixelLighting::illuminance_into`]
+    /// computes it (the lux under the cursor); `None` for a pixel outside the image.
+    ///
+    /// Errors (internal): `indirect_lx` is not one value per vertex.
+    pub fn illuminance_at(&self, i: usize, indirect_lx: Option<&[[f32; 3]]>) -> Result<Option<[f32; 3]>> {
+        if let Some(values) = indirect_lx {
+            self.check_indirect(values)?;
+        }
+        Ok(self
+            .others
+            .get(i)
+            .map(|other| self.pixel(i, other, &self.active_term(), indirect_lx)))
+    }
+
+    fn check_indirect(&self, indirect_lx: &[[f32; 3]]) -> Result<()> {
+        let needed = self.surfaces.n_vertices();
+        if indirect_lx.len() == needed {
+            Ok(())
+        } else {
+            Err(Error::internal(format!(
+                "pixel lighting: {} indirect values for {needed} vertices",
+                indirect_lx.len()
+            )))
+        }
+    }
+
+    /// The active light's cache, its curve and its dimmer × colour, unless it is dark.
+    fn active_term(&self) -> Option<(&Active, &CurveLookup, [f32; 3])> {
+        let active = self.active.as_ref()?;
+        let entry = &self.entries[active.index];
+        let s = &entry.light.state;
+        (!entry.is_dark()).then(|| (active, &entry.lookup, s.color.map(|c| (c * s.dimmer) as f32)))
+    }
+
+    /// The illuminance at pixel `i` (lx, linear RGB, ≥ +0): `others` plus the active light plus
+    /// the interpolated indirect light.
+    #[inline]
+    fn pixel(
+        &self,
+        i: usize,
+        others: &[f32; 3],
+        term: &Option<(&Active, &CurveLookup, [f32; 3])>,
+        indirect: Option<&[[f32; 3]]>,
+    ) -> [f32; 3] {
+        let mut e = *others;
+        if let Some((active, lookup, scale)) = term {
+            let f = active.factor[i];
+            if f != 0.0 {
+                let intensity = lookup.at_coordinate(active.coordinate[i]) * f;
+                for ch in 0..3 {
+                    e[ch] += scale[ch] * intensity;
+                }
+            }
+        }
+        if let Some(values) = indirect {
+            let ind = self.surfaces.interpolate(i, values);
+            for ch in 0..3 {
+                e[ch] += ind[ch];
+            }
+        }
+        e.map(non_negative)
+    }
+
+    fn compose_into(&self, indirect: Option<&[[f32; 3]]>, out: &mut Vec<[f32; 3]>) {
+        out.resize(self.surfaces.len(), [0.0; 3]);
+        let term = self.active_term();
         out.par_chunks_mut(PIXELS_PER_TASK)
             .zip(self.others.par_chunks(PIXELS_PER_TASK))
             .enumerate()
             .for_each(|(chunk, (out, others))| {
                 let start = chunk * PIXELS_PER_TASK;
                 for (k, (o, other)) in out.iter_mut().zip(others).enumerate() {
-                    let i = start + k;
-                    let mut e = *other;
-                    if let Some((a, lookup, scale)) = &term {
-                        let f = a.factor[i];
-                        if f != 0.0 {
-                            let intensity = lookup.eval_deg(f64::from(a.gamma_deg[i])) as f32 * f;
-                            for ch in 0..3 {
-                                e[ch] += scale[ch] * intensity;
-                            }
-                        }
-                    }
-                    if let Some(values) = indirect {
-                        let ind = surfaces.interpolate(i, values);
-                        for ch in 0..3 {
-                            e[ch] += ind[ch];
-                        }
-                    }
-                    *o = e.map(non_negative);
+                    *o = self.pixel(start + k, other, &term, indirect);
                 }
             });
     }
@@ -411,7 +560,7 @@ impl PixelLighting {
     /// Bytes held per pixel whatever the number of lights (surfaces, `others`, the active
     /// light's cache), and per (light, pixel) (a visibility bit when something can occlude).
     pub fn memory_per_pixel(&self) -> (f64, f64) {
-        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 8;
+        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 12;
         let per_light = if self.entries.iter().any(|e| e.visible.is_some()) {
             1.0 / 8.0
         } else {
@@ -427,29 +576,54 @@ fn non_negative(x: f32) -> f32 {
     if x > 0.0 { x } else { 0.0 }
 }
 
+/// Side of the square pixel tiles whose shadow rays are skipped together.
+const TILE: usize = 16;
+
 /// Visibility bits of `light` at every pixel: set where the pixel faces the light and the shadow
-/// ray from just above the point to the light is free.
+/// ray from just above the point to the light is free. Tiles of [`TILE`]² pixels into whose box
+/// (with the light) no occluder reaches are visible without rays.
 fn visibility_bits(surfaces: &PixelSurfaces, light: &PixelLight, occluders: &Occluders) -> Vec<u64> {
-    let n = surfaces.len();
-    let mut bits = vec![0u64; n.div_ceil(64)];
-    bits.par_iter_mut()
-        .with_min_len(PIXELS_PER_TASK / 64)
+    let (n, w) = (surfaces.len(), surfaces.width() as usize);
+    let mut visible = vec![false; n];
+    visible
+        .par_chunks_mut(TILE * w.max(1))
         .enumerate()
-        .for_each(|(word, out)| {
-            for b in 0..64 {
-                let i = word * 64 + b;
-                if i >= n {
-                    break;
+        .for_each(|(band, rows)| {
+            let first = band * TILE * w;
+            let height = rows.len() / w.max(1);
+            let mut starts: Vec<(usize, DVec3)> = Vec::with_capacity(TILE * TILE);
+            for x0 in (0..w).step_by(TILE) {
+                starts.clear();
+                let (mut lo, mut hi) = (light.position, light.position);
+                for y in 0..height {
+                    for x in x0..(x0 + TILE).min(w) {
+                        let k = y * w + x;
+                        let Some(rx) = receiver(surfaces, first + k) else {
+                            continue;
+                        };
+                        if geometry_factor(light.position, light.radius_m, &rx).is_none() {
+                            continue;
+                        }
+                        let from = rx.point + rx.normal * RAY_LIFT_M;
+                        lo = lo.min(from);
+                        hi = hi.max(from);
+                        starts.push((k, from));
+                    }
                 }
-                let Some(rx) = receiver(surfaces, i) else { continue };
-                if geometry_factor(light.position, light.radius_m, &rx).is_none() {
-                    continue;
-                }
-                let from = rx.point + rx.normal * RAY_LIFT_M;
-                if !occluders.blocked(from, light.position) {
-                    *out |= 1 << b;
+                let tile_may_be_blocked = !starts.is_empty() && occluders.may_block_within(lo, hi);
+                for &(k, from) in &starts {
+                    rows[k] = !tile_may_be_blocked || !occluders.blocked(from, light.position);
                 }
             }
+        });
+    let mut bits = vec![0u64; n.div_ceil(64)];
+    bits.par_iter_mut()
+        .zip(visible.par_chunks(64))
+        .for_each(|(word, flags)| {
+            *word = flags
+                .iter()
+                .enumerate()
+                .fold(0, |acc, (b, &on)| acc | (u64::from(on) << b));
         });
     bits
 }

@@ -1,6 +1,11 @@
 //! Per-pixel curve evaluation without a binary search or a libm call: [`CurveLookup`] finds a
 //! curve's segment through a table over γ and returns exactly what [`Curve::eval_deg`] returns
 //! (same comparisons, same arithmetic); [`acos`] is a polynomial arc cosine accurate to 2.5e-8 rad.
+//!
+//! For a light being edited the per-pixel angle can be kept as a **curve coordinate**
+//! `u = k + t` ([`CurveLookup::coordinate_deg`]): the segment's first control point `k` and the
+//! fraction `t` along it. An edit that changes intensities but no angle (the usual key press)
+//! then costs one interpolation per pixel ([`CurveLookup::at_coordinate`]).
 
 use crate::photometry::Curve;
 
@@ -17,6 +22,8 @@ pub struct CurveLookup {
     first: Vec<u16>,
     /// `cos` of the last control point's angle minus a margin: below it the curve is 0.
     cos_last: f64,
+    /// The intensities (cd) in f32, the last one repeated once (so `k + 1` is always valid).
+    values: Vec<f32>,
 }
 
 impl CurveLookup {
@@ -30,8 +37,11 @@ impl CurveLookup {
             })
             .collect();
         let last = gamma_deg[gamma_deg.len() - 1];
+        let mut values: Vec<f32> = curve.intensities_cd().iter().map(|&i| i as f32).collect();
+        values.push(values[values.len() - 1]);
         CurveLookup {
             cos_last: last.to_radians().cos() - 1e-9,
+            values,
             intensity_cd: curve.intensities_cd().to_vec(),
             first,
             gamma_deg,
@@ -57,10 +67,51 @@ impl CurveLookup {
     /// Intensity (cd) at `gamma_deg`: [`Curve::eval_deg`], bit for bit.
     #[inline]
     pub fn eval_deg(&self, gamma_deg: f64) -> f64 {
+        match self.segment(gamma_deg) {
+            None => 0.0,
+            Some((i, None)) => self.intensity_cd[i],
+            Some((i, Some(t))) => {
+                self.intensity_cd[i - 1] + t * (self.intensity_cd[i] - self.intensity_cd[i - 1])
+            }
+        }
+    }
+
+    /// The curve coordinate `k + t` of `gamma_deg` (module docs), or −1 outside the curve.
+    #[inline]
+    pub fn coordinate_deg(&self, gamma_deg: f64) -> f32 {
+        match self.segment(gamma_deg) {
+            None => -1.0,
+            Some((i, None)) => i as f32,
+            Some((i, Some(t))) => ((i - 1) as f64 + t) as f32,
+        }
+    }
+
+    /// Intensity (cd) at curve coordinate `u` (from [`CurveLookup::coordinate_deg`] of a curve
+    /// with the same angles): 0 for a negative `u`.
+    #[inline]
+    pub fn at_coordinate(&self, u: f32) -> f32 {
+        if u < 0.0 {
+            return 0.0;
+        }
+        let k = u as usize;
+        let t = u - k as f32;
+        let (a, b) = (self.values[k], self.values[k + 1]);
+        a + t * (b - a)
+    }
+
+    /// True when `other` has the same control-point angles (its curve coordinates are valid here).
+    pub fn same_angles(&self, other: &CurveLookup) -> bool {
+        self.gamma_deg == other.gamma_deg
+    }
+
+    /// `None` outside the curve; else the first point `i` with `γ_i ≥ γ` and, unless γ is on a
+    /// point (or before the first), the fraction `t` along the segment `i − 1 → i`.
+    #[inline]
+    fn segment(&self, gamma_deg: f64) -> Option<(usize, Option<f64>)> {
         let g = &self.gamma_deg;
         let last = g.len() - 1;
         if !(gamma_deg >= g[0] && gamma_deg <= g[last]) {
-            return 0.0;
+            return None;
         }
         let bucket = ((gamma_deg * BUCKETS_PER_DEG) as usize).min(N_BUCKETS - 1);
         let mut i = usize::from(self.first[bucket]);
@@ -68,11 +119,10 @@ impl CurveLookup {
             i += 1;
         }
         if i == 0 || g[i] == gamma_deg {
-            return self.intensity_cd[i];
+            return Some((i, None));
         }
         let (a, b) = (g[i - 1], g[i]);
-        let t = (gamma_deg - a) / (b - a);
-        self.intensity_cd[i - 1] + t * (self.intensity_cd[i] - self.intensity_cd[i - 1])
+        Some((i, Some((gamma_deg - a) / (b - a))))
     }
 }
 
@@ -135,6 +185,38 @@ mod tests {
                 assert_eq!(lookup.eval_rad(g.to_radians()), curve.eval_rad(g.to_radians()));
             }
         }
+    }
+
+    #[test]
+    fn curve_coordinates_survive_intensity_edits() {
+        let curve = Curve::new(&[
+            (0.0, 4000.0),
+            (8.0, 4000.0),
+            (8.0, 1500.0),
+            (15.0, 1500.0),
+            (40.0, 0.0),
+        ])
+        .unwrap();
+        let mut edited = curve.clone();
+        edited.set_intensity(3, 2500.0).unwrap();
+        edited.set_intensity(0, 100.0).unwrap();
+        let (lookup, after) = (CurveLookup::new(&curve), CurveLookup::new(&edited));
+        assert!(lookup.same_angles(&after));
+        for k in 0..=4_000 {
+            let gamma = -1.0 + 50.0 * f64::from(k) / 4_000.0;
+            let u = lookup.coordinate_deg(gamma);
+            for (l, c) in [(&lookup, &curve), (&after, &edited)] {
+                let exact = c.eval_deg(gamma);
+                let got = f64::from(l.at_coordinate(u));
+                assert!(
+                    (got - exact).abs() <= 1e-6 * 4000.0,
+                    "γ = {gamma}: {got} vs {exact}"
+                );
+            }
+        }
+        let mut moved = curve.clone();
+        moved.set_gamma(4, 45.0).unwrap();
+        assert!(!lookup.same_angles(&CurveLookup::new(&moved)));
     }
 
     #[test]

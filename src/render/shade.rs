@@ -13,12 +13,8 @@
 
 use std::f64::consts::PI;
 
-use rayon::prelude::*;
-
 use super::exposure::{DEFAULT_EV100, auto_key, ev100_of_key, exposure_of_key, key_of_ev100};
-use super::surface::PixelSurfaces;
 use super::tone::{self, tone_srgb8};
-use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::scene::model::{PatchMesh, Surface};
 
@@ -297,57 +293,6 @@ impl Shader for DisplayShader {
         }
     }
 }
-
-/// Shades per-pixel illuminance `illuminance_lx` (lx, linear RGB, one per pixel of
-/// `surfaces`, e.g. from [`super::PixelLighting::illuminance_into`]) into `frame`'s colour image:
-/// photo shaders see the luminance `ρ E / π` of the pixel's surface, false colour the
-/// illuminance; pixels without a surface get [`BACKGROUND_RGB`]. Depth and ids are untouched.
-///
-/// Errors (internal): `frame` or `illuminance_lx` do not match the surfaces' size.
-pub fn shade_pixels(
-    frame: &mut Frame,
-    surfaces: &PixelSurfaces,
-    illuminance_lx: &[[f32; 3]],
-    shader: &DisplayShader,
-) -> Result<()> {
-    let n = surfaces.len();
-    if illuminance_lx.len() != n || frame.depth.len() != n {
-        return Err(Error::internal(format!(
-            "shade: {} illuminance values and {} frame pixels for {n} surface pixels",
-            illuminance_lx.len(),
-            frame.depth.len()
-        )));
-    }
-    let (pixels, _) = frame.pixmap.data_mut().as_chunks_mut::<4>();
-    let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
-    let photo = matches!(shader, DisplayShader::Photo(_));
-    pixels
-        .par_chunks_mut(PIXELS_PER_TASK)
-        .zip(illuminance_lx.par_chunks(PIXELS_PER_TASK))
-        .enumerate()
-        .for_each(|(chunk, (out, lux))| {
-            let start = chunk * PIXELS_PER_TASK;
-            for (k, (o, e)) in out.iter_mut().zip(lux).enumerate() {
-                let i = start + k;
-                if surfaces.patch(i).is_none() {
-                    *o = background;
-                    continue;
-                }
-                let value = if photo {
-                    let f = surfaces.luminance_factor(i);
-                    [f[0] * e[0], f[1] * e[1], f[2] * e[2]]
-                } else {
-                    *e
-                };
-                let [r, g, b] = shader.shade(value);
-                *o = [r, g, b, 255];
-            }
-        });
-    Ok(())
-}
-
-/// Pixels per parallel task when shading.
-const PIXELS_PER_TASK: usize = 8192;
 
 /// Viridis (matplotlib's perceptually uniform scale) at 9 evenly spaced stops, sRGB8.
 pub const VIRIDIS: [[u8; 3]; 9] = [

@@ -3,12 +3,13 @@
 //!
 //! The curve ([`tone_curve`]): up to mid-grey `x_m = 0.18 / 0.82` it is Reinhard's `x / (1 + x)`
 //! then the sRGB transfer, so a surface at the key luminance shows at display value 0.18 (sRGB8
-//! 118). Above it a highlight shoulder in stops: the encoded value approaches white as
-//! `v = 1 − (1 − v_m) · exp(−s / S)` with `s = log₂(x / x_m)` and `S` chosen so that the curve's
-//! slope is continuous at mid-grey (S ≈ 4.4 stops). Every stop above mid-grey keeps about 80 % of
-//! the levels of the one below, so a spot pool 5 stops above the key still shows its gradient
-//! (≈ 10 sRGB8 levels per stop there) instead of clipping to flat white as Reinhard does; sRGB8
-//! 255 is reached about 25 stops above mid-grey.
+//! 118). Above mid-grey the encoded value rises **linearly in stops** `s = log₂(x / x_m)`,
+//! reaching 90 % of the way to white [`HIGHLIGHT_STOPS`] × 0.9 stops up, then bends into white
+//! with a continuous slope (`1 − v` decays exponentially). Every stop up to 6.3 stops above the
+//! key gets the same ≈ 20 sRGB8 levels, so a spot pool 6 stops above the key shows its gradient
+//! where Reinhard leaves it at 247–251 (≈ 4 levels per stop), nearly flat white; sRGB8 255 is
+//! reached about 9 stops above mid-grey. (An exponential shoulder from mid-grey cannot do this:
+//! at 6 stops it gives at most ≈ 8 levels per stop.)
 //!
 //! The table is indexed by the bits of the f32 `x`: its exponent and top [`MANTISSA_BITS`]
 //! mantissa bits, i.e. `x` on a logarithmic grid with 256 steps per octave (bins 0.27 % wide).
@@ -43,6 +44,12 @@ static TABLE: LazyLock<[u8; TABLE_SIZE]> = LazyLock::new(|| {
 /// Exposed luminance shown as mid-grey (display value 0.18 under Reinhard).
 const X_MID: f64 = 0.18 / 0.82;
 
+/// Stops above mid-grey at which the linear part of the highlights would reach white.
+pub const HIGHLIGHT_STOPS: f64 = 7.0;
+
+/// Fraction of the range above mid-grey covered linearly before the bend into white.
+const KNEE_FRACTION: f64 = 0.9;
+
 /// The encoded display value (sRGB, 0–1) of an exposed luminance `x ≥ 0` (module docs).
 pub fn tone_curve(x: f64) -> f64 {
     if x.is_nan() || x <= 0.0 {
@@ -52,16 +59,14 @@ pub fn tone_curve(x: f64) -> f64 {
         return srgb_encode(x / (1.0 + x));
     }
     let v_mid = srgb_encode(X_MID / (1.0 + X_MID));
-    (1.0 - (1.0 - v_mid) * (-(x / X_MID).log2() / shoulder_stops()).exp()).min(1.0)
-}
-
-/// The shoulder's e-folding length in stops: `(1 − v_m) / (dv/ds at mid-grey)`, where the
-/// Reinhard + sRGB branch has slope `dv/ds = sRGB'(y) · x ln 2 / (1 + x)²` at `x_m`.
-pub fn shoulder_stops() -> f64 {
-    let y = X_MID / (1.0 + X_MID);
-    let srgb_slope = 1.055 / 2.4 * y.powf(1.0 / 2.4 - 1.0);
-    let slope_per_stop = srgb_slope * X_MID * std::f64::consts::LN_2 / (1.0 + X_MID).powi(2);
-    (1.0 - srgb_encode(y)) / slope_per_stop
+    let per_stop = (1.0 - v_mid) / HIGHLIGHT_STOPS;
+    let knee_stops = KNEE_FRACTION * HIGHLIGHT_STOPS;
+    let stops = (x / X_MID).log2();
+    if stops <= knee_stops {
+        return v_mid + per_stop * stops;
+    }
+    let v_knee = v_mid + per_stop * knee_stops;
+    1.0 - (1.0 - v_knee) * (-(stops - knee_stops) * per_stop / (1.0 - v_knee)).exp()
 }
 
 /// The tone table, for callers that look up many values (one lazy-init check).
@@ -70,7 +75,7 @@ pub fn table() -> &'static [u8; TABLE_SIZE] {
     &TABLE
 }
 
-/// sRGB8 of `x / (1 + x)` for an exposed luminance `x` (negative and NaN show black), by
+/// sRGB8 of [`tone_curve`] for an exposed luminance `x` (negative and NaN show black), by
 /// `table` (from [`table`]).
 #[inline(always)]
 pub fn tone_srgb8(table: &[u8; TABLE_SIZE], x: f32) -> u8 {
@@ -120,28 +125,23 @@ mod tests {
         assert_eq!(tone_srgb8(t, 0.18 / 0.82), 118);
     }
 
-    /// Below mid-grey the curve is Reinhard + sRGB; at mid-grey value and slope (per stop) are
-    /// continuous; above, every quarter stop up to 8 stops gets at least one sRGB8 level of its
-    /// own, and 5 stops above mid-grey is far from white.
+    /// Below mid-grey the curve is Reinhard + sRGB; above it every stop up to 6 gets about
+    /// 20 levels (every quarter stop up to 7 stops at least one of its own); value and slope
+    /// are continuous at the knee; 255 only from about 9 stops up.
     #[test]
-    fn the_shoulder_continues_reinhard_smoothly_and_keeps_highlights_apart() {
-        for x in [1e-4, 0.01, 0.1, 0.2, X_MID] {
-            assert!(
-                (tone_curve(x) - srgb_encode(x / (1.0 + x))).abs() < 1e-15,
-                "x = {x}"
-            );
-        }
+    fn highlights_rise_evenly_in_stops_and_bend_smoothly_into_white() {
         let reinhard = |x: f64| srgb_encode(x / (1.0 + x));
-        let h: f64 = 1e-6;
-        let below = (reinhard(X_MID) - reinhard(X_MID * (-h).exp2())) / h;
-        let above = (tone_curve(X_MID * h.exp2()) - tone_curve(X_MID)) / h;
-        assert!(
-            (below - above).abs() < 1e-4 * below,
-            "slopes {below} and {above} per stop"
-        );
-        assert!((shoulder_stops() - 4.4).abs() < 0.05, "{}", shoulder_stops());
-        let level = |stops: f64| (tone_curve(X_MID * stops.exp2()) * 255.0).round();
-        for q in 0..32 {
+        for x in [1e-4, 0.01, 0.1, 0.2, X_MID] {
+            assert!((tone_curve(x) - reinhard(x)).abs() < 1e-15, "x = {x}");
+        }
+        let at = |stops: f64| tone_curve(X_MID * stops.exp2());
+        let level = |stops: f64| (at(stops) * 255.0).round();
+        assert!((at(1e-9) - at(0.0)).abs() < 1e-9, "continuous at mid-grey");
+        for s in 0..6 {
+            let gained = level(f64::from(s) + 1.0) - level(f64::from(s));
+            assert!((19.0..=20.0).contains(&gained), "stop {s}: {gained} levels");
+        }
+        for q in 0..28 {
             let s = f64::from(q) / 4.0;
             assert!(
                 level(s + 0.25) > level(s),
@@ -150,10 +150,16 @@ mod tests {
                 level(s + 0.25)
             );
         }
-        assert_eq!(level(5.0), 211.0);
+        let knee = KNEE_FRACTION * HIGHLIGHT_STOPS;
+        let h = 1e-7;
+        let (left, right) = ((at(knee) - at(knee - h)) / h, (at(knee + h) - at(knee)) / h);
         assert!(
-            reinhard(X_MID * 32.0) * 255.0 > 240.0,
-            "Reinhard alone is near white there"
+            (left - right).abs() < 1e-5 * left,
+            "slopes {left} and {right} at the knee"
         );
+        assert!(level(8.0) < 255.0 && level(9.5) == 255.0);
+        // Six stops above the key, Reinhard has 4 levels per stop left; this curve 20.
+        let reinhard_levels = ((reinhard(X_MID * 128.0) - reinhard(X_MID * 64.0)) * 255.0).round();
+        assert!(reinhard_levels <= 4.0, "{reinhard_levels}");
     }
 }

@@ -9,7 +9,7 @@
 
 use std::time::Duration;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3A};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle};
 
 use crate::scene::{Aabb, PatchMesh, Scene, SurfaceKind};
@@ -96,6 +96,31 @@ impl Occluders {
         self.len() == 0
     }
 
+    /// False when no occluder reaches into the box `min`–`max` (world, m), so no segment inside
+    /// it can be blocked: a conservative test (boxes by their extent, triangles by their BVH
+    /// nodes) for skipping the shadow rays of a whole tile of receivers.
+    pub fn may_block_within(&self, min: DVec3, max: DVec3) -> bool {
+        if self
+            .boxes
+            .iter()
+            .any(|b| b.min.cmplt(max).all() && b.max.cmpgt(min).all())
+        {
+            return true;
+        }
+        let Some(tris) = &self.triangles else { return false };
+        let margin = Vec3A::splat(TRIANGLE_END_M);
+        let bounds = obvhs::aabb::Aabb {
+            min: min.as_vec3a() - margin,
+            max: max.as_vec3a() + margin,
+        };
+        let mut hit = false;
+        tris.bvh.aabb_traverse(bounds, |_, _| {
+            hit = true;
+            false
+        });
+        hit
+    }
+
     /// True when any occluder meets the open segment `from → to`.
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
         let d = to - from;
@@ -179,6 +204,24 @@ mod tests {
         assert!(!occ.blocked(DVec3::new(0.0, 1.0, 2.0), DVec3::new(3.0, 1.0, 2.0)));
         // No occluders at all (a forced visibility pass in an empty room) blocks nothing.
         assert!(!Occluders::from_parts(&[], &[]).blocked(light, DVec3::ZERO));
+    }
+
+    #[test]
+    fn may_block_within_is_false_only_where_nothing_reaches() {
+        let occ = Occluders::from_parts(
+            &[unit_box([1.0, 1.0, 0.0], [2.0, 2.0, 1.0])],
+            &[[
+                DVec3::new(4.0, 4.0, 2.0),
+                DVec3::new(5.0, 4.0, 2.0),
+                DVec3::new(4.0, 5.0, 2.0),
+            ]],
+        );
+        assert!(occ.may_block_within(DVec3::new(1.5, 1.5, 0.5), DVec3::new(3.0, 3.0, 3.0)));
+        assert!(occ.may_block_within(DVec3::new(4.2, 4.2, 1.0), DVec3::new(4.3, 4.3, 3.0)));
+        // Beside the box (touching its face is not reaching into it), and far from both.
+        assert!(!occ.may_block_within(DVec3::new(2.0, 0.0, 0.0), DVec3::new(3.0, 3.0, 3.0)));
+        assert!(!occ.may_block_within(DVec3::new(0.0, 0.0, 1.5), DVec3::new(3.0, 3.0, 1.9)));
+        assert!(!Occluders::from_parts(&[], &[]).may_block_within(DVec3::ZERO, DVec3::ONE));
     }
 
     #[test]

@@ -13,5 +13,6 @@ mod radiosity;
 mod render;
 mod render_pixels;
 mod render_rooms;
+mod render_views;
 mod tui;
 mod tui_e2e;

@@ -10,8 +10,7 @@ use std::path::Path;
 use glam::DVec3;
 use haiko::photometry::{Curve, LightState};
 use haiko::render::{
-    DisplayShader, Exposure, Frame, PixelLight, PixelLighting, PixelSurfaces, View, shade_pixels,
-    vertex_attributes,
+    DisplayShader, Exposure, Frame, PixelLight, PixelLighting, PixelSurfaces, View, vertex_attributes,
 };
 use haiko::scene::{self, Scene};
 use haiko::transport::occlusion::Occluders;
@@ -454,7 +453,9 @@ fn a_room_with_every_light_off_is_exactly_zero_and_black() {
     let attrs = vec![[0.0f32; 3]; scene.fine.n_vertices()];
     for exposure in [Exposure::Auto, Exposure::Fixed { ev100: 4.0 }] {
         let shader = DisplayShader::Photo(exposure.photo(&scene.fine, &attrs));
-        shade_pixels(&mut frame, lighting.surfaces(), &lux, &shader).unwrap();
+        lighting
+            .render_into(&mut frame, Some(&indirect), &shader, None)
+            .unwrap();
         let lit: Vec<(usize, [u8; 3])> = frame
             .pixmap
             .pixels()
@@ -480,16 +481,7 @@ fn dimming_every_light_to_ten_percent_darkens_the_photo_at_a_fixed_exposure() {
     let (mut lighting, mut frame, _) = lighting(&scene);
     let indirect = vec![[5.0f32; 3]; scene.fine.n_vertices()];
     let mean_value = |lighting: &PixelLighting, frame: &mut Frame, exposure: &Exposure, vertex_lux: f32| {
-        let mut lux = Vec::new();
-        lighting
-            .illuminance_into(
-                &indirect
-                    .iter()
-                    .map(|e| e.map(|x| x * vertex_lux))
-                    .collect::<Vec<_>>(),
-                &mut lux,
-            )
-            .unwrap();
+        let scaled: Vec<[f32; 3]> = indirect.iter().map(|e| e.map(|x| x * vertex_lux)).collect();
         let vertex: Vec<[f64; 3]> = vec![[f64::from(100.0 * vertex_lux); 3]; scene.fine.n_vertices()];
         let attrs = vertex_attributes(
             haiko::render::DisplayMode::Photo,
@@ -499,7 +491,7 @@ fn dimming_every_light_to_ten_percent_darkens_the_photo_at_a_fixed_exposure() {
         )
         .unwrap();
         let shader = DisplayShader::Photo(exposure.photo(&scene.fine, &attrs));
-        shade_pixels(frame, lighting.surfaces(), &lux, &shader).unwrap();
+        lighting.render_into(frame, Some(&scaled), &shader, None).unwrap();
         let sum: u64 = frame
             .pixmap
             .pixels()
