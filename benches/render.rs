@@ -350,9 +350,87 @@ fn pixel_camera(c: &mut Criterion) {
     group.finish();
 }
 
+/// The per-pixel stages alone on one thread (office): the relighter's edit, its indirect total,
+/// the per-pixel state change, the fused light-and-shade pass; and for a camera move the
+/// surfaces alone and the whole `set_view` (surfaces, shadow rays, direct light of every light).
+fn pixel_stages(c: &mut Criterion) {
+    let mut preview = PixelPreview::new("office");
+    let base = preview.relighter.light(0).curve.clone();
+    let curves = [edited_curve(&base, 1.1), base];
+    preview.edit(&curves[0]);
+    let one = pool(1);
+    let mut group = c.benchmark_group("pixel_stages_office_1-thread");
+    let mut toggle = 0;
+    group.bench_function("relighter_set_curve", |b| {
+        b.iter(|| {
+            toggle ^= 1;
+            one.install(|| preview.relighter.set_curve(0, curves[toggle].clone()));
+        })
+    });
+    group.bench_function("indirect_into", |b| {
+        b.iter(|| one.install(|| preview.relighter.indirect_into(&mut preview.indirect)))
+    });
+    group.bench_function("set_state_curve", |b| {
+        b.iter(|| {
+            toggle ^= 1;
+            let mut state = preview.lighting.light(0).state.clone();
+            state.curve = curves[toggle].clone();
+            one.install(|| preview.lighting.set_state(0, state).expect("light 0"));
+        })
+    });
+    group.bench_function("render_into", |b| {
+        b.iter(|| {
+            one.install(|| {
+                preview
+                    .lighting
+                    .render_into(&mut preview.frame, Some(&preview.indirect), &preview.shader, None)
+                    .expect("sizes match")
+            })
+        })
+    });
+    let markers = light_markers(&preview.scene);
+    group.bench_function("overlays", |b| {
+        b.iter(|| draw_lights(&mut preview.frame, &preview.view, &markers))
+    });
+    group.sample_size(10);
+    let view = preview.view;
+    group.bench_function("surfaces_rebuild", |b| {
+        b.iter(|| {
+            one.install(|| {
+                black_box(
+                    PixelSurfaces::build(
+                        &mut preview.frame,
+                        &preview.scene.fine,
+                        &preview.scene.surfaces,
+                        &view,
+                    )
+                    .expect("surfaces"),
+                )
+            })
+        })
+    });
+    group.bench_function("set_view", |b| {
+        b.iter(|| {
+            one.install(|| {
+                preview
+                    .lighting
+                    .set_view(
+                        &mut preview.frame,
+                        &preview.scene.fine,
+                        &preview.scene.surfaces,
+                        &view,
+                        preview.occluders.as_ref(),
+                    )
+                    .expect("surfaces")
+            })
+        })
+    });
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = configured();
-    targets = pixel_edit, pixel_camera, relight_and_rasterise, stages
+    targets = pixel_edit, pixel_camera, pixel_stages, relight_and_rasterise, stages
 }
 criterion_main!(benches);

@@ -39,6 +39,26 @@ pub enum Projection {
     },
 }
 
+/// Pixel rays as affine functions of pixel coordinates ([`View::pixel_ray_basis`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayBasis {
+    /// Origin at pixel (0, 0) and its change per pixel in x and in y (world, m).
+    pub origin: [DVec3; 3],
+    /// Direction (not normalised) at pixel (0, 0) and its change per pixel in x and in y.
+    pub dir: [DVec3; 3],
+}
+
+impl RayBasis {
+    /// Origin and (not normalised) direction of the ray through `(x, y)`.
+    #[inline]
+    pub fn ray(&self, x: f64, y: f64) -> (DVec3, DVec3) {
+        (
+            self.origin[0] + x * self.origin[1] + y * self.origin[2],
+            self.dir[0] + x * self.dir[1] + y * self.dir[2],
+        )
+    }
+}
+
 /// A camera looking at the scene through an image of `width × height` pixels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct View {
@@ -207,6 +227,26 @@ impl View {
                 (self.camera.eye, (on_near - self.camera.eye).normalize())
             }
             Projection::Orthographic { .. } => (self.unproject(x, y, 1.0), self.forward()),
+        }
+    }
+
+    /// The pixel rays as affine functions of the continuous pixel coordinates: the ray through
+    /// `(x, y)` starts at `origin[0] + x·origin[1] + y·origin[2]` and runs along
+    /// `dir[0] + x·dir[1] + y·dir[2]` (not normalised) — the same rays as
+    /// [`View::pixel_ray`], without a matrix product per pixel.
+    pub fn pixel_ray_basis(&self) -> RayBasis {
+        let at = |x: f64, y: f64| {
+            let (o, _) = self.pixel_ray(x, y);
+            let d = match self.projection {
+                Projection::Perspective => self.unproject(x, y, 1.0) - self.camera.eye,
+                Projection::Orthographic { .. } => self.forward(),
+            };
+            (o, d)
+        };
+        let ((o0, d0), (ox, dx), (oy, dy)) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0));
+        RayBasis {
+            origin: [o0, ox - o0, oy - o0],
+            dir: [d0, dx - d0, dy - d0],
         }
     }
 

@@ -33,6 +33,7 @@ use super::camera::View;
 use super::lookup::{CurveLookup, acos};
 use super::shade::{DisplayShader, Shader};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
+use super::tone::{self, tone_srgb8};
 use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::photometry::LightState;
@@ -85,24 +86,21 @@ impl Entry {
             .is_none_or(|bits| bits[i / 64] >> (i % 64) & 1 == 1)
     }
 
-    /// `(cos γ, cosθ / (r² + a²) · V)` at pixel `i`, `None` when the pixel cannot be lit.
+    /// `(cos γ, cosθ / (r² + a²) · V)` at pixel `i` (receiver `rx`), `None` when the pixel
+    /// cannot be lit.
     #[inline]
-    fn geometry(&self, surfaces: &PixelSurfaces, i: usize) -> Option<(f64, f64)> {
-        let rx = receiver(surfaces, i)?;
-        let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, &rx)?;
+    fn geometry(&self, rx: &Receiver, i: usize) -> Option<(f64, f64)> {
+        let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, rx)?;
         self.sees(i).then(|| (self.light.state.aim.dot(dir), factor))
     }
 
-    /// This light's direct illuminance (lx, linear RGB) at pixel `i`.
+    /// This light's direct illuminance (lx, before colour, dimmer applied) at pixel `i`
+    /// (receiver `rx`).
     #[inline]
-    fn illuminance(&self, surfaces: &PixelSurfaces, i: usize) -> [f32; 3] {
-        let state = &self.light.state;
-        match self.geometry(surfaces, i) {
-            Some((cos_gamma, factor)) if state.dimmer > 0.0 => {
-                let e = state.dimmer * self.lookup.eval_cos(cos_gamma) * factor;
-                state.color.map(|c| (c * e) as f32)
-            }
-            _ => [0.0; 3],
+    fn illuminance(&self, rx: &Receiver, i: usize) -> f64 {
+        match self.geometry(rx, i) {
+            Some((cos_gamma, factor)) => self.light.state.dimmer * self.lookup.eval_cos(cos_gamma) * factor,
+            None => 0.0,
         }
     }
 
@@ -135,6 +133,14 @@ struct Active {
     coordinate: Vec<f32>,
     /// `cosθ / (r² + a²) · V` per pixel (1/m²), 0 where the light cannot reach.
     factor: Vec<f32>,
+}
+
+/// Where a shading pass takes the illuminance from.
+enum Source<'a> {
+    /// Already composed, one value per pixel.
+    Lux(&'a [[f32; 3]]),
+    /// Composed on the fly, with this per-vertex indirect light.
+    Compose(Option<&'a [[f32; 3]]>),
 }
 
 /// Per-pixel exact direct light of every light of a scene for one view.
@@ -307,11 +313,17 @@ impl PixelLighting {
             .for_each(|(chunk, out)| {
                 let start = chunk * PIXELS_PER_TASK;
                 for (k, o) in out.iter_mut().enumerate() {
+                    let i = start + k;
                     let mut sum = [0.0f32; 3];
-                    for entry in &lit {
-                        let e = entry.illuminance(surfaces, start + k);
-                        for ch in 0..3 {
-                            sum[ch] += e[ch];
+                    if let Some(rx) = receiver(surfaces, i) {
+                        for entry in &lit {
+                            let e = entry.illuminance(&rx, i);
+                            if e != 0.0 {
+                                let color = entry.light.state.color;
+                                for ch in 0..3 {
+                                    sum[ch] += (color[ch] * e) as f32;
+                                }
+                            }
                         }
                     }
                     *o = sum;
@@ -333,8 +345,8 @@ impl PixelLighting {
             .for_each(|(chunk, out)| {
                 let start = chunk * PIXELS_PER_TASK;
                 for (k, f) in out.iter_mut().enumerate() {
-                    *f = entry
-                        .geometry(surfaces, start + k)
+                    *f = receiver(surfaces, start + k)
+                        .and_then(|rx| entry.geometry(&rx, start + k))
                         .map_or(0.0, |(_, factor)| factor as f32);
                 }
             });
@@ -431,53 +443,79 @@ impl PixelLighting {
                 frame.depth.len()
             )));
         }
-        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
-        let photo = matches!(shader, DisplayShader::Photo(_));
-        let surfaces = &self.surfaces;
-        let shade = |i: usize, e: [f32; 3]| {
-            if surfaces.triangle_codes()[i] == NO_TRIANGLE {
-                return background;
-            }
-            let value = if photo {
-                let f = surfaces.luminance_factor(i);
-                [f[0] * e[0], f[1] * e[1], f[2] * e[2]]
-            } else {
-                e
-            };
-            let [r, g, b] = shader.shade(value);
-            [r, g, b, 255]
-        };
         let (pixels, _) = frame.pixmap.data_mut().as_chunks_mut::<4>();
         match lux {
             Some(lux) => {
                 self.compose_into(indirect_lx, lux);
-                pixels
-                    .par_chunks_mut(PIXELS_PER_TASK)
-                    .zip(lux.par_chunks(PIXELS_PER_TASK))
-                    .enumerate()
-                    .for_each(|(chunk, (pixels, lux))| {
-                        let start = chunk * PIXELS_PER_TASK;
-                        for (k, (p, &e)) in pixels.iter_mut().zip(lux).enumerate() {
-                            *p = shade(start + k, e);
-                        }
-                    });
+                self.shade_chunks(pixels, shader, Source::Lux(lux));
             }
-            None => {
-                let term = self.active_term();
-                pixels
-                    .par_chunks_mut(PIXELS_PER_TASK)
-                    .zip(self.others.par_chunks(PIXELS_PER_TASK))
-                    .enumerate()
-                    .for_each(|(chunk, (pixels, others))| {
-                        let start = chunk * PIXELS_PER_TASK;
-                        for (k, (p, other)) in pixels.iter_mut().zip(others).enumerate() {
-                            let i = start + k;
-                            *p = shade(i, self.pixel(i, other, &term, indirect_lx));
-                        }
-                    });
-            }
+            None => self.shade_chunks(pixels, shader, Source::Compose(indirect_lx)),
         }
         Ok(())
+    }
+
+    /// Calls `f(k, E)` with the illuminance of pixel `start + k`, `k < len`, from `source`.
+    #[inline]
+    fn illuminance_chunk(
+        &self,
+        source: &Source,
+        start: usize,
+        len: usize,
+        mut f: impl FnMut(usize, [f32; 3]),
+    ) {
+        match source {
+            Source::Lux(lux) => {
+                for (k, &e) in lux[start..start + len].iter().enumerate() {
+                    f(k, e);
+                }
+            }
+            Source::Compose(indirect) => self.compose_chunk(start, len, *indirect, f),
+        }
+    }
+
+    /// Shades `pixels` chunk by chunk in parallel from the illuminance `source`; the shader is
+    /// chosen once per chunk, outside the per-pixel loop.
+    fn shade_chunks(&self, pixels: &mut [[u8; 4]], shader: &DisplayShader, source: Source) {
+        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
+        let triangles = self.surfaces.triangle_codes();
+        let luminance = self.surfaces.patch_luminance_factors();
+        let table = tone::table();
+        pixels
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, pixels)| {
+                let start = chunk * PIXELS_PER_TASK;
+                let triangles = &triangles[start..start + pixels.len()];
+                match shader {
+                    DisplayShader::Photo(photo) => {
+                        let exposure = photo.exposure() as f32;
+                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
+                            let t = triangles[k];
+                            pixels[k] = if t == NO_TRIANGLE {
+                                background
+                            } else {
+                                let f = luminance[(t >> 1) as usize];
+                                [
+                                    tone_srgb8(table, f[0] * e[0] * exposure),
+                                    tone_srgb8(table, f[1] * e[1] * exposure),
+                                    tone_srgb8(table, f[2] * e[2] * exposure),
+                                    255,
+                                ]
+                            };
+                        });
+                    }
+                    DisplayShader::FalseColor(scale) => {
+                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
+                            pixels[k] = if triangles[k] == NO_TRIANGLE {
+                                background
+                            } else {
+                                let [r, g, b] = scale.shade(e);
+                                [r, g, b, 255]
+                            };
+                        });
+                    }
+                }
+            });
     }
 
     /// The illuminance (lx, linear RGB) at pixel `i` alone, as [`PixelLighting::illuminance_into`]
@@ -488,10 +526,12 @@ impl PixelLighting {
         if let Some(values) = indirect_lx {
             self.check_indirect(values)?;
         }
-        Ok(self
-            .others
-            .get(i)
-            .map(|other| self.pixel(i, other, &self.active_term(), indirect_lx)))
+        if i >= self.surfaces.len() {
+            return Ok(None);
+        }
+        let mut value = [0.0; 3];
+        self.compose_chunk(i, 1, indirect_lx, |_, e| value = e);
+        Ok(Some(value))
     }
 
     fn check_indirect(&self, indirect_lx: &[[f32; 3]]) -> Result<()> {
@@ -506,54 +546,69 @@ impl PixelLighting {
         }
     }
 
-    /// The active light's cache, its curve and its dimmer × colour, unless it is dark.
-    fn active_term(&self) -> Option<(&Active, &CurveLookup, [f32; 3])> {
-        let active = self.active.as_ref()?;
-        let entry = &self.entries[active.index];
-        let s = &entry.light.state;
-        (!entry.is_dark()).then(|| (active, &entry.lookup, s.color.map(|c| (c * s.dimmer) as f32)))
-    }
-
-    /// The illuminance at pixel `i` (lx, linear RGB, ≥ +0): `others` plus the active light plus
-    /// the interpolated indirect light.
+    /// Calls `f(k, E)` with the illuminance `E` (lx, linear RGB, ≥ +0) of pixel `start + k` for
+    /// `k < len`: `others`, plus the active light, plus the indirect light interpolated over the
+    /// pixel's triangle. One tight loop over the chunk's slices (the editor's hot path).
     #[inline]
-    fn pixel(
+    fn compose_chunk(
         &self,
-        i: usize,
-        others: &[f32; 3],
-        term: &Option<(&Active, &CurveLookup, [f32; 3])>,
+        start: usize,
+        len: usize,
         indirect: Option<&[[f32; 3]]>,
-    ) -> [f32; 3] {
-        let mut e = *others;
-        if let Some((active, lookup, scale)) = term {
-            let f = active.factor[i];
-            if f != 0.0 {
-                let intensity = lookup.at_coordinate(active.coordinate[i]) * f;
-                for ch in 0..3 {
-                    e[ch] += scale[ch] * intensity;
+        mut f: impl FnMut(usize, [f32; 3]),
+    ) {
+        let range = start..start + len;
+        let others = &self.others[range.clone()];
+        let triangles = &self.surfaces.triangle_codes()[range.clone()];
+        let weights = &self.surfaces.raw_weights()[range.clone()];
+        let vertices = self.surfaces.patch_vertex_ids();
+        let active = self.active.as_ref().and_then(|active| {
+            let entry = &self.entries[active.index];
+            let s = &entry.light.state;
+            let scale = [0, 1, 2].map(|ch| (s.color[ch] * s.dimmer) as f32);
+            (!entry.is_dark()).then(|| {
+                (
+                    &active.factor[range.clone()],
+                    &active.coordinate[range.clone()],
+                    &entry.lookup,
+                    scale,
+                )
+            })
+        });
+        for k in 0..len {
+            let mut e = others[k];
+            if let Some((factor, coordinate, lookup, scale)) = active {
+                let g = factor[k];
+                if g != 0.0 {
+                    let intensity = lookup.at_coordinate(coordinate[k]) * g;
+                    e[0] += scale[0] * intensity;
+                    e[1] += scale[1] * intensity;
+                    e[2] += scale[2] * intensity;
                 }
             }
-        }
-        if let Some(values) = indirect {
-            let ind = self.surfaces.interpolate(i, values);
-            for ch in 0..3 {
-                e[ch] += ind[ch];
+            let t = triangles[k];
+            if let Some(values) = indirect
+                && t != NO_TRIANGLE
+            {
+                let v = vertices[(t >> 1) as usize];
+                let (b, c) = if t & 1 == 0 { (v[1], v[2]) } else { (v[2], v[3]) };
+                let (va, vb, vc) = (values[v[0] as usize], values[b as usize], values[c as usize]);
+                let [wb, wc] = weights[k];
+                let wa = 1.0 - wb - wc;
+                e[0] += wa * va[0] + wb * vb[0] + wc * vc[0];
+                e[1] += wa * va[1] + wb * vb[1] + wc * vc[1];
+                e[2] += wa * va[2] + wb * vb[2] + wc * vc[2];
             }
+            f(k, [non_negative(e[0]), non_negative(e[1]), non_negative(e[2])]);
         }
-        e.map(non_negative)
     }
 
     fn compose_into(&self, indirect: Option<&[[f32; 3]]>, out: &mut Vec<[f32; 3]>) {
         out.resize(self.surfaces.len(), [0.0; 3]);
-        let term = self.active_term();
         out.par_chunks_mut(PIXELS_PER_TASK)
-            .zip(self.others.par_chunks(PIXELS_PER_TASK))
             .enumerate()
-            .for_each(|(chunk, (out, others))| {
-                let start = chunk * PIXELS_PER_TASK;
-                for (k, (o, other)) in out.iter_mut().zip(others).enumerate() {
-                    *o = self.pixel(start + k, other, &term, indirect);
-                }
+            .for_each(|(chunk, out)| {
+                self.compose_chunk(chunk * PIXELS_PER_TASK, out.len(), indirect, |k, e| out[k] = e);
             });
     }
 

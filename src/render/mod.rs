@@ -26,7 +26,7 @@ pub mod surface;
 pub mod text;
 pub mod tone;
 
-pub use camera::{Projection, View};
+pub use camera::{Projection, RayBasis, View};
 pub use exposure::Exposure;
 pub use legend::{Legend, draw_isolux, draw_legend, round_levels};
 pub use lighting::{PixelLight, PixelLighting};

@@ -11,7 +11,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::camera::View;
+use super::camera::{RayBasis, View};
 use super::raster::{BACKGROUND_ID, Target, rasterize_into};
 use super::{BACKGROUND_RGB, Frame, clip};
 use crate::error::{Error, Result};
@@ -121,6 +121,7 @@ impl PixelSurfaces {
         let row = width as usize;
         let ids = frame.ids.as_slice();
         let depth = &frame.depth;
+        let rays = view.pixel_ray_basis();
         self.points
             .par_chunks_mut(row)
             .zip(self.triangles.par_chunks_mut(row))
@@ -136,7 +137,7 @@ impl PixelSurfaces {
                     }
                     let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
                     let patch = &mesh.patches[id as usize];
-                    let point = visible_point(view, mesh, patch, px, py, f64::from(depth[i]));
+                    let point = visible_point(view, &rays, mesh, patch, px, py, f64::from(depth[i]));
                     let (half, w) = triangle_weights(mesh, patch, point);
                     points[x] = point.as_vec3().to_array();
                     triangles[x] = 2 * id + half;
@@ -208,19 +209,6 @@ impl PixelSurfaces {
         (ids, [1.0 - w[0] - w[1], w[0], w[1]])
     }
 
-    /// Per-vertex `values` interpolated at pixel `i`; `[0; 3]` for the background. The caller
-    /// guarantees one value per vertex of the mesh the surfaces were built from.
-    #[inline]
-    pub(crate) fn interpolate(&self, i: usize, values: &[[f32; 3]]) -> [f32; 3] {
-        let t = self.triangles[i];
-        if t == NO_TRIANGLE {
-            return [0.0; 3];
-        }
-        let (ids, w) = self.corners_of(t, self.weights[i]);
-        let [a, b, c] = ids.map(|v| values[v as usize]);
-        [0, 1, 2].map(|ch| w[0] * a[ch] + w[1] * b[ch] + w[2] * c[ch])
-    }
-
     /// `ρ / π` (sr⁻¹, per channel) of the surface at pixel `i`: luminance (cd/m²) per lux;
     /// `[0; 3]` for the background.
     #[inline]
@@ -234,6 +222,21 @@ impl PixelSurfaces {
     /// Raw per-pixel triangle codes (`2 · patch + half` or [`NO_TRIANGLE`]).
     pub(crate) fn triangle_codes(&self) -> &[u32] {
         &self.triangles
+    }
+
+    /// Raw per-pixel barycentric weights of the triangle's 2nd and 3rd corner.
+    pub(crate) fn raw_weights(&self) -> &[[f32; 2]] {
+        &self.weights
+    }
+
+    /// Per-patch vertex ids (first 3 or 4 used).
+    pub(crate) fn patch_vertex_ids(&self) -> &[[u32; 4]] {
+        &self.patch_vertices
+    }
+
+    /// Per-patch `ρ / π` (sr⁻¹, per channel).
+    pub(crate) fn patch_luminance_factors(&self) -> &[[f32; 3]] {
+        &self.patch_luminance
     }
 
     /// Raw per-pixel points (world, m, f32).
@@ -284,7 +287,7 @@ fn seal_cracks(frame: &mut Frame, mesh: &PatchMesh, view: &View) {
                     if view.culls_back_faces() && !view.sees_front(patch.normal, patch.centroid) {
                         return None;
                     }
-                    let point = visible_point(view, mesh, patch, px, py, 0.0);
+                    let point = visible_point(view, &view.pixel_ray_basis(), mesh, patch, px, py, 0.0);
                     let (half, w) = triangle_weights(mesh, patch, point);
                     let v = patch.vertices;
                     let corners = if half == 0 {
@@ -320,16 +323,17 @@ const MIN_RAY_PLANE_COS: f64 = 1e-6;
 /// point (`depth`) when the ray grazes the plane.
 fn visible_point(
     view: &View,
+    rays: &RayBasis,
     mesh: &PatchMesh,
     patch: &crate::scene::model::Patch,
     x: f64,
     y: f64,
     depth: f64,
 ) -> DVec3 {
-    let (origin, dir) = view.pixel_ray(x, y);
+    let (origin, dir) = rays.ray(x, y);
     let on_plane = mesh.positions[patch.vertices[0] as usize];
     let denominator = patch.normal.dot(dir);
-    if denominator.abs() > MIN_RAY_PLANE_COS {
+    if denominator.abs() > MIN_RAY_PLANE_COS * dir.length() {
         let t = patch.normal.dot(on_plane - origin) / denominator;
         if t > 0.0 && t.is_finite() {
             return origin + t * dir;
@@ -354,6 +358,9 @@ fn triangle_weights(mesh: &PatchMesh, patch: &crate::scene::model::Patch, point:
         let inside = w[0].min(w[1]).min(w[2]);
         if inside > best.2 {
             best = (half as u32, w, inside);
+        }
+        if inside >= 0.0 {
+            break;
         }
     }
     let w = best.1.map(|x| x.max(0.0));
