@@ -19,9 +19,9 @@
 //! lights once); moving a light casts its shadow rays again. Nothing accumulates: `others` is
 //! always a fresh sum, so a room whose lights are all off is exactly 0.
 //!
-//! Shadow rays are cast per 16 × 16 tile of pixels: when no occluder reaches into the box around
-//! the light and the tile's points ([`Occluders::may_block_within`]), the whole tile sees the
-//! light without a ray.
+//! Shadow rays are cast per 16 × 16 tile of pixels against only the occluders that reach into
+//! the box around the light and the tile's points ([`Occluders::within`]); when none does, the
+//! whole tile sees the light without a ray.
 //!
 //! [`PixelLighting::render_into`] adds the per-vertex indirect light (Gouraud over each pixel's
 //! triangle) and shades the pixel in the same pass.
@@ -635,8 +635,8 @@ fn non_negative(x: f32) -> f32 {
 const TILE: usize = 16;
 
 /// Visibility bits of `light` at every pixel: set where the pixel faces the light and the shadow
-/// ray from just above the point to the light is free. Tiles of [`TILE`]² pixels into whose box
-/// (with the light) no occluder reaches are visible without rays.
+/// ray from just above the point to the light is free. Tiles of [`TILE`]² pixels test only the
+/// occluders reaching into their box with the light, and none cast rays when none does.
 fn visibility_bits(surfaces: &PixelSurfaces, light: &PixelLight, occluders: &Occluders) -> Vec<u64> {
     let (n, w) = (surfaces.len(), surfaces.width() as usize);
     let mut visible = vec![false; n];
@@ -665,9 +665,12 @@ fn visibility_bits(surfaces: &PixelSurfaces, light: &PixelLight, occluders: &Occ
                         starts.push((k, from));
                     }
                 }
-                let tile_may_be_blocked = !starts.is_empty() && occluders.may_block_within(lo, hi);
+                if starts.is_empty() {
+                    continue;
+                }
+                let near = occluders.within(lo, hi);
                 for &(k, from) in &starts {
-                    rows[k] = !tile_may_be_blocked || !occluders.blocked(from, light.position);
+                    rows[k] = near.is_empty() || !near.blocked(from, light.position);
                 }
             }
         });

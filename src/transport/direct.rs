@@ -118,7 +118,7 @@ pub fn geometry_factor(position: DVec3, radius_m: f64, rx: &Receiver) -> Option<
     if r2 < MIN_DISTANCE_M * MIN_DISTANCE_M {
         return None;
     }
-    let dir = to / r2.sqrt();
+    let dir = to * (1.0 / r2.sqrt()); // one division, not three
     let cos_incidence = -rx.normal.dot(dir);
     (cos_incidence > 0.0).then(|| (dir, cos_incidence / (r2 + radius_m * radius_m)))
 }

@@ -96,53 +96,76 @@ impl Occluders {
         self.len() == 0
     }
 
-    /// False when no occluder reaches into the box `min`–`max` (world, m), so no segment inside
-    /// it can be blocked: a conservative test (boxes by their extent, triangles by their BVH
-    /// nodes) for skipping the shadow rays of a whole tile of receivers.
-    pub fn may_block_within(&self, min: DVec3, max: DVec3) -> bool {
-        if self
+    /// The occluders that reach into the box `min`–`max` (world, m): boxes by their extent,
+    /// triangles by their BVH nodes (conservatively). A segment inside that box can be blocked
+    /// only by these, so the shadow rays of a tile of receivers test them alone — or none at all
+    /// when the view is empty.
+    pub fn within(&self, min: DVec3, max: DVec3) -> LocalOccluders<'_> {
+        let boxes = self
             .boxes
             .iter()
-            .any(|b| b.min.cmplt(max).all() && b.max.cmpgt(min).all())
-        {
-            return true;
-        }
-        let Some(tris) = &self.triangles else { return false };
-        let margin = Vec3A::splat(TRIANGLE_END_M);
-        let bounds = obvhs::aabb::Aabb {
-            min: min.as_vec3a() - margin,
-            max: max.as_vec3a() + margin,
-        };
-        let mut hit = false;
-        tris.bvh.aabb_traverse(bounds, |_, _| {
-            hit = true;
-            false
+            .filter(|b| b.min.cmplt(max).all() && b.max.cmpgt(min).all())
+            .copied()
+            .collect();
+        let triangles = self.triangles.as_ref().filter(|tris| {
+            let margin = Vec3A::splat(TRIANGLE_END_M);
+            let bounds = obvhs::aabb::Aabb {
+                min: min.as_vec3a() - margin,
+                max: max.as_vec3a() + margin,
+            };
+            let mut hit = false;
+            tris.bvh.aabb_traverse(bounds, |_, _| {
+                hit = true;
+                false
+            });
+            hit
         });
-        hit
+        LocalOccluders { boxes, triangles }
     }
 
     /// True when any occluder meets the open segment `from → to`.
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
-        let d = to - from;
-        let inv_d = d.recip();
-        if self
-            .boxes
-            .iter()
-            .any(|b| slab(b, from, inv_d, END_EPS, 1.0 - END_EPS))
-        {
-            return true;
-        }
-        let Some(tris) = &self.triangles else { return false };
-        let len = d.length();
-        let (t0, t1) = (TRIANGLE_END_M, len as f32 - TRIANGLE_END_M);
-        if len == 0.0 || t1 <= t0 {
-            return false;
-        }
-        let ray = Ray::new(from.as_vec3a(), (d / len).as_vec3a(), t0, t1);
-        !tris.bvh.ray_traverse_miss(ray, |r, id| {
-            tris.triangles[tris.bvh.primitive_indices[id] as usize].intersect(r)
-        })
+        segment_blocked(&self.boxes, self.triangles.as_ref(), from, to)
     }
+}
+
+/// The occluders near a group of shadow rays ([`Occluders::within`]).
+#[derive(Debug, Clone)]
+pub struct LocalOccluders<'a> {
+    boxes: Vec<Aabb>,
+    triangles: Option<&'a TriangleBvh>,
+}
+
+impl LocalOccluders<'_> {
+    /// True when nothing reaches into the region: no segment inside it is blocked.
+    pub fn is_empty(&self) -> bool {
+        self.boxes.is_empty() && self.triangles.is_none()
+    }
+
+    /// True when any of these occluders meets the open segment `from → to` (both inside the
+    /// region the view was made for; the same answer as [`Occluders::blocked`] there).
+    pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
+        segment_blocked(&self.boxes, self.triangles, from, to)
+    }
+}
+
+/// True when a box or a triangle meets the open segment `from → to`.
+fn segment_blocked(boxes: &[Aabb], triangles: Option<&TriangleBvh>, from: DVec3, to: DVec3) -> bool {
+    let d = to - from;
+    let inv_d = d.recip();
+    if boxes.iter().any(|b| slab(b, from, inv_d, END_EPS, 1.0 - END_EPS)) {
+        return true;
+    }
+    let Some(tris) = triangles else { return false };
+    let len = d.length();
+    let (t0, t1) = (TRIANGLE_END_M, len as f32 - TRIANGLE_END_M);
+    if len == 0.0 || t1 <= t0 {
+        return false;
+    }
+    let ray = Ray::new(from.as_vec3a(), (d / len).as_vec3a(), t0, t1);
+    !tris.bvh.ray_traverse_miss(ray, |r, id| {
+        tris.triangles[tris.bvh.primitive_indices[id] as usize].intersect(r)
+    })
 }
 
 impl Visibility for Occluders {
@@ -207,7 +230,7 @@ mod tests {
     }
 
     #[test]
-    fn may_block_within_is_false_only_where_nothing_reaches() {
+    fn within_keeps_only_what_reaches_into_the_region() {
         let occ = Occluders::from_parts(
             &[unit_box([1.0, 1.0, 0.0], [2.0, 2.0, 1.0])],
             &[[
@@ -216,12 +239,35 @@ mod tests {
                 DVec3::new(4.0, 5.0, 2.0),
             ]],
         );
-        assert!(occ.may_block_within(DVec3::new(1.5, 1.5, 0.5), DVec3::new(3.0, 3.0, 3.0)));
-        assert!(occ.may_block_within(DVec3::new(4.2, 4.2, 1.0), DVec3::new(4.3, 4.3, 3.0)));
+        let (lo, hi) = (DVec3::new(1.5, 1.5, 0.5), DVec3::new(3.0, 3.0, 3.0));
+        let near_box = occ.within(lo, hi);
+        assert!(!near_box.is_empty());
+        // It answers like the whole set for segments inside the region.
+        for (from, to) in [
+            (DVec3::new(1.6, 1.6, 2.9), DVec3::new(1.7, 1.7, 0.6)),
+            (DVec3::new(2.9, 2.9, 2.9), DVec3::new(2.5, 2.5, 0.6)),
+        ] {
+            assert_eq!(near_box.blocked(from, to), occ.blocked(from, to));
+        }
+        assert!(near_box.blocked(DVec3::new(1.6, 1.6, 2.9), DVec3::new(1.7, 1.7, 0.6)));
+        assert!(
+            !occ.within(DVec3::new(4.2, 4.2, 1.0), DVec3::new(4.3, 4.3, 3.0))
+                .is_empty()
+        );
         // Beside the box (touching its face is not reaching into it), and far from both.
-        assert!(!occ.may_block_within(DVec3::new(2.0, 0.0, 0.0), DVec3::new(3.0, 3.0, 3.0)));
-        assert!(!occ.may_block_within(DVec3::new(0.0, 0.0, 1.5), DVec3::new(3.0, 3.0, 1.9)));
-        assert!(!Occluders::from_parts(&[], &[]).may_block_within(DVec3::ZERO, DVec3::ONE));
+        assert!(
+            occ.within(DVec3::new(2.0, 0.0, 0.0), DVec3::new(3.0, 3.0, 3.0))
+                .is_empty()
+        );
+        assert!(
+            occ.within(DVec3::new(0.0, 0.0, 1.5), DVec3::new(3.0, 3.0, 1.9))
+                .is_empty()
+        );
+        assert!(
+            Occluders::from_parts(&[], &[])
+                .within(DVec3::ZERO, DVec3::ONE)
+                .is_empty()
+        );
     }
 
     #[test]
