@@ -1,62 +1,138 @@
 //! The editor's costs per keystroke (docs/BENCHMARKS.md): a key press → a new 1024 × 768
-//! preview pixmap of the paper room (update + relight + render + overlays), and what one
-//! preview frame costs on the wire for each image protocol at 160 × 48 cells with a 10 × 20 px
-//! font (encode time is benched; the byte counts are printed).
+//! preview pixmap of the paper room (update → command → session relight + render + overlays,
+//! into reused buffers), the heap allocations that key press makes (counted with dhat), and
+//! what one preview frame costs on the wire for each image protocol at 160 × 48 cells with a
+//! 10 × 20 px font (encode time is benched; the byte counts are printed).
 
 use std::hint::black_box;
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use haiko::tui::renderer::{FrameRequest, PreviewRenderer};
+use haiko::render::DisplayMode;
+use haiko::session::{FrameSpec, Session, SessionOptions};
+use haiko::tui::app::frame_spec;
 use haiko::tui::view::preview_rect;
-use haiko::tui::workers::render_one;
-use haiko::tui::{Model, Msg, preview, update};
+use haiko::tui::{Effect, Model, Msg, preview, update};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::{Rect, Size};
 use ratatui_image::picker::{Picker, ProtocolType};
+
+#[global_allocator]
+static ALLOCATOR: dhat::Alloc = dhat::Alloc;
 
 /// The terminal of the byte counts, cells.
 const TERMINAL: (u16, u16) = (160, 48);
 /// Half-blocks' nominal font, px.
 const FONT: (u16, u16) = (10, 20);
+/// The benched preview size, px.
+const SIZE: (u32, u32) = (1024, 768);
 
-fn paper() -> Arc<haiko::scene::Scene> {
+fn paper() -> haiko::scene::Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rooms/paper.toml");
-    Arc::new(haiko::scene::load(&path).expect("the paper room loads"))
+    haiko::scene::load(&path).expect("the paper room loads")
 }
 
 fn key(code: KeyCode) -> Msg {
     Msg::Key(KeyEvent::new(code, KeyModifiers::NONE))
 }
 
-/// ↑ then ↓ alternately (so every press changes the curve): update → relight → render.
-fn key_to_pixmap(c: &mut Criterion) {
+/// The editor and its engine on the paper room, with one frame rendered.
+fn editor() -> (Model, Session, FrameSpec) {
     let scene = paper();
-    let mut model = Model::new(&scene, TERMINAL, FONT);
-    let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).expect("bake");
+    let model = Model::new(&scene, TERMINAL, FONT);
+    let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+    let spec = FrameSpec {
+        size_px: SIZE,
+        mode: DisplayMode::Photo,
+        selected_light: Some(0),
+        cursor: None,
+    };
+    session.render(&spec).expect("the first frame renders");
+    (model, session, spec)
+}
+
+/// One key press as the editor handles it: update → the command to the session → a frame.
+fn press(model: &mut Model, session: &mut Session, spec: &FrameSpec, up: bool) {
+    let effects = update(model, key(if up { KeyCode::Up } else { KeyCode::Down }));
+    let mut changed = false;
+    for effect in effects {
+        if let Effect::Engine(command) = effect {
+            session
+                .apply(command)
+                .expect("the engine accepts the model's command");
+            changed = true;
+        }
+    }
+    assert!(changed, "the key press changed nothing");
+    black_box(&session.render(spec).expect("the frame renders").pixmap);
+}
+
+/// ↑ then ↓ alternately (so every press changes the curve).
+fn key_to_pixmap(c: &mut Criterion) {
+    let (mut model, mut session, spec) = editor();
     let mut up = true;
     c.bench_function("editor/key_to_pixmap_paper_1024x768", |b| {
         b.iter(|| {
-            let effects = update(&mut model, key(if up { KeyCode::Up } else { KeyCode::Down }));
+            press(&mut model, &mut session, &spec, up);
             up = !up;
-            assert!(!effects.is_empty(), "the key press changed nothing");
-            let mut request = FrameRequest::from_model(&model).expect("the preview has pixels");
-            request.size_px = (1024, 768);
-            black_box(render_one(&mut renderer, &request).expect("the frame renders"))
         })
     });
+}
+
+/// One 0.1 m move of light 0 (alternating back and forth), as the editor completes it: the
+/// command (its direct cache rebuilt), that light's bake on the shared transport (the other
+/// lights are not solved again), the bake installed, the light recomputed.
+fn light_move(c: &mut Criterion) {
+    let mut group = c.benchmark_group("editor/light_move");
+    for name in ["paper", "office"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("rooms/{name}.toml"));
+        let scene = haiko::scene::load(&path).expect("a bundled room loads");
+        let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+        session.relight();
+        let start = session.lights()[0].position;
+        let mut forth = true;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let offset = if forth { 0.1 } else { 0.0 };
+                forth = !forth;
+                let position = start + glam::DVec3::new(offset, 0.0, 0.0);
+                session
+                    .apply(haiko::session::Command::Move { light: 0, position })
+                    .expect("a valid move");
+                session.relight();
+                session.run_bake_jobs(&mut |_| {}).expect("the light bakes");
+                black_box(session.relight())
+            })
+        });
+    }
+    group.finish();
+}
+
+/// Heap allocations of one key press (after the first frame), printed: the frame buffers are
+/// reused, so what is left is a few small vectors.
+fn allocations_per_key(_: &mut Criterion) {
+    let (mut model, mut session, spec) = editor();
+    press(&mut model, &mut session, &spec, true);
+    let _profiler = dhat::Profiler::builder().testing().build();
+    let before = dhat::HeapStats::get();
+    press(&mut model, &mut session, &spec, false);
+    let after = dhat::HeapStats::get();
+    println!(
+        "allocations per key press (paper, 1024×768): {} blocks, {} bytes in all, largest live {} bytes",
+        after.total_blocks - before.total_blocks,
+        after.total_bytes - before.total_bytes,
+        after.max_bytes
+    );
 }
 
 /// Encode time per protocol, and the bytes a terminal receives for one preview frame.
 fn bytes_per_frame(c: &mut Criterion) {
     let scene = paper();
     let model = Model::new(&scene, TERMINAL, FONT);
-    let mut renderer = PreviewRenderer::new(Arc::clone(&scene), None, &mut |_| {}).expect("bake");
-    let request = FrameRequest::from_model(&model).expect("the preview has pixels");
-    let frame = render_one(&mut renderer, &request).expect("the frame renders");
-    let pixmap = &frame.preview.frame.pixmap;
+    let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+    let spec = frame_spec(&model).expect("the preview has pixels");
+    let pixmap = session.render(&spec).expect("the frame renders").pixmap.clone();
     let area = preview_rect(Rect::new(0, 0, TERMINAL.0, TERMINAL.1));
     let cells = Size::new(area.width, area.height);
     println!(
@@ -77,7 +153,7 @@ fn bytes_per_frame(c: &mut Criterion) {
     ] {
         let mut picker = Picker::halfblocks();
         picker.set_protocol_type(protocol);
-        let image = preview::encode(&picker, pixmap, cells).expect("the frame encodes");
+        let image = preview::encode(&picker, &pixmap, cells).expect("the frame encodes");
         let bytes = preview::bytes_on_wire(&image, area).expect("bytes measured");
         println!(
             "bytes per frame, {protocol:?}: {bytes} ({:.0} KiB)",
@@ -86,7 +162,7 @@ fn bytes_per_frame(c: &mut Criterion) {
         group.bench_with_input(
             BenchmarkId::from_parameter(format!("{protocol:?}")),
             &picker,
-            |b, p| b.iter(|| black_box(preview::encode(p, pixmap, cells).expect("the frame encodes"))),
+            |b, p| b.iter(|| black_box(preview::encode(p, &pixmap, cells).expect("the frame encodes"))),
         );
     }
     group.finish();
@@ -102,6 +178,6 @@ fn configured() -> Criterion {
 criterion_group! {
     name = benches;
     config = configured();
-    targets = key_to_pixmap, bytes_per_frame
+    targets = key_to_pixmap, light_move, allocations_per_key, bytes_per_frame
 }
 criterion_main!(benches);

@@ -20,12 +20,11 @@ use std::time::{Duration, Instant};
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::DQuat;
-use haiko::cli::render::{light_markers, scene_view};
 use haiko::photometry::Curve;
 use haiko::relight::Relighter;
 use haiko::render::{
-    DisplayMode, DisplayShader, Exposure, Frame, PixelLight, PixelLighting, PixelSurfaces, View, draw_lights,
-    render, render_into, vertex_attributes,
+    DisplayMode, DisplayShader, Exposure, Frame, LightMarker, PixelLight, PixelLighting, PixelSurfaces, View,
+    draw_lights, render, render_into, vertex_attributes,
 };
 use haiko::scene::{self, Camera, Scene};
 use haiko::transport::bake::{BakeOptions, bake};
@@ -75,6 +74,24 @@ fn cpu_time_of(iters: u64, mut f: impl FnMut()) -> Duration {
         (Some(before), Some(after)) => after.saturating_sub(before),
         _ => wall.elapsed(),
     }
+}
+
+/// The room camera's view at `width × height`.
+fn scene_view(scene: &Scene, width: u32, height: u32) -> haiko::Result<View> {
+    View::new(scene.camera, width, height)
+}
+
+/// One marker per light, none selected (the aim line is not drawn).
+fn light_markers(scene: &Scene) -> Vec<LightMarker> {
+    scene
+        .lights
+        .iter()
+        .map(|light| LightMarker {
+            position: light.position,
+            aim_target: light.position + light.aim,
+            selected: false,
+        })
+        .collect()
 }
 
 /// Light 0's curve with its first control point scaled by `factor`.

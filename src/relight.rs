@@ -8,13 +8,19 @@
 //! within each surface. An edit replaces one light's contribution and updates the total by the
 //! difference; the total is re-summed from scratch every [`RESUM_EVERY`] edits so rounding cannot
 //! accumulate over a long session.
+//!
+//! Lights can move ([`Relighter::move_light`] rebuilds that light's direct cache; its indirect
+//! light stays the old bake's until [`Relighter::install_baked`] brings the new one), and be
+//! added or removed, without touching the other lights.
+
+use std::sync::Arc;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 pub use crate::photometry::emission::{LightState, light_coefficients};
-use crate::photometry::{Curve, ShBasis, Window};
-use crate::scene::{DirectMode, Scene};
+use crate::photometry::{Curve, ShBasis, Window, ZonalWeights, coefficients_from_weights, sh_count};
+use crate::scene::{DirectMode, Light, Scene};
 use crate::transport::bake::{Bake, BakedLight};
 use crate::transport::direct::{DirectCache, Receiver};
 use crate::transport::interpolate::InterpolationWeights;
@@ -38,111 +44,126 @@ pub fn fine_receivers(scene: &Scene) -> Vec<Receiver> {
         .collect()
 }
 
-/// The baked indirect light and what blending it needs.
+/// A light's baked basis and its SH basis functions.
 #[derive(Debug, Clone)]
-struct Indirect {
-    interp: InterpolationWeights,
-    lights: Vec<BakedLight>,
-    bases: Vec<ShBasis>,
-    n_patches: usize,
+struct LightBasis {
+    baked: BakedLight,
+    sh: ShBasis,
 }
 
-impl Indirect {
-    /// Light `i`'s indirect irradiance (lx) for coefficients `c`: vertex-major, one value per
-    /// baked channel (1 or 3) per fine vertex. `coarse` is scratch space for the coarse values.
-    fn blend(&self, i: usize, coeffs: &[f64], coarse: &mut Vec<f64>) -> Vec<f64> {
-        let light = &self.lights[i];
-        let rows = light.n_columns.max(1);
-        let channels = light.indirect.len();
-        coarse.clear();
-        coarse.resize(self.n_patches * channels, 0.0);
-        for (ch, channel) in light.indirect.iter().enumerate() {
-            // Σ_k c_k column_k on every coarse patch (columns stored patch-major, f32).
-            for (p, row) in channel.chunks_exact(rows).enumerate() {
-                coarse[p * channels + ch] = row.iter().zip(coeffs).map(|(&e, &c)| f64::from(e) * c).sum();
-            }
+impl LightBasis {
+    fn new(baked: BakedLight) -> Self {
+        LightBasis {
+            sh: ShBasis::new(baked.plan.order),
+            baked,
         }
-        self.interp.apply_columns(coarse, channels)
     }
+}
+
+/// One light as the relighter keeps it.
+#[derive(Debug, Clone)]
+struct LitLight {
+    state: LightState,
+    /// Legendre weights of `state.curve` (cd) used for the SH coefficients; any order (degrees
+    /// above the baked order are ignored, missing ones are 0).
+    weights: ZonalWeights,
+    window: Option<Window>,
+    position: DVec3,
+    radius_m: f64,
+    cache: DirectCache,
+    /// The baked basis (None without a bake).
+    basis: Option<LightBasis>,
+    /// Direct illuminance (lx) at each fine vertex, dimmer applied, colour not.
+    direct: Vec<f64>,
+    /// Contribution to every fine vertex (lx, linear RGB, colour applied).
+    contribution: Vec<[f64; 3]>,
 }
 
 /// Illuminance of every light at the fine vertices, kept per light.
 #[derive(Debug, Clone)]
 pub struct Relighter {
-    lights: Vec<LightState>,
-    windows: Vec<Option<Window>>,
-    caches: Vec<DirectCache>,
+    lights: Vec<LitLight>,
+    receivers: Arc<Vec<Receiver>>,
+    occluders: Option<Arc<Occluders>>,
+    /// Coarse → fine interpolation of indirect light (None without a bake).
+    interp: Option<Arc<InterpolationWeights>>,
+    n_patches: usize,
     paper_mode: bool,
-    indirect: Option<Indirect>,
-    /// Per light, direct illuminance (lx) at each fine vertex, dimmer applied, colour not.
-    direct: Vec<Vec<f64>>,
-    /// Per light, its contribution to every fine vertex (lx, linear RGB, colour applied).
-    contributions: Vec<Vec<[f64; 3]>>,
     /// Σ of the contributions.
     total: Vec<[f64; 3]>,
     edits_since_resum: usize,
-    /// Scratch for the blended coarse indirect values (reused across edits).
+    /// Scratch for the blended coarse indirect values and coefficients (reused across edits).
     coarse_scratch: Vec<f64>,
+    coeff_scratch: Vec<f64>,
 }
 
 impl Relighter {
     /// Direct light only (no bake): caches the geometry of every light against the fine
     /// vertices (visibility rays only when the scene has occluders).
     pub fn new(scene: &Scene) -> Self {
-        Self::build(scene, None)
+        Self::build(scene, None, Occluders::of_scene(scene).map(Arc::new))
     }
 
     /// Direct light plus the baked indirect light (and, in paper mode, direct light from the SH
     /// series of the baked order).
     pub fn with_bake(scene: &Scene, bake: &Bake) -> Self {
-        Self::build(scene, Some(bake))
+        Self::build(scene, Some(bake), bake.transport.occluders().cloned())
     }
 
-    fn build(scene: &Scene, bake: Option<&Bake>) -> Self {
-        let occluders = Occluders::of_scene(scene);
-        let receivers = fine_receivers(scene);
-        let caches: Vec<DirectCache> = scene
-            .lights
-            .iter()
-            .map(|l| {
-                DirectCache::build(
-                    l.position,
-                    l.radius,
-                    &receivers,
-                    occluders.as_ref().map(|o| o as &dyn Visibility),
-                )
-            })
-            .collect();
-        let indirect = bake.map(|b| Indirect {
-            interp: InterpolationWeights::new(&scene.coarse, &scene.fine),
-            bases: b.lights.iter().map(|l| ShBasis::new(l.plan.order)).collect(),
-            lights: b.lights.clone(),
-            n_patches: scene.coarse.patches.len(),
-        });
+    fn build(scene: &Scene, bake: Option<&Bake>, occluders: Option<Arc<Occluders>>) -> Self {
+        let receivers = Arc::new(fine_receivers(scene));
         let n = receivers.len();
-        let n_lights = scene.lights.len();
         let mut relighter = Relighter {
-            lights: scene.lights.iter().map(LightState::from).collect(),
-            windows: vec![None; n_lights],
-            caches,
+            lights: Vec::with_capacity(scene.lights.len()),
+            receivers,
+            occluders,
+            interp: bake.map(|_| Arc::new(InterpolationWeights::new(&scene.coarse, &scene.fine))),
+            n_patches: scene.coarse.patches.len(),
             paper_mode: bake.is_some() && scene.settings.direct == DirectMode::Basis,
-            indirect,
-            direct: vec![vec![0.0; n]; n_lights],
-            contributions: vec![vec![[0.0; 3]; n]; n_lights],
             total: vec![[0.0; 3]; n],
             edits_since_resum: 0,
             coarse_scratch: Vec::new(),
+            coeff_scratch: Vec::new(),
         };
-        for i in 0..n_lights {
+        for (i, light) in scene.lights.iter().enumerate() {
+            let baked = bake.map(|b| b.lights[i].clone());
+            let lit = relighter.lit_light(light, baked);
+            relighter.lights.push(lit);
             relighter.recompute_light(i, false);
         }
         relighter.resum();
         relighter
     }
 
+    /// A light's record with its direct cache built (contribution not yet computed).
+    fn lit_light(&self, light: &Light, baked: Option<BakedLight>) -> LitLight {
+        let basis = baked.map(LightBasis::new);
+        let order = basis.as_ref().map_or(0, |b| b.baked.plan.order);
+        LitLight {
+            weights: ZonalWeights::exact(&light.curve, order),
+            state: LightState::from(light),
+            window: None,
+            position: light.position,
+            radius_m: light.radius,
+            cache: self.direct_cache(light.position, light.radius),
+            basis,
+            direct: vec![0.0; self.receivers.len()],
+            contribution: vec![[0.0; 3]; self.receivers.len()],
+        }
+    }
+
+    fn direct_cache(&self, position: DVec3, radius_m: f64) -> DirectCache {
+        DirectCache::build(
+            position,
+            radius_m,
+            &self.receivers,
+            self.occluders.as_deref().map(|o| o as &dyn Visibility),
+        )
+    }
+
     /// The current state of light `i`.
     pub fn light(&self, i: usize) -> &LightState {
-        &self.lights[i]
+        &self.lights[i].state
     }
 
     /// Number of lights.
@@ -152,9 +173,9 @@ impl Relighter {
 
     /// True when indirect light from a bake is included.
     pub fn has_indirect(&self) -> bool {
-        self.indirect
-            .as_ref()
-            .is_some_and(|ind| ind.lights.iter().any(BakedLight::has_indirect))
+        self.lights
+            .iter()
+            .any(|l| l.basis.as_ref().is_some_and(|b| b.baked.has_indirect()))
     }
 
     /// Total illuminance per fine vertex (lx, linear RGB).
@@ -164,12 +185,17 @@ impl Relighter {
 
     /// Light `i`'s direct illuminance per fine vertex (lx, dimmer applied, before colour).
     pub fn light_direct(&self, i: usize) -> &[f64] {
-        &self.direct[i]
+        &self.lights[i].direct
     }
 
     /// Light `i`'s contribution per fine vertex (lx, linear RGB, colour applied).
     pub fn light_contribution(&self, i: usize) -> &[[f64; 3]] {
-        &self.contributions[i]
+        &self.lights[i].contribution
+    }
+
+    /// Light `i`'s baked basis, if any.
+    pub fn baked(&self, i: usize) -> Option<&BakedLight> {
+        self.lights[i].basis.as_ref().map(|b| &b.baked)
     }
 
     /// Indirect illuminance per fine vertex summed over the lights (lx, linear RGB, colour
@@ -178,10 +204,11 @@ impl Relighter {
     pub fn indirect_into(&self, out: &mut Vec<[f32; 3]>) {
         out.clear();
         out.resize(self.total.len(), [0.0; 3]);
-        for ((contribution, direct), state) in self.contributions.iter().zip(&self.direct).zip(&self.lights) {
-            for ((o, c), &d) in out.iter_mut().zip(contribution).zip(direct) {
+        for light in &self.lights {
+            let color = light.state.color;
+            for ((o, c), &d) in out.iter_mut().zip(&light.contribution).zip(&light.direct) {
                 for ch in 0..3 {
-                    o[ch] += (c[ch] - state.color[ch] * d) as f32;
+                    o[ch] += (c[ch] - color[ch] * d) as f32;
                 }
             }
         }
@@ -189,74 +216,207 @@ impl Relighter {
 
     /// Replaces light `i`'s curve and updates the illuminance (only that light is recomputed).
     pub fn set_curve(&mut self, i: usize, curve: Curve) {
-        self.lights[i].curve = curve;
+        let order = self.baked_order(i);
+        self.lights[i].weights = ZonalWeights::exact(&curve, order);
+        self.lights[i].state.curve = curve;
+        self.update(i);
+    }
+
+    /// Replaces light `i`'s curve together with its Legendre weights, computed by the caller
+    /// (e.g. kept current by [`crate::photometry::IncrementalWeights`], O(N) per point edit):
+    /// the SH coefficients use `weights` as given, up to the baked order.
+    pub fn set_curve_with_weights(&mut self, i: usize, curve: &Curve, weights: &ZonalWeights) {
+        let light = &mut self.lights[i];
+        light.state.curve.clone_from(curve);
+        light.weights.w.clone_from(&weights.w);
+        self.update(i);
+    }
+
+    /// Sets light `i`'s curve (with its Legendre weights, as for
+    /// [`Self::set_curve_with_weights`]), aim (world; normalised here), dimmer and window at once:
+    /// one recomputation for any number of changes.
+    pub fn set_light(
+        &mut self,
+        i: usize,
+        curve: &Curve,
+        weights: &ZonalWeights,
+        aim: DVec3,
+        dimmer: f64,
+        window: Option<Window>,
+    ) {
+        let light = &mut self.lights[i];
+        light.state.curve.clone_from(curve);
+        light.weights.w.clone_from(&weights.w);
+        light.state.aim = aim.normalize();
+        light.state.dimmer = dimmer;
+        light.window = window;
         self.update(i);
     }
 
     /// Re-aims light `i` along `aim` (world; normalised here).
     pub fn set_aim(&mut self, i: usize, aim: DVec3) {
-        self.lights[i].aim = aim.normalize();
+        self.lights[i].state.aim = aim.normalize();
         self.update(i);
     }
 
     /// Sets light `i`'s dimmer (≥ 0).
     pub fn set_dimmer(&mut self, i: usize, dimmer: f64) {
-        self.lights[i].dimmer = dimmer;
+        self.lights[i].state.dimmer = dimmer;
+        self.update(i);
+    }
+
+    /// Sets light `i`'s colour (linear RGB multipliers).
+    pub fn set_color(&mut self, i: usize, color: [f64; 3]) {
+        self.lights[i].state.color = color;
         self.update(i);
     }
 
     /// Forces light `i`'s window (`None`: chosen automatically per edit, docs/METHOD.md §4.4).
     pub fn set_window(&mut self, i: usize, window: Option<Window>) {
-        self.windows[i] = window;
+        self.lights[i].window = window;
         self.update(i);
     }
 
     /// Replaces light `i`'s whole state at once (one recomputation).
     pub fn set_state(&mut self, i: usize, state: LightState) {
-        self.lights[i] = LightState {
+        let order = self.baked_order(i);
+        let light = &mut self.lights[i];
+        light.weights = ZonalWeights::exact(&state.curve, order);
+        light.state = LightState {
             aim: state.aim.normalize(),
             ..state
         };
         self.update(i);
     }
 
+    /// Moves light `i` to `position` (world, m): its direct cache is rebuilt for the new position
+    /// (shadow rays where the scene has occluders). Its indirect light stays that of the
+    /// current bake until [`Self::install_baked`] gives the bake for the new position.
+    pub fn move_light(&mut self, i: usize, position: DVec3) {
+        let radius = self.lights[i].radius_m;
+        self.lights[i].cache = self.direct_cache(position, radius);
+        self.lights[i].position = position;
+        self.update(i);
+    }
+
+    /// Installs light `i`'s new baked basis (after a move or an order change) and recomputes it.
+    pub fn install_baked(&mut self, i: usize, baked: BakedLight) {
+        let light = &mut self.lights[i];
+        if light.weights.order() < baked.plan.order {
+            light.weights = ZonalWeights::exact(&light.state.curve, baked.plan.order);
+        }
+        light.basis = Some(LightBasis::new(baked));
+        self.update(i);
+    }
+
+    /// Adds `light` (with its baked basis when the relighter has a bake) at index `at`
+    /// (≤ [`Self::n_lights`]); the lights after it shift up by one.
+    pub fn insert_light(&mut self, at: usize, light: &Light, baked: Option<BakedLight>) {
+        let baked = baked.filter(|_| self.interp.is_some());
+        let lit = self.lit_light(light, baked);
+        self.lights.insert(at, lit);
+        self.recompute_light(at, true);
+    }
+
+    /// Removes light `i` and its contribution; the lights after it shift down by one.
+    pub fn remove_light(&mut self, i: usize) {
+        let removed = self.lights.remove(i);
+        self.total
+            .par_iter_mut()
+            .zip(removed.contribution.par_iter())
+            .with_min_len(MIN_VERTICES_PER_TASK)
+            .for_each(|(t, c)| (0..3).for_each(|ch| t[ch] -= c[ch]));
+        if self.count_edit() {
+            self.resum();
+        }
+    }
+
+    fn baked_order(&self, i: usize) -> usize {
+        self.lights[i].basis.as_ref().map_or(0, |b| b.baked.plan.order)
+    }
+
+    /// Light `i`'s indirect irradiance (lx) for coefficients `coeffs`: vertex-major, one value
+    /// per baked channel (1 or 3) per fine vertex.
+    fn blend_indirect(&mut self, i: usize, coeffs: &[f64]) -> Option<(Vec<f64>, usize)> {
+        let interp = self.interp.as_ref()?;
+        let baked = &self.lights[i].basis.as_ref()?.baked;
+        if !baked.has_indirect() {
+            return None;
+        }
+        let rows = baked.n_columns.max(1);
+        let channels = baked.indirect.len();
+        let coarse = &mut self.coarse_scratch;
+        coarse.clear();
+        coarse.resize(self.n_patches * channels, 0.0);
+        for (ch, channel) in baked.indirect.iter().enumerate() {
+            // Σ_k c_k column_k on every coarse patch (columns stored patch-major, f32).
+            for (p, row) in channel.chunks_exact(rows).enumerate() {
+                coarse[p * channels + ch] = row.iter().zip(coeffs).map(|(&e, &c)| f64::from(e) * c).sum();
+            }
+        }
+        Some((interp.apply_columns(coarse, channels), channels))
+    }
+
     /// Recomputes light `i`'s direct light and contribution; with `update_total`, also moves the
     /// total by the difference between the new and the old contribution (in the same pass).
     fn recompute_light(&mut self, i: usize, update_total: bool) {
-        let state = &self.lights[i];
-        let baked = self
-            .indirect
-            .as_ref()
-            .map(|ind| (ind, &ind.lights[i], &ind.bases[i]));
-        let coeffs = baked
-            .map(|(_, light, basis)| light_coefficients(state, light.plan.order, self.windows[i], basis).0);
-        match (self.paper_mode, baked, &coeffs) {
-            (true, Some((_, light, basis)), Some(c)) => {
-                // Paper mode: direct light from the series Σ c_lm Y_lm(dir), masked like the basis.
-                let mask = light.plan.mask.map(DVec3::from);
-                self.caches[i].illuminance_with(
-                    |dir| {
-                        if mask.is_some_and(|n| dir.dot(n) <= 0.0) {
-                            0.0
-                        } else {
-                            basis.dot(c, dir)
-                        }
-                    },
-                    1.0,
-                    &mut self.direct[i],
-                );
+        let mut coeffs = std::mem::take(&mut self.coeff_scratch);
+        let has_basis = {
+            let light = &self.lights[i];
+            match &light.basis {
+                Some(basis) => {
+                    coeffs.clear();
+                    coeffs.resize(sh_count(basis.sh.order()), 0.0);
+                    coefficients_from_weights(
+                        &light.state,
+                        &light.weights,
+                        light.window,
+                        &basis.sh,
+                        &mut coeffs,
+                    );
+                    true
+                }
+                None => false,
             }
-            _ => self.caches[i].illuminance_into(&state.curve, state.aim, state.dimmer, &mut self.direct[i]),
-        }
-        let indirect = match (baked, &coeffs) {
-            (Some((ind, light, _)), Some(c)) if light.has_indirect() => {
-                Some((ind.blend(i, c, &mut self.coarse_scratch), light.indirect.len()))
-            }
-            _ => None,
         };
-        let color = state.color;
-        let direct = &self.direct[i];
-        self.contributions[i]
+        {
+            let light = &mut self.lights[i];
+            match (&light.basis, self.paper_mode) {
+                (Some(basis), true) => {
+                    // Paper mode: direct light from the series Σ c_lm Y_lm(dir), masked like the basis.
+                    let mask = basis.baked.plan.mask.map(DVec3::from);
+                    let (sh, c) = (&basis.sh, &coeffs);
+                    light.cache.illuminance_with(
+                        |dir| {
+                            if mask.is_some_and(|n| dir.dot(n) <= 0.0) {
+                                0.0
+                            } else {
+                                sh.dot(c, dir)
+                            }
+                        },
+                        1.0,
+                        &mut light.direct,
+                    );
+                }
+                _ => light.cache.illuminance_into(
+                    &light.state.curve,
+                    light.state.aim,
+                    light.state.dimmer,
+                    &mut light.direct,
+                ),
+            }
+        }
+        let indirect = if has_basis {
+            self.blend_indirect(i, &coeffs)
+        } else {
+            None
+        };
+        self.coeff_scratch = coeffs;
+        let light = &mut self.lights[i];
+        let color = light.state.color;
+        let direct = &light.direct;
+        light
+            .contribution
             .par_iter_mut()
             .zip(self.total.par_iter_mut())
             .enumerate()
@@ -276,19 +436,24 @@ impl Relighter {
     }
 
     fn update(&mut self, i: usize) {
-        self.edits_since_resum += 1;
-        let resum = self.edits_since_resum >= RESUM_EVERY;
+        let resum = self.count_edit();
         self.recompute_light(i, !resum);
         if resum {
             self.resum();
         }
     }
 
+    /// Counts one edit; true when the total is due for a re-sum.
+    fn count_edit(&mut self) -> bool {
+        self.edits_since_resum += 1;
+        self.edits_since_resum >= RESUM_EVERY
+    }
+
     /// Re-sums the total from the per-light contributions.
     fn resum(&mut self) {
         self.total.iter_mut().for_each(|t| *t = [0.0; 3]);
-        for contribution in &self.contributions {
-            for (t, c) in self.total.iter_mut().zip(contribution) {
+        for light in &self.lights {
+            for (t, c) in self.total.iter_mut().zip(&light.contribution) {
                 for ch in 0..3 {
                     t[ch] += c[ch];
                 }
@@ -467,5 +632,72 @@ solver_patch_size = 1.0
         relighter.set_dimmer(1, dimmers[RESUM_EVERY % 2]);
         edited.lights[1].dimmer = dimmers[RESUM_EVERY % 2];
         assert_eq!(relighter.total(), Relighter::with_bake(&edited, &baked).total());
+    }
+
+    /// A moved light's direct light is exact at once; once the bake for the new position is
+    /// installed, the whole relighter equals one built from scratch for the moved scene.
+    #[test]
+    fn a_moved_light_is_exact_after_its_new_bake_is_installed() {
+        let original = scene("0.5", "[1.0, 0.8, 0.6]");
+        let baked = bake(&original, &BakeOptions::default(), &mut |_| {}).expect("the test room bakes");
+        let mut relighter = Relighter::with_bake(&original, &baked);
+        let mut moved = original.clone();
+        moved.lights[1].position = DVec3::new(1.0, 3.0, 2.4);
+        let moved_bake = bake(&moved, &BakeOptions::default(), &mut |_| {}).expect("the moved room bakes");
+        let fresh = Relighter::with_bake(&moved, &moved_bake);
+
+        relighter.move_light(1, moved.lights[1].position);
+        assert_eq!(
+            relighter.light_direct(1),
+            fresh.light_direct(1),
+            "direct light moves at once"
+        );
+        assert_eq!(
+            relighter.light_contribution(0),
+            fresh.light_contribution(0),
+            "light 0 untouched"
+        );
+        assert_ne!(
+            relighter.light_contribution(1),
+            fresh.light_contribution(1),
+            "the indirect light is still the old position's"
+        );
+        relighter.install_baked(1, moved_bake.lights[1].clone());
+        assert_eq!(relighter.light_contribution(1), fresh.light_contribution(1));
+        assert_totals_close(relighter.total(), fresh.total());
+    }
+
+    /// Removing a light leaves the others' sum; inserting it back restores the original.
+    #[test]
+    fn removing_and_inserting_a_light_matches_fresh_builds() {
+        let original = scene("[0.6, 0.5, 0.4]", "[1.0, 0.8, 0.6]");
+        let baked = bake(&original, &BakeOptions::default(), &mut |_| {}).expect("the test room bakes");
+        let full = Relighter::with_bake(&original, &baked);
+        let mut relighter = full.clone();
+        relighter.remove_light(0);
+        assert_eq!(relighter.n_lights(), 1);
+        assert_totals_close(relighter.total(), full.light_contribution(1));
+        relighter.insert_light(0, &original.lights[0], Some(baked.lights[0].clone()));
+        assert_eq!(relighter.light_contribution(0), full.light_contribution(0));
+        assert_totals_close(relighter.total(), full.total());
+    }
+
+    /// Weights kept current point edit by point edit give the same light as exact weights.
+    #[test]
+    fn incremental_weights_give_the_exact_relight() {
+        use crate::photometry::IncrementalWeights;
+        let original = scene("0.5", "[1.0, 1.0, 1.0]");
+        let baked = bake(&original, &BakeOptions::default(), &mut |_| {}).expect("the test room bakes");
+        let mut incremental = Relighter::with_bake(&original, &baked);
+        let mut exact = incremental.clone();
+        let mut weights = IncrementalWeights::new(original.lights[0].curve.clone(), 3);
+        for (k, cd) in [(1, 990.0), (2, 650.0), (1, 1010.0), (0, 1200.0)] {
+            weights.set_intensity(k, cd).expect("a valid intensity");
+            incremental.set_curve_with_weights(0, weights.curve(), weights.weights());
+        }
+        exact.set_curve(0, weights.curve().clone());
+        let (a, b) = (incremental.light_contribution(0), exact.light_contribution(0));
+        assert_totals_close(a, b);
+        assert_ne!(a, Relighter::with_bake(&original, &baked).light_contribution(0));
     }
 }

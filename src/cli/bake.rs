@@ -4,10 +4,10 @@
 use std::io::{IsTerminal, Write};
 use std::path::Path;
 
+use crate::cli::open_session;
 use crate::error::{Error, Result};
 use crate::scene;
-use crate::transport::bake::{Bake, BakeOptions, Progress, bake};
-use crate::transport::cache;
+use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
 /// Formats a plan with its reasons.
@@ -106,19 +106,6 @@ pub fn progress_printer() -> impl FnMut(Progress) {
     }
 }
 
-/// Bakes with the user's cache and the command-line progress bar; prints cache notices.
-pub fn bake_for_cli(scene: &scene::Scene) -> Result<Bake> {
-    let options = BakeOptions {
-        cache_dir: Some(cache::default_dir()),
-        ..BakeOptions::default()
-    };
-    let result = bake(scene, &options, &mut progress_printer())?;
-    for notice in &result.notices {
-        eprintln!("haiko: {notice}");
-    }
-    Ok(result)
-}
-
 /// Formats what a bake did.
 pub fn format_bake(b: &Bake) -> String {
     let mut s = String::new();
@@ -184,7 +171,10 @@ pub fn run_bake(room: &Path) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     print!("{}", format_plan(&p));
-    let b = bake_for_cli(&scene)?;
-    print!("{}", format_bake(&b));
+    let session = open_session(scene, true)?;
+    let b = session
+        .bake()
+        .ok_or_else(|| Error::internal("bake: the session has no bake"))?;
+    print!("{}", format_bake(b));
     Ok(())
 }

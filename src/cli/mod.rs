@@ -7,10 +7,13 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::error::Result;
 use crate::photometry::Window;
+use crate::scene::Scene;
+use crate::session::{Session, SessionOptions};
 use crate::tui::Graphics;
 
 pub mod accuracy;
 pub mod bake;
+pub mod cache;
 pub mod grid;
 pub mod lid;
 pub mod pick;
@@ -143,6 +146,21 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The bake cache: where it is and what it holds (`list`, the default), or empty it (`clear`).
+    Cache {
+        /// What to do.
+        #[arg(value_enum, default_value_t = CacheAction::List)]
+        action: CacheAction,
+    },
+}
+
+/// `haiko cache` actions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CacheAction {
+    /// List the entries, their sizes and when they were last used.
+    List,
+    /// Remove every entry.
+    Clear,
 }
 
 /// `--graphics` values.
@@ -245,7 +263,27 @@ pub fn run(cli: Cli) -> Result<()> {
             aim,
         } => pick::run(&room, pixel, width, height, json, aim.as_deref()),
         Command::Accuracy { room, json } => accuracy::run(&room, json),
+        Command::Cache { action } => match action {
+            CacheAction::List => cache::run_list(),
+            CacheAction::Clear => cache::run_clear(),
+        },
     }
+}
+
+/// Opens a session on `scene` for a command: the user's bake cache, the progress bar on
+/// standard error, cache notices printed; `indirect` false for direct light only (no bake).
+///
+/// Errors: the bake failing (internal).
+pub fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
+    let options = SessionOptions {
+        indirect,
+        ..SessionOptions::with_user_cache()
+    };
+    let session = Session::new(scene, options, &mut bake::progress_printer())?;
+    for notice in session.bake().map_or(&[][..], |b| &b.notices[..]) {
+        eprintln!("haiko: {notice}");
+    }
+    Ok(session)
 }
 
 impl From<WindowArg> for Window {

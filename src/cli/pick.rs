@@ -9,10 +9,11 @@ use std::str::FromStr;
 use glam::DVec3;
 use serde::Serialize;
 
-use super::render::scene_view;
 use crate::error::{Error, Result};
-use crate::render::{Photo, aim_direction, pick, render};
-use crate::scene::{self, Scene};
+use crate::render::{DisplayMode, aim_direction};
+use crate::scene;
+use crate::session::frame::check_size;
+use crate::session::{FrameSpec, Session, SessionOptions};
 
 /// A pixel of the image: column `x` from the left, row `y` from the top (docs/METHOD.md §1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -23,12 +24,17 @@ pub struct Pixel {
     pub y: u32,
 }
 
+/// A `--pixel` value that is not `X,Y`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{0}` is not a pixel `X,Y` (two whole numbers ≥ 0)")]
+pub struct PixelSyntax(String);
+
 impl FromStr for Pixel {
-    type Err = String;
+    type Err = PixelSyntax;
 
     /// Parses `X,Y` (two non-negative integers).
     fn from_str(text: &str) -> std::result::Result<Self, Self::Err> {
-        let bad = || format!("`{text}` is not a pixel `X,Y` (two whole numbers ≥ 0)");
+        let bad = || PixelSyntax(text.to_string());
         let (x, y) = text.split_once(',').ok_or_else(bad)?;
         let x = x.trim().parse().map_err(|_| bad())?;
         let y = y.trim().parse().map_err(|_| bad())?;
@@ -57,19 +63,19 @@ pub struct PickReport {
     pub aim: Option<DVec3>,
 }
 
-/// Picks pixel `pixel` of the `width × height` image of the room's camera; with `aim_light`,
-/// also the aim vector of that light towards the picked point.
+/// Picks pixel `pixel` of the `width × height` image of the session's camera; with
+/// `aim_light`, also the aim vector of that light towards the picked point.
 ///
 /// Errors (bad input): a bad image size, a pixel outside the image, an unknown light (the
 /// message lists the lights), a background pixel, or a light sitting on the picked point.
 pub fn pick_pixel(
-    scene: &Scene,
+    session: &mut Session,
     width: u32,
     height: u32,
     pixel: Pixel,
     aim_light: Option<&str>,
 ) -> Result<PickReport> {
-    let view = scene_view(scene, width, height)?;
+    check_size(width, height, ["--width", "--height"])?;
     if pixel.x >= width || pixel.y >= height {
         return Err(Error::input(
             "--pixel",
@@ -77,29 +83,42 @@ pub fn pick_pixel(
             format!("pixel {pixel} is outside the {width}×{height} image (x < {width}, y < {height})"),
         ));
     }
-    let light = aim_light.map(|name| find_light(scene, name)).transpose()?;
-    // The ID and depth buffers do not depend on the lighting: render unlit.
-    let attrs = vec![[0.0f32; 3]; scene.fine.n_vertices()];
-    let frame = render(&scene.fine, &attrs, &view, &Photo::with_exposure(1.0))?;
-    let hit = pick(&frame, &view, &scene.fine, pixel.x, pixel.y)
-        .ok_or_else(|| Error::input("--pixel", "", format!("nothing at pixel {pixel} (background)")))?;
-    let surface = scene.surfaces.get(hit.surface as usize).ok_or_else(|| {
-        Error::internal(format!(
-            "pick: patch {} has no surface {}",
-            hit.patch, hit.surface
-        ))
+    let light = aim_light
+        .map(|name| session.light_named(name, "--aim"))
+        .transpose()?;
+    session.render(&FrameSpec {
+        size_px: (width, height),
+        mode: DisplayMode::Photo,
+        selected_light: None,
+        cursor: None,
     })?;
+    let hit = session
+        .pick((pixel.x, pixel.y))
+        .ok_or_else(|| Error::input("--pixel", "", format!("nothing at pixel {pixel} (background)")))?;
+    let surface = session
+        .scene()
+        .surfaces
+        .get(hit.surface as usize)
+        .ok_or_else(|| {
+            Error::internal(format!(
+                "pick: patch {} has no surface {}",
+                hit.patch, hit.surface
+            ))
+        })?;
     let aim = match light {
-        Some(light) => Some(aim_direction(light.position, hit.point).ok_or_else(|| {
-            Error::input(
-                "--aim",
-                "",
-                format!(
-                    "light `{}` sits on the picked point; it cannot aim at it",
-                    light.name
-                ),
-            )
-        })?),
+        Some(i) => {
+            let light = &session.lights()[i];
+            Some(aim_direction(light.position, hit.point).ok_or_else(|| {
+                Error::input(
+                    "--aim",
+                    "",
+                    format!(
+                        "light `{}` sits on the picked point; it cannot aim at it",
+                        light.name
+                    ),
+                )
+            })?)
+        }
         None => None,
     };
     Ok(PickReport {
@@ -108,17 +127,6 @@ pub fn pick_pixel(
         point: hit.point,
         normal: hit.normal,
         aim,
-    })
-}
-
-fn find_light<'a>(scene: &'a Scene, name: &str) -> Result<&'a scene::Light> {
-    scene.lights.iter().find(|l| l.name == name).ok_or_else(|| {
-        let names: Vec<&str> = scene.lights.iter().map(|l| l.name.as_str()).collect();
-        Error::input(
-            &scene.path,
-            "--aim",
-            format!("no light named `{name}` (lights: {})", names.join(", ")),
-        )
     })
 }
 
@@ -201,7 +209,13 @@ pub fn run(
     aim_light: Option<&str>,
 ) -> Result<()> {
     let scene = scene::load(room)?;
-    let report = pick_pixel(&scene, width, height, pixel, aim_light)?;
+    // What a pixel shows does not depend on the light: no bake.
+    let options = SessionOptions {
+        indirect: false,
+        ..SessionOptions::default()
+    };
+    let mut session = Session::new(scene, options, &mut |_| {})?;
+    let report = pick_pixel(&mut session, width, height, pixel, aim_light)?;
     if json {
         println!("{}", to_json(&report)?);
     } else {

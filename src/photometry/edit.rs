@@ -1,4 +1,4 @@
-//! The incremental curve editor (docs/METHOD.md §5, docs/METHOD.md §3): every keystroke updates the Legendre
+//! The incremental curve editor (docs/METHOD.md §3.4): every keystroke updates the Legendre
 //! weights by the change alone — the exact generalisation of the paper's eq. 6 — while the
 //! control points in f64 stay the truth and the weights are rebuilt from them periodically.
 

@@ -29,9 +29,26 @@ pub fn light_coefficients(
     basis: &ShBasis,
 ) -> (Vec<f64>, Window) {
     let weights = ZonalWeights::exact(&state.curve, order);
-    let window = window.unwrap_or_else(|| auto_window(&state.curve, &weights, order));
-    let mut coeffs = vec![0.0; sh_count(order)];
-    aimed_coefficients(&weights.windowed(window), state.aim, basis, &mut coeffs);
-    coeffs.iter_mut().for_each(|c| *c *= state.dimmer);
+    let mut coeffs = vec![0.0; sh_count(basis.order())];
+    let window = coefficients_from_weights(state, &weights, window, basis, &mut coeffs);
     (coeffs, window)
+}
+
+/// As [`light_coefficients`], from the curve's weights `weights` (exact, or kept current edit
+/// by edit with [`crate::photometry::IncrementalWeights`]; degrees above `basis.order()` are
+/// ignored) into `out[..sh_count(basis.order())]`. Returns the window used. No allocation
+/// beyond the windowed weights.
+pub fn coefficients_from_weights(
+    state: &LightState,
+    weights: &ZonalWeights,
+    window: Option<Window>,
+    basis: &ShBasis,
+    out: &mut [f64],
+) -> Window {
+    let order = basis.order().min(weights.order());
+    let truncated = weights.truncated(order);
+    let window = window.unwrap_or_else(|| auto_window(&state.curve, &truncated, order));
+    aimed_coefficients(&truncated.windowed(window), state.aim, basis, out);
+    out.iter_mut().for_each(|c| *c *= state.dimmer);
+    window
 }

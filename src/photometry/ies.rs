@@ -19,10 +19,13 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::photometry::Curve;
 use crate::photometry::lidfile::{
     CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid,
 };
+use crate::photometry::{Curve, LuminousShape};
+
+/// One foot in metres (IES units type 1).
+const FOOT_M: f64 = 0.3048;
 
 /// The version reported for a file without a version line.
 const VERSION_1986: &str = "LM-63-1986";
@@ -167,14 +170,19 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
         3.0 => Some("Type A photometry is not supported (Haiko reads Type C files only)".into()),
         _ => Some("the photometric type must be 1 (C), 2 (B) or 3 (A)".into()),
     })?;
-    for what in [
-        "units type",
-        "luminous width",
-        "luminous length",
-        "luminous height",
-    ] {
-        numbers.number(&|| what.into(), |_| None)?;
-    }
+    let units = numbers.number(&|| "units type".into(), |v| {
+        (v != 1.0 && v != 2.0).then(|| "the units type must be 1 (feet) or 2 (metres)".into())
+    })?;
+    let mut dimension = |what: &'static str| numbers.number(&|| what.into(), |_| None);
+    let (width, length, height) = (
+        dimension("luminous width")?,
+        dimension("luminous length")?,
+        dimension("luminous height")?,
+    );
+    // A sign pattern outside LM-63-2019 Table 1 leaves the luminaire without a luminous area
+    // (glare ratings then say so) rather than refusing an otherwise usable file.
+    let to_m = if units == 1.0 { FOOT_M } else { 1.0 };
+    let luminous = LuminousShape::from_ies(width, length, height, to_m).unwrap_or(None);
     let ballast_factor = numbers.number(&|| "ballast factor".into(), positive)?;
     // Before LM-63-1995 this field was the ballast-lamp photometric factor, a multiplier; since
     // then it is "future use" or (2019) the file-generation-type code, which must not scale.
@@ -214,6 +222,7 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
         gamma_deg,
         planes,
         symmetry,
+        luminous,
     })
 }
 

@@ -15,6 +15,7 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
+use crate::photometry::LuminousShape;
 use crate::photometry::lidfile::{
     CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid,
 };
@@ -49,7 +50,22 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
     let name = fields.text("field 9 (luminaire name)")?.trim();
     let number = fields.text("field 10 (luminaire number)")?.trim();
     let luminaire = if name.is_empty() { number } else { name }.to_string();
-    for field in 11..=23 {
+    for field in 11..=15 {
+        fields.text(&format!("field {field}"))?;
+    }
+    let mut millimetres = |label: &str| {
+        fields.number(label, |v| {
+            (v < 0.0).then(|| "a dimension cannot be negative".into())
+        })
+    };
+    let luminous_length = millimetres("field 16 (length or diameter of the luminous area, mm)")?;
+    let luminous_width = millimetres("field 17 (width of the luminous area, mm)")?;
+    let mut heights = [0.0; 4];
+    for (k, (height, c)) in heights.iter_mut().zip([0, 90, 180, 270]).enumerate() {
+        *height = millimetres(&format!("field {} (luminous height at C{c}, mm)", 18 + k))?;
+    }
+    let luminous = LuminousShape::from_eulumdat(luminous_length, luminous_width, heights);
+    for field in 22..=23 {
         fields.text(&format!("field {field}"))?;
     }
     let conversion = fields.number("field 24 (conversion factor for intensities)", |v| {
@@ -89,6 +105,7 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
         gamma_deg,
         planes,
         symmetry,
+        luminous,
     };
     stored.into_lid_file(path, LidFormat::Eulumdat, luminaire)
 }

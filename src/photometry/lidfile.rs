@@ -12,11 +12,16 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::photometry::{Curve, ies, ldt};
+use crate::photometry::{Curve, LuminousShape, ies, ldt};
 
 /// The most angles (γ or C) a file may list. A 0.02° γ grid over 0–180° has 9 001 angles; a
 /// count above this is a broken or hostile file, and is refused before anything is read.
 pub const MAX_ANGLES: usize = 10_000;
+
+/// Above this [`LidFile::asymmetry`] the editor warns that the axial average misrepresents the
+/// luminaire: some C-plane differs from the average by more than 10 % of the average's peak
+/// (docs/DECISIONS.md, "Photometric files").
+pub const ASYMMETRY_WARNING: f64 = 0.1;
 
 /// Which format a file was in.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -41,6 +46,28 @@ pub struct LidFile {
     pub format: LidFormat,
     /// The luminaire's name or catalogue number from the file (may be empty).
     pub luminaire: String,
+    /// How the C-planes spread around the average, per point of [`Self::curve`].
+    pub spread: CSpread,
+    /// The luminous area the file describes (IES width/length/height, EULUMDAT fields 16–21);
+    /// `None` when the file gives none (a point source) or a shape Haiko does not know.
+    pub luminous: Option<LuminousShape>,
+}
+
+/// The lowest and highest intensity over all C-planes at each γ of a file's curve (cd), for
+/// drawing the spread of an asymmetric file around its axial average.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CSpread {
+    /// Minimum over C-planes, one per curve point, cd.
+    pub min_cd: Vec<f64>,
+    /// Maximum over C-planes, one per curve point, cd.
+    pub max_cd: Vec<f64>,
+}
+
+impl LidFile {
+    /// True when the file is asymmetric enough for the editor to warn ([`ASYMMETRY_WARNING`]).
+    pub fn warns_asymmetry(&self) -> bool {
+        self.asymmetry > ASYMMETRY_WARNING
+    }
 }
 
 /// Reads an IES (`.ies`) or EULUMDAT (`.ldt`) file; the extension decides, case-insensitively.
@@ -115,6 +142,8 @@ pub(crate) struct StoredPlanes {
     pub planes: Vec<(f64, Vec<f64>)>,
     /// How the stored planes generate the rest of the circle.
     pub symmetry: CSymmetry,
+    /// The luminous area the file describes, if any.
+    pub luminous: Option<LuminousShape>,
 }
 
 /// Two angles closer than this (degrees) are the same C-plane.
@@ -133,9 +162,15 @@ impl StoredPlanes {
         }
         let peak_cd = average_cd.iter().copied().fold(0.0, f64::max);
         let mut largest_deviation_cd: f64 = 0.0;
+        let mut spread = CSpread {
+            min_cd: vec![f64::INFINITY; self.gamma_deg.len()],
+            max_cd: vec![0.0; self.gamma_deg.len()],
+        };
         for &(_, values) in &full {
-            for (&avg, &value) in average_cd.iter().zip(values) {
+            for (k, (&avg, &value)) in average_cd.iter().zip(values).enumerate() {
                 largest_deviation_cd = largest_deviation_cd.max((value - avg).abs());
+                spread.min_cd[k] = spread.min_cd[k].min(value);
+                spread.max_cd[k] = spread.max_cd[k].max(value);
             }
         }
         // All intensities are ≥ 0 and the weights > 0, so a zero peak means an all-zero file.
@@ -152,6 +187,8 @@ impl StoredPlanes {
             n_planes: full.len(),
             format,
             luminaire,
+            spread,
+            luminous: self.luminous,
         })
     }
 
@@ -279,6 +316,7 @@ mod tests {
             gamma_deg: vec![0.0, 90.0],
             planes,
             symmetry,
+            luminous: None,
         }
     }
 

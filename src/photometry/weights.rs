@@ -1,4 +1,4 @@
-//! Legendre weights `w_l` of a piecewise-linear intensity curve (docs/METHOD.md §5, docs/METHOD.md §3):
+//! Legendre weights `w_l` of a piecewise-linear intensity curve (docs/METHOD.md §3):
 //! exact hat-function moments, the exact weights built from them, and the paper's rectangle rule
 //! kept for the accuracy report.
 

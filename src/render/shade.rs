@@ -53,6 +53,23 @@ pub fn vertex_attributes(
     surfaces: &[Surface],
     illuminance_lx: &[[f64; 3]],
 ) -> Result<Vec<[f32; 3]>> {
+    let mut attrs = Vec::new();
+    vertex_attributes_into(mode, mesh, surfaces, illuminance_lx, &mut attrs)?;
+    Ok(attrs)
+}
+
+/// As [`vertex_attributes`], into `out` (cleared first; its capacity is reused, so a preview
+/// that redraws every edit allocates nothing here).
+///
+/// Errors as [`vertex_attributes`]; `out` is then left empty.
+pub fn vertex_attributes_into(
+    mode: DisplayMode,
+    mesh: &PatchMesh,
+    surfaces: &[Surface],
+    illuminance_lx: &[[f64; 3]],
+    out: &mut Vec<[f32; 3]>,
+) -> Result<()> {
+    out.clear();
     let n = mesh.n_vertices();
     if illuminance_lx.len() != n || mesh.vertex_surface.len() != n {
         return Err(Error::internal(format!(
@@ -61,25 +78,23 @@ pub fn vertex_attributes(
             mesh.vertex_surface.len()
         )));
     }
-    illuminance_lx
-        .iter()
-        .zip(&mesh.vertex_surface)
-        .map(|(e, &s)| {
-            let factor = match mode {
-                DisplayMode::FalseColor => [1.0; 3],
-                DisplayMode::Photo => {
-                    let surface = surfaces.get(s as usize).ok_or_else(|| {
-                        Error::internal(format!(
-                            "render: vertex surface {s} of {} surfaces",
-                            surfaces.len()
-                        ))
-                    })?;
-                    surface.reflectance.0.map(|rho| rho / PI)
-                }
-            };
-            Ok([0, 1, 2].map(|c| (factor[c] * e[c]) as f32))
-        })
-        .collect()
+    for (e, &s) in illuminance_lx.iter().zip(&mesh.vertex_surface) {
+        let factor = match mode {
+            DisplayMode::FalseColor => [1.0; 3],
+            DisplayMode::Photo => {
+                let Some(surface) = surfaces.get(s as usize) else {
+                    out.clear();
+                    return Err(Error::internal(format!(
+                        "render: vertex surface {s} of {} surfaces",
+                        surfaces.len()
+                    )));
+                };
+                surface.reflectance.0.map(|rho| rho / PI)
+            }
+        };
+        out.push([0, 1, 2].map(|c| (factor[c] * e[c]) as f32));
+    }
+    Ok(())
 }
 
 /// The area each vertex stands for (m²): a third or a quarter of each patch it belongs to.

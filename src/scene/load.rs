@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use toml::Spanned;
 
 use crate::error::{Error, Result};
-use crate::photometry::{Curve, read_lid_file};
+use crate::photometry::{Curve, LuminousShape, read_lid_file};
 use crate::scene::mesher::{self, Geometry, Shape, SurfaceLayout, TriangleSurface};
 use crate::scene::model::{
     Aabb, AimSpec, Camera, DirectMode, LidSource, Light, PatchMesh, Reflectance, Scene, Settings, Surface,
@@ -20,6 +20,8 @@ use crate::scene::room_file::{
     self, BoxSpec, CameraSpec, DirectSpec, LightSpec, MeshSpec, ReflectanceSpec, RoomFile, SettingsSpec,
     Vec3Spec,
 };
+
+mod design;
 
 /// The most fine (or coarse) vertices a room may have; more is refused with advice to raise
 /// the patch size.
@@ -104,6 +106,17 @@ impl Loader<'_> {
         }
         let lights = self.lights(&file.lights, room_size, &boxes, &mesh_bounds)?;
         let settings = self.settings(&file.settings)?;
+        let bounds = design::RoomBounds {
+            size: room_size,
+            boxes: &boxes,
+            mesh_bounds: &mesh_bounds,
+        };
+        let design = self.design(
+            &file.surfaces,
+            &file.observers,
+            &file.settings.maintenance_factor,
+            &bounds,
+        )?;
         let camera = match &file.camera {
             Some(spec) => self.camera(spec)?,
             None => default_camera(room_size),
@@ -160,6 +173,7 @@ impl Loader<'_> {
             lights,
             camera,
             settings,
+            design,
         })
     }
 
@@ -331,7 +345,7 @@ impl Loader<'_> {
         let spec = spec.get_ref();
         let position = self.light_position(&spec.position, &at("position"), room_size, boxes, mesh_bounds)?;
         let (aim, aim_spec) = self.aim(spec, position, &field)?;
-        let (curve, lid_source) = match (&spec.lid, &spec.lid_file) {
+        let (curve, lid_source, file_luminous) = match (&spec.lid, &spec.lid_file) {
             (Some(_), Some(file)) => {
                 let message = "give either `lid` or `lid_file`, not both";
                 return Err(self.error(&file.span(), &at("lid_file"), message));
@@ -344,7 +358,7 @@ impl Loader<'_> {
                 let pairs: Vec<(f64, f64)> = points.get_ref().iter().map(|p| (p[0], p[1])).collect();
                 let curve =
                     Curve::new(&pairs).map_err(|e| self.error(&points.span(), &at("lid"), e.to_string()))?;
-                (curve, LidSource::Inline)
+                (curve, LidSource::Inline, None)
             }
             (None, Some(file)) => self.lid_file(file, &at("lid_file"))?,
         };
@@ -372,6 +386,10 @@ impl Loader<'_> {
             }
             None => [1.0; 3],
         };
+        let luminous = match &spec.luminous_size {
+            Some(size) => Some(self.luminous_size(size, &at("luminous_size"))?),
+            None => file_luminous,
+        };
         Ok(Light {
             name: spec.name.get_ref().clone(),
             position,
@@ -383,6 +401,7 @@ impl Loader<'_> {
             radius,
             dimmer,
             color,
+            luminous,
         })
     }
 
@@ -439,8 +458,13 @@ impl Loader<'_> {
         }
     }
 
-    /// A curve from a photometric file, resolved against the room file's directory.
-    fn lid_file(&self, file: &Spanned<String>, field: &str) -> Result<(Curve, LidSource)> {
+    /// A curve from a photometric file, resolved against the room file's directory, and the
+    /// file's luminous area.
+    fn lid_file(
+        &self,
+        file: &Spanned<String>,
+        field: &str,
+    ) -> Result<(Curve, LidSource, Option<LuminousShape>)> {
         let written = file.get_ref();
         let resolved = self.resolve(written);
         let file_error = |message: String| self.error(&file.span(), field, message);
@@ -464,7 +488,7 @@ impl Loader<'_> {
             path: resolved,
             asymmetry: lid.asymmetry,
         };
-        Ok((lid.curve, source))
+        Ok((lid.curve, source, lid.luminous))
     }
 
     fn settings(&self, spec: &SettingsSpec) -> Result<Settings> {

@@ -1,9 +1,12 @@
 //! The scene: room file (TOML, version 1), OBJ meshes, meshing into fine and coarse patches.
 
+pub mod calc_spec;
+pub mod design;
 pub mod load;
 pub mod mesher;
 pub mod model;
 pub mod obj;
+pub mod points;
 pub mod remesh;
 pub mod room_file;
 

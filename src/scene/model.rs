@@ -5,7 +5,8 @@
 use glam::DVec3;
 use std::path::PathBuf;
 
-use crate::photometry::Curve;
+use crate::photometry::{Curve, LuminousShape};
+use crate::scene::design::Design;
 
 /// Reflectance of a Lambertian surface, per channel (r, g, b), each in 0..0.98.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -154,6 +155,9 @@ pub struct Light {
     pub dimmer: f64,
     /// Colour (linear RGB multipliers, [1, 1, 1] = white).
     pub color: [f64; 3],
+    /// The luminous area facing along the aim (`luminous_size`, else the photometric file's);
+    /// `None` when neither gives one (glare ratings then leave the light out and say so).
+    pub luminous: Option<LuminousShape>,
 }
 
 impl From<&Light> for crate::photometry::LightState {
@@ -235,6 +239,15 @@ impl Aabb {
     }
 }
 
+/// A point that receives light: position (world, m) and unit normal of its surface side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Receiver {
+    /// Position (world, m).
+    pub point: DVec3,
+    /// Unit normal (world) on the side that receives light.
+    pub normal: DVec3,
+}
+
 /// A loaded, meshed room.
 #[derive(Debug, Clone)]
 pub struct Scene {
@@ -260,4 +273,6 @@ pub struct Scene {
     pub camera: Camera,
     /// Settings with defaults applied.
     pub settings: Settings,
+    /// Calculation surfaces, glare observers and the maintenance factor.
+    pub design: Design,
 }

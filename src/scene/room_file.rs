@@ -8,6 +8,8 @@ use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 
+use crate::scene::calc_spec::{LuminousSizeSpec, ObserverSpec, SurfaceSpec};
+
 /// A three-component vector as written in the file (`[x, y, z]`, metres or a direction).
 pub type Vec3Spec = [f64; 3];
 
@@ -35,6 +37,12 @@ pub struct RoomFile {
     pub settings: SettingsSpec,
     /// The preview camera (default: see [`crate::scene::load`]).
     pub camera: Option<Spanned<CameraSpec>>,
+    /// Calculation surfaces (default: a work plane at 0.8 m).
+    #[serde(default, rename = "surface")]
+    pub surfaces: Vec<Spanned<SurfaceSpec>>,
+    /// Glare observers (default: seated, in the middle of each wall).
+    #[serde(default, rename = "observer")]
+    pub observers: Vec<Spanned<ObserverSpec>>,
 }
 
 /// `[room]`: the room interior spans (0, 0, 0) to `size` (metres).
@@ -146,6 +154,8 @@ pub struct LightSpec {
     pub dimmer: Option<Spanned<f64>>,
     /// Linear RGB multipliers (≥ 0). Default `[1, 1, 1]`.
     pub color: Option<Spanned<Vec3Spec>>,
+    /// Size of the luminous area (m), overriding the photometric file's.
+    pub luminous_size: Option<Spanned<LuminousSizeSpec>>,
 }
 
 /// How direct light is computed, as written.
@@ -170,6 +180,8 @@ pub struct SettingsSpec {
     pub direct: Option<DirectSpec>,
     /// Relative tolerance of the interreflection solve, in (0, 0.5].
     pub tolerance: Option<Spanned<f64>>,
+    /// Maintained / new illuminance, in (0, 1]. Default 0.8.
+    pub maintenance_factor: Option<Spanned<f64>>,
 }
 
 /// `[camera]`.

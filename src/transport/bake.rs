@@ -1,21 +1,27 @@
-//! The bake (docs/METHOD.md §5, §7): per light, the indirect irradiance of every SH basis emitter on the
-//! coarse patches, with interreflection solved to a certified tolerance, cached on disk per light.
+//! The bake (docs/METHOD.md §5, §7): per light, the indirect irradiance of every SH basis emitter
+//! on the coarse patches, with interreflection solved to a certified tolerance, cached on disk per
+//! light.
 //!
 //! For light `i` with order N the basis has `K = (N + 1)²` emitters; column `k = sh_index(l, m)`
 //! is the room's response to a point source of intensity `Y_lm(ω)` at the light (masked to the
 //! mounting half-space when the plan says so). Stored per column and coarse patch (f32):
 //! the patch-averaged direct irradiance `E_k` and the indirect irradiance `H_k − E_k` per channel
 //! (lx per unit coefficient). Relighting blends them with `c_k = w_l 4π/(2l+1) Y_lm(aim)`.
+//!
+//! The work splits in two: a [`Transport`] holds what every light's bake shares (the coarse mesh,
+//! reflectances, occluders and the balanced form factors, built on first need) and is `Send +
+//! Sync`, so one moved light can be re-baked on a background thread ([`Transport::bake_lights`])
+//! while the other lights stay editable; [`bake`] plans a scene and bakes all its lights.
 
-use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::scene::{PatchMesh, Scene, SurfaceKind};
+use crate::scene::{Light, PatchMesh, Scene, SurfaceKind};
 use crate::transport::basis::{Emitter, basis_direct};
-use crate::transport::cache::{self, CacheLoad, Fnv64, PayloadReader, PayloadWriter};
+use crate::transport::cache::{self, BakeCache, CacheLoad, Fnv64, PayloadReader, PayloadWriter};
 use crate::transport::formfactor::{FormFactorOptions, FormFactors};
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{LightPlan, Plan, PlanOptions, plan};
@@ -72,6 +78,8 @@ pub struct BakeTimings {
 pub struct Bake {
     /// The plan it followed.
     pub plan: Plan,
+    /// The shared transport operator, for re-baking single lights later.
+    pub transport: Arc<Transport>,
     /// Per light, in scene order.
     pub lights: Vec<BakedLight>,
     /// Stage timings.
@@ -90,8 +98,8 @@ pub struct Bake {
 pub struct BakeOptions {
     /// Plan overrides (tests force a full simulation).
     pub plan: PlanOptions,
-    /// Cache directory; `None` bakes without reading or writing a cache.
-    pub cache_dir: Option<PathBuf>,
+    /// The cache; `None` bakes without reading or writing one.
+    pub cache: Option<BakeCache>,
     /// Overrides the room's solver tolerance (accuracy tables).
     pub tolerance: Option<f64>,
     /// Form-factor options (near-field rule, rays per pair); default from [`FormFactorOptions`].
@@ -126,19 +134,348 @@ pub fn patch_reflectance(scene: &Scene, mesh: &PatchMesh, channel: usize) -> Vec
         .collect()
 }
 
-/// The emitter of light `i` under its plan.
-fn emitter(scene: &Scene, plan: &LightPlan, i: usize) -> Emitter {
-    let light = &scene.lights[i];
-    Emitter {
-        position: light.position,
-        radius_m: light.radius,
-        order: plan.order,
-        mask: plan.mask.map(DVec3::from),
+/// What the bake of one light depends on besides the room: its position, luminous radius and
+/// plan (order, mask).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LightBakeSpec {
+    /// Position (world, m).
+    pub position: DVec3,
+    /// Luminous radius (m).
+    pub radius_m: f64,
+    /// The light's plan.
+    pub plan: LightPlan,
+}
+
+impl LightBakeSpec {
+    /// The spec of `light` under `plan`.
+    pub fn new(light: &Light, plan: &LightPlan) -> Self {
+        LightBakeSpec {
+            position: light.position,
+            radius_m: light.radius,
+            plan: plan.clone(),
+        }
+    }
+
+    fn emitter(&self) -> Emitter {
+        Emitter {
+            position: self.position,
+            radius_m: self.radius_m,
+            order: self.plan.order,
+            mask: self.plan.mask.map(DVec3::from),
+        }
     }
 }
 
-/// The cache key of light `i`: everything its baked columns depend on.
-pub fn light_key(scene: &Scene, plan: &Plan, i: usize, tolerance: f64, ff: &FormFactorOptions) -> u64 {
+/// What every light's bake shares: the coarse mesh, its reflectances, the occluders and (built
+/// on first need) the balanced form factors. Thread-safe; cheap to keep for a session.
+#[derive(Debug)]
+pub struct Transport {
+    coarse: PatchMesh,
+    /// Reflectance per channel, one value per coarse patch.
+    reflectance: Vec<Vec<f64>>,
+    occluders: Option<Arc<Occluders>>,
+    visibility: bool,
+    interreflection: bool,
+    channels: usize,
+    tolerance: f64,
+    form_factor_options: FormFactorOptions,
+    /// Hash of everything above that a light's cache key depends on.
+    room_key: u64,
+    form_factors: OnceLock<FormFactors>,
+}
+
+/// What [`Transport::bake_lights`] did besides the baked lights.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BakeReport {
+    /// Stage timings (`plan_s` is left 0).
+    pub timings: BakeTimings,
+    /// One-line notices (cache files rebuilt or not written).
+    pub notices: Vec<String>,
+}
+
+impl Transport {
+    /// The transport of `scene` under `plan`; `occluders` as [`Occluders::of_scene`] (shared with
+    /// the direct light). The form factors are built by the first bake that needs them.
+    pub fn new(scene: &Scene, plan: &Plan, options: &BakeOptions, occluders: Option<Arc<Occluders>>) -> Self {
+        let tolerance = options.tolerance.unwrap_or(scene.settings.tolerance);
+        let form_factor_options = options.form_factors.unwrap_or_else(default_form_factor_options);
+        let mut transport = Transport {
+            reflectance: (0..3)
+                .map(|c| patch_reflectance(scene, &scene.coarse, c))
+                .collect(),
+            coarse: scene.coarse.clone(),
+            occluders,
+            visibility: plan.visibility.on,
+            interreflection: plan.interreflection.on,
+            channels: plan.channels,
+            tolerance,
+            form_factor_options,
+            room_key: 0,
+            form_factors: OnceLock::new(),
+        };
+        transport.room_key = room_key(scene, &transport);
+        transport
+    }
+
+    /// The scene's occluders (None in an empty convex room).
+    pub fn occluders(&self) -> Option<&Arc<Occluders>> {
+        self.occluders.as_ref()
+    }
+
+    /// Number of coarse patches.
+    pub fn n_patches(&self) -> usize {
+        self.coarse.patches.len()
+    }
+
+    /// The cache key of a light's bake: everything its baked columns depend on.
+    pub fn light_key(&self, light: &LightBakeSpec) -> u64 {
+        let mut h = Fnv64::default();
+        h.u64(self.room_key);
+        h.f64(light.position.x)
+            .f64(light.position.y)
+            .f64(light.position.z)
+            .f64(light.radius_m);
+        h.u64(light.plan.order as u64);
+        match light.plan.mask {
+            Some(n) => h.u64(1).f64(n[0]).f64(n[1]).f64(n[2]),
+            None => h.u64(0),
+        };
+        h.finish()
+    }
+
+    /// Visibility rays cast and bytes held by the form factors (0, 0 before they are built).
+    pub fn form_factor_stats(&self) -> (u64, usize) {
+        self.form_factors
+            .get()
+            .map_or((0, 0), |f| (f.rays_cast(), f.bytes()))
+    }
+
+    /// The balanced form factors, built now if no bake needed them before; with the seconds
+    /// spent building them in this call.
+    fn form_factors(&self, progress: &mut dyn FnMut(Progress)) -> (&FormFactors, f64) {
+        let mut built_now = 0.0;
+        let built = self.form_factors.get_or_init(|| {
+            let n = self.n_patches();
+            progress(Progress {
+                stage: "form factors",
+                done: 0,
+                total: n,
+            });
+            let t = Instant::now();
+            let occluders = self.visibility.then(|| {
+                self.occluders
+                    .clone()
+                    .unwrap_or_else(|| Arc::new(Occluders::from_parts(&[], &[])))
+            });
+            let mut matrix = match &occluders {
+                Some(occ) => FormFactors::build(&self.coarse, occ.as_ref(), self.form_factor_options),
+                None => FormFactors::build(&self.coarse, &Unoccluded, self.form_factor_options),
+            };
+            let areas: Vec<f64> = self.coarse.patches.iter().map(|p| p.area).collect();
+            matrix.balance(&areas);
+            built_now = t.elapsed().as_secs_f64();
+            progress(Progress {
+                stage: "form factors",
+                done: n,
+                total: n,
+            });
+            matrix
+        });
+        (built, built_now)
+    }
+
+    /// Bakes `lights` (or loads them from `cache`): one block solve over the columns of every
+    /// light the cache does not hold. Progress is reported per stage.
+    ///
+    /// Errors: the interreflection solve failing (internal).
+    pub fn bake_lights(
+        &self,
+        lights: &[LightBakeSpec],
+        cache: Option<&BakeCache>,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(Vec<BakedLight>, BakeReport)> {
+        let n = self.n_patches();
+        let mut report = BakeReport::default();
+        let t = Instant::now();
+        let keys: Vec<u64> = lights.iter().map(|l| self.light_key(l)).collect();
+        let mut baked: Vec<Option<BakedLight>> = vec![None; lights.len()];
+        if let Some(cache) = cache {
+            for (i, &key) in keys.iter().enumerate() {
+                match cache.read(key) {
+                    CacheLoad::Hit(payload) => match decode(&payload, &lights[i].plan, n) {
+                        Some(light) => baked[i] = Some(light),
+                        None => report.notices.push(format!(
+                            "{}: unreadable bake payload, rebuilding",
+                            cache::file_for(&cache.dir, key).display()
+                        )),
+                    },
+                    CacheLoad::Missing => {}
+                    CacheLoad::Invalid(why) => report.notices.push(format!("cache {why}; rebuilding")),
+                }
+            }
+        }
+        report.timings.cache_read_s = t.elapsed().as_secs_f64();
+        let todo: Vec<usize> = (0..lights.len()).filter(|&i| baked[i].is_none()).collect();
+        if !self.interreflection {
+            for &i in &todo {
+                baked[i] = Some(BakedLight::without_indirect(&lights[i].plan));
+            }
+        } else if !todo.is_empty() {
+            let specs: Vec<&LightBakeSpec> = todo.iter().map(|&i| &lights[i]).collect();
+            for (&i, light) in todo
+                .iter()
+                .zip(self.solve_lights(&specs, &mut report.timings, progress)?)
+            {
+                baked[i] = Some(light);
+            }
+        }
+        let t = Instant::now();
+        if let Some(cache) = cache {
+            for &i in &todo {
+                let light = baked[i].as_ref().expect("every light to bake was baked");
+                if let Err(e) = cache.write(keys[i], &encode(light)) {
+                    report.notices.push(format!(
+                        "could not write the bake cache in {}: {e}",
+                        cache.dir.display()
+                    ));
+                }
+            }
+        }
+        report.timings.cache_write_s = t.elapsed().as_secs_f64();
+        let baked = baked
+            .into_iter()
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| Error::internal("a light was not baked"))?;
+        Ok((baked, report))
+    }
+
+    /// The basis direct light of `lights` and one block solve over all their columns, per channel.
+    fn solve_lights(
+        &self,
+        lights: &[&LightBakeSpec],
+        timings: &mut BakeTimings,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Vec<BakedLight>> {
+        let n = self.n_patches();
+        let (ff, ff_seconds) = self.form_factors(progress);
+        timings.form_factors_s = ff_seconds;
+
+        let t = Instant::now();
+        let vis = self
+            .occluders
+            .as_deref()
+            .filter(|_| self.visibility)
+            .map(|o| o as &dyn Visibility);
+        let mut directs = Vec::with_capacity(lights.len());
+        for (done, light) in lights.iter().enumerate() {
+            progress(Progress {
+                stage: "basis direct light",
+                done,
+                total: lights.len(),
+            });
+            directs.push(basis_direct(&self.coarse, &light.emitter(), vis));
+        }
+        progress(Progress {
+            stage: "basis direct light",
+            done: lights.len(),
+            total: lights.len(),
+        });
+        timings.basis_direct_s = t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let widths: Vec<usize> = lights.iter().map(|l| l.plan.columns).collect();
+        let total_k: usize = widths.iter().sum();
+        let mut block = PatchColumns::zeros(n, total_k);
+        let mut offset = 0;
+        for (direct, &k) in directs.iter().zip(&widths) {
+            for p in 0..n {
+                block.values[p * total_k + offset..p * total_k + offset + k]
+                    .copy_from_slice(&direct[p * k..(p + 1) * k]);
+            }
+            offset += k;
+        }
+        let solve_options = SolveOptions {
+            tolerance: self.tolerance,
+            ..SolveOptions::default()
+        };
+        let mut indirect_by_channel = Vec::with_capacity(self.channels);
+        let mut reports = Vec::with_capacity(self.channels);
+        for channel in 0..self.channels {
+            progress(Progress {
+                stage: "interreflection solve",
+                done: channel,
+                total: self.channels,
+            });
+            let solution = solve(ff, &self.reflectance[channel], &block, &solve_options)?;
+            indirect_by_channel.push(solution.irradiance);
+            reports.push(solution.columns);
+        }
+        progress(Progress {
+            stage: "interreflection solve",
+            done: self.channels,
+            total: self.channels,
+        });
+        timings.solve_s = t.elapsed().as_secs_f64();
+
+        let mut offset = 0;
+        let mut baked = Vec::with_capacity(lights.len());
+        for ((light, direct), &k) in lights.iter().zip(&directs).zip(&widths) {
+            let columns = offset..offset + k;
+            let indirect = indirect_by_channel
+                .iter()
+                .map(|h| {
+                    let mut out = vec![0f32; n * k];
+                    for p in 0..n {
+                        for c in 0..k {
+                            out[p * k + c] = (h.get(p, offset + c) - direct[p * k + c]) as f32;
+                        }
+                    }
+                    out
+                })
+                .collect();
+            let column_reports = reports.iter().flat_map(|r| &r[columns.clone()]);
+            let (iterations, certified_error) = column_reports.fold((0, 0.0f64), |(it, err), c| {
+                let rel = if c.radiosity_norm > 0.0 {
+                    c.error_bound / c.radiosity_norm
+                } else {
+                    0.0
+                };
+                (it.max(c.iterations), err.max(rel))
+            });
+            baked.push(BakedLight {
+                plan: light.plan.clone(),
+                n_columns: k,
+                direct: direct.iter().map(|&v| v as f32).collect(),
+                indirect,
+                iterations,
+                certified_error,
+                from_cache: false,
+            });
+            offset += k;
+        }
+        Ok(baked)
+    }
+}
+
+impl BakedLight {
+    /// A light with no stored basis (a room that reflects nothing, or a light whose bake is
+    /// still to come).
+    pub fn without_indirect(plan: &LightPlan) -> Self {
+        BakedLight {
+            plan: plan.clone(),
+            n_columns: plan.columns,
+            direct: Vec::new(),
+            indirect: Vec::new(),
+            iterations: 0,
+            certified_error: 0.0,
+            from_cache: false,
+        }
+    }
+}
+
+/// Hash of the room part of every light's cache key: the format version, the coarse mesh,
+/// reflectances, occluders, the plan's effects and the solver settings.
+fn room_key(scene: &Scene, transport: &Transport) -> u64 {
     let mut h = Fnv64::default();
     h.u64(u64::from(cache::FORMAT_VERSION)).str("haiko-bake");
     let mesh = &scene.coarse;
@@ -176,21 +513,11 @@ pub fn light_key(scene: &Scene, plan: &Plan, i: usize, tolerance: f64, ff: &Form
             }
         }
     }
-    let lp = &plan.lights[i];
-    let light = &scene.lights[i];
-    h.f64(light.position.x)
-        .f64(light.position.y)
-        .f64(light.position.z)
-        .f64(light.radius);
-    h.u64(lp.order as u64);
-    match lp.mask {
-        Some(n) => h.u64(1).f64(n[0]).f64(n[1]).f64(n[2]),
-        None => h.u64(0),
-    };
-    h.u64(u64::from(plan.visibility.on))
-        .u64(u64::from(plan.interreflection.on))
-        .u64(plan.channels as u64);
-    h.f64(tolerance)
+    h.u64(u64::from(transport.visibility))
+        .u64(u64::from(transport.interreflection))
+        .u64(transport.channels as u64);
+    let ff = &transport.form_factor_options;
+    h.f64(transport.tolerance)
         .f64(ff.near_field_ratio)
         .u64(ff.visibility_samples_per_edge as u64);
     h.finish()
@@ -231,202 +558,36 @@ fn decode(payload: &[u8], plan: &LightPlan, n_patches: usize) -> Option<BakedLig
     })
 }
 
-/// Bakes `scene` (or loads it from the cache), reporting progress.
+/// Plans `scene` and bakes every light (or loads it from the cache), reporting progress.
+///
+/// Errors: the interreflection solve failing (internal).
 pub fn bake(scene: &Scene, options: &BakeOptions, progress: &mut dyn FnMut(Progress)) -> Result<Bake> {
     let t = Instant::now();
     let plan = plan(scene, options.plan);
-    let mut timings = BakeTimings {
-        plan_s: t.elapsed().as_secs_f64(),
-        ..BakeTimings::default()
-    };
-    let tolerance = options.tolerance.unwrap_or(scene.settings.tolerance);
-    let ff_options = options.form_factors.unwrap_or_else(default_form_factor_options);
-    let n = scene.coarse.patches.len();
-    let mut notices = Vec::new();
-
-    // 1. The cache.
-    let t = Instant::now();
-    let keys: Vec<u64> = (0..scene.lights.len())
-        .map(|i| light_key(scene, &plan, i, tolerance, &ff_options))
+    let plan_s = t.elapsed().as_secs_f64();
+    let transport = Arc::new(Transport::new(
+        scene,
+        &plan,
+        options,
+        Occluders::of_scene(scene).map(Arc::new),
+    ));
+    let specs: Vec<LightBakeSpec> = scene
+        .lights
+        .iter()
+        .zip(&plan.lights)
+        .map(|(light, lp)| LightBakeSpec::new(light, lp))
         .collect();
-    let mut lights: Vec<Option<BakedLight>> = vec![None; scene.lights.len()];
-    if let Some(dir) = &options.cache_dir {
-        for (i, &key) in keys.iter().enumerate() {
-            let path = cache::file_for(dir, key);
-            match cache::read(&path, key) {
-                CacheLoad::Hit(payload) => match decode(&payload, &plan.lights[i], n) {
-                    Some(light) => lights[i] = Some(light),
-                    None => notices.push(format!("{}: unreadable bake payload, rebuilding", path.display())),
-                },
-                CacheLoad::Missing => {}
-                CacheLoad::Invalid(why) => notices.push(format!("cache {why}; rebuilding")),
-            }
-        }
-    }
-    timings.cache_read_s = t.elapsed().as_secs_f64();
-    let todo: Vec<usize> = (0..scene.lights.len()).filter(|&i| lights[i].is_none()).collect();
-
-    // 2. Nothing reflects: no columns at all.
-    let mut form_factor_rays = 0;
-    let mut form_factor_bytes = 0;
-    if !plan.interreflection.on {
-        for &i in &todo {
-            lights[i] = Some(BakedLight {
-                plan: plan.lights[i].clone(),
-                n_columns: plan.lights[i].columns,
-                direct: Vec::new(),
-                indirect: Vec::new(),
-                iterations: 0,
-                certified_error: 0.0,
-                from_cache: false,
-            });
-        }
-    } else if !todo.is_empty() {
-        // 3. Form factors and the basis direct irradiance (visibility only where planned).
-        let occluders = plan
-            .visibility
-            .on
-            .then(|| Occluders::of_scene(scene).unwrap_or_else(|| Occluders::from_parts(&[], &[])));
-        progress(Progress {
-            stage: "form factors",
-            done: 0,
-            total: n,
-        });
-        let t = Instant::now();
-        let mut ff = match &occluders {
-            Some(occ) => FormFactors::build(&scene.coarse, occ, ff_options),
-            None => FormFactors::build(&scene.coarse, &Unoccluded, ff_options),
-        };
-        let areas: Vec<f64> = scene.coarse.patches.iter().map(|p| p.area).collect();
-        ff.balance(&areas);
-        timings.form_factors_s = t.elapsed().as_secs_f64();
-        form_factor_rays = ff.rays_cast();
-        form_factor_bytes = ff.bytes();
-        progress(Progress {
-            stage: "form factors",
-            done: n,
-            total: n,
-        });
-
-        let t = Instant::now();
-        let vis = occluders.as_ref().map(|o| o as &dyn Visibility);
-        let mut directs = Vec::with_capacity(todo.len());
-        for (done, &i) in todo.iter().enumerate() {
-            progress(Progress {
-                stage: "basis direct light",
-                done,
-                total: todo.len(),
-            });
-            directs.push(basis_direct(
-                &scene.coarse,
-                &emitter(scene, &plan.lights[i], i),
-                vis,
-            ));
-        }
-        progress(Progress {
-            stage: "basis direct light",
-            done: todo.len(),
-            total: todo.len(),
-        });
-        timings.basis_direct_s = t.elapsed().as_secs_f64();
-
-        // 4. One block solve over all columns of all lights to bake, per channel.
-        let t = Instant::now();
-        let widths: Vec<usize> = todo.iter().map(|&i| plan.lights[i].columns).collect();
-        let total_k: usize = widths.iter().sum();
-        let mut block = PatchColumns::zeros(n, total_k);
-        let mut offset = 0;
-        for (direct, &k) in directs.iter().zip(&widths) {
-            for p in 0..n {
-                block.values[p * total_k + offset..p * total_k + offset + k]
-                    .copy_from_slice(&direct[p * k..(p + 1) * k]);
-            }
-            offset += k;
-        }
-        let solve_options = SolveOptions {
-            tolerance,
-            ..SolveOptions::default()
-        };
-        let mut indirect_by_channel = Vec::with_capacity(plan.channels);
-        let mut reports = Vec::new();
-        for channel in 0..plan.channels {
-            progress(Progress {
-                stage: "interreflection solve",
-                done: channel,
-                total: plan.channels,
-            });
-            let rho = patch_reflectance(scene, &scene.coarse, channel);
-            let solution = solve(&ff, &rho, &block, &solve_options)?;
-            indirect_by_channel.push(solution.irradiance);
-            reports.push(solution.columns);
-        }
-        progress(Progress {
-            stage: "interreflection solve",
-            done: plan.channels,
-            total: plan.channels,
-        });
-        timings.solve_s = t.elapsed().as_secs_f64();
-
-        let mut offset = 0;
-        for ((&i, direct), &k) in todo.iter().zip(&directs).zip(&widths) {
-            let columns = offset..offset + k;
-            let indirect = indirect_by_channel
-                .iter()
-                .map(|h| {
-                    let mut out = vec![0f32; n * k];
-                    for p in 0..n {
-                        for c in 0..k {
-                            out[p * k + c] = (h.get(p, offset + c) - direct[p * k + c]) as f32;
-                        }
-                    }
-                    out
-                })
-                .collect();
-            let column_reports = reports.iter().flat_map(|r| &r[columns.clone()]);
-            let (iterations, certified_error) = column_reports.fold((0, 0.0f64), |(it, err), c| {
-                let rel = if c.radiosity_norm > 0.0 {
-                    c.error_bound / c.radiosity_norm
-                } else {
-                    0.0
-                };
-                (it.max(c.iterations), err.max(rel))
-            });
-            lights[i] = Some(BakedLight {
-                plan: plan.lights[i].clone(),
-                n_columns: k,
-                direct: direct.iter().map(|&v| v as f32).collect(),
-                indirect,
-                iterations,
-                certified_error,
-                from_cache: false,
-            });
-            offset += k;
-        }
-    }
-
-    // 5. Write what was baked.
-    let t = Instant::now();
-    if let Some(dir) = &options.cache_dir {
-        for &i in &todo {
-            let light = lights[i].as_ref().expect("every light to bake was baked");
-            if let Err(e) = cache::write_atomic(&cache::file_for(dir, keys[i]), keys[i], &encode(light)) {
-                notices.push(format!(
-                    "could not write the bake cache in {}: {e}",
-                    dir.display()
-                ));
-            }
-        }
-    }
-    timings.cache_write_s = t.elapsed().as_secs_f64();
-    let lights = lights
-        .into_iter()
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| Error::internal("a light was not baked"))?;
+    let (lights, report) = transport.bake_lights(&specs, options.cache.as_ref(), progress)?;
+    let (form_factor_rays, form_factor_bytes) = transport.form_factor_stats();
     Ok(Bake {
         plan,
+        transport,
         lights,
-        timings,
-        notices,
+        timings: BakeTimings {
+            plan_s,
+            ..report.timings
+        },
+        notices: report.notices,
         form_factor_rays,
         form_factor_bytes,
     })

@@ -12,14 +12,7 @@ use rayon::prelude::*;
 use crate::photometry::Curve;
 use crate::transport::visibility::Visibility;
 
-/// A point that receives light: position (world, m) and unit normal of its surface side.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Receiver {
-    /// Position (world, m).
-    pub point: DVec3,
-    /// Unit normal (world) on the side that receives light.
-    pub normal: DVec3,
-}
+pub use crate::scene::Receiver;
 
 /// Receivers closer than this to a light (m) get no light: they are inside the luminaire.
 const MIN_DISTANCE_M: f64 = 1e-6;

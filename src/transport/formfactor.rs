@@ -366,7 +366,7 @@ impl FormFactors {
         self.rays_cast
     }
 
-    /// Makes the collocation matrix conserve energy both ways (docs/METHOD.md §7: centre-to-polygon
+    /// Makes the collocation matrix conserve energy both ways (docs/METHOD.md §5.6: centre-to-polygon
     /// factors are not reciprocal, which shows as an energy surplus of a few % at high ρ).
     /// Alternating scalings (Sinkhorn) restore, to `1e-9`, each row's original sum (what a point
     /// receives: 1 in a closed room, which the furnace test needs) and each column's reciprocity

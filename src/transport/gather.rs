@@ -2,7 +2,7 @@
 //! the indirect light gathered from the coarse patches' radiosity, `E_ind(p) = Σ_j B_j F_{p→j} V`
 //! (docs/METHOD.md §5), with `B_j = ρ_j H_j` blended from the baked basis for the lights' current
 //! curves and aims. Gathering (rather than interpolating vertex values) stays accurate beside
-//! furniture, where interpolation across an occluder's shadow fails (docs/METHOD.md §7).
+//! furniture, where interpolation across an occluder's shadow fails (docs/METHOD.md §5.8).
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -170,7 +170,7 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
     let lights: Vec<LightPlan> = scene
         .lights
         .iter()
-        .map(|l| plan_light(scene, l, paper, options))
+        .map(|l| plan_light(scene, l, options))
         .collect();
     let n_coarse = scene.coarse.patches.len();
     let per_channel: usize = lights.iter().map(|l| l.columns).sum();
@@ -197,7 +197,10 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
     }
 }
 
-fn plan_light(scene: &Scene, light: &crate::scene::Light, paper: bool, options: PlanOptions) -> LightPlan {
+/// The plan of one light of `scene` (its order — the room file's, or the lowest that meets the
+/// mode's target —, window and mask), as [`plan`] makes it for each light.
+pub fn plan_light(scene: &Scene, light: &crate::scene::Light, options: PlanOptions) -> LightPlan {
+    let paper = scene.settings.direct == DirectMode::Basis;
     let (target, cap) = if paper {
         (BASIS_TARGET_REL_L2, BASIS_MAX_ORDER)
     } else {

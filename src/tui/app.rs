@@ -1,12 +1,12 @@
 //! `haiko edit ROOM`: the app loop. Loads the room (before the screen is taken), enters the
 //! terminal, starts the workers, then blocks on one channel: each event becomes a [`Msg`] for
-//! [`update`], whose [`Effect`]s are carried out here (picks, saves, quitting) or by the
-//! workers (a new frame is requested whenever the model asks for a different one).
+//! [`update`], whose [`Effect`]s are carried out here — commands and frame requests collected
+//! and sent to the engine once per loop turn (in order), picks asked of the engine, saves
+//! written, quitting.
 
 use std::collections::VecDeque;
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::mpsc::{self, Receiver, Sender};
 
 use ratatui::Frame;
@@ -17,22 +17,23 @@ use ratatui::widgets::{Gauge, Paragraph};
 use ratatui_image::protocol::Protocol;
 
 use crate::error::{Error, Result};
-use crate::scene::{self, Scene};
+use crate::render::DisplayMode;
+use crate::scene;
+use crate::session::{FrameSpec, SessionOptions, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::msg::{Effect, Msg};
-use crate::tui::renderer::{FrameRequest, PreviewFrame};
-use crate::tui::series::series_msg;
-use crate::tui::terminal::Graphics;
-use crate::tui::terminal::{TerminalSession, spawn_input_reader};
-use crate::tui::workers::{AppEvent, EncodeJob, RenderedFrame, spawn_encode_worker, spawn_render_worker};
-use crate::tui::{Model, PreviewArea, preview, save_room, update, view};
+use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
+use crate::tui::workers::{
+    AppEvent, EncodeJob, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
+};
+use crate::tui::{Mode, Model, PreviewArea, preview, save_room, update, view};
 
 /// Runs the editor on the room file `room` with the `graphics` protocol choice. A bad room
 /// fails before the terminal is touched; the terminal is restored however the editor ends.
 ///
 /// Errors: the room file (bad input), the terminal or a worker (internal).
 pub fn run(room: &Path, graphics: Graphics) -> Result<()> {
-    let scene = Arc::new(scene::load(room)?);
+    let scene = scene::load(room)?;
     let mut session = TerminalSession::enter(graphics)?;
     let mut app = App::start(scene, room, &session)?;
     app.run(&mut session)
@@ -41,54 +42,46 @@ pub fn run(room: &Path, graphics: Graphics) -> Result<()> {
 /// The running editor: the model and the app's side of the workers.
 struct App {
     model: Model,
-    scene: Arc<Scene>,
     room: PathBuf,
     events: Receiver<AppEvent>,
-    render_jobs: Sender<crate::tui::renderer::FrameRequest>,
+    engine: Sender<EngineRequest>,
     encode_jobs: Sender<EncodeJob>,
-    /// The latest rendered frame (for picks).
-    latest: Option<Arc<PreviewFrame>>,
+    /// Requests for the engine from this loop turn, sent in order at its end.
+    outbox: Vec<EngineRequest>,
+    /// True when the frame the model shows changed this turn.
+    frame_changed: bool,
     /// The latest encoded image on screen.
     image: Option<Protocol>,
-    /// The last frame asked of the render worker.
-    requested: Option<FrameRequest>,
     quit: bool,
 }
 
 impl App {
-    fn start(scene: Arc<Scene>, room: &Path, session: &TerminalSession) -> Result<App> {
+    fn start(scene: scene::Scene, room: &Path, session: &TerminalSession) -> Result<App> {
         let mut model = Model::new(&scene, session.size()?, preview::cell_px(session.picker()));
         model.protocol = preview::protocol_label(session.picker());
-        let planned = plan(&scene, PlanOptions::default());
-        for (i, (light, choice)) in scene.lights.iter().zip(&planned.lights).enumerate() {
-            if light.order.is_none() {
-                model.set_planned_order(i, choice.order);
-            }
+        let planned = initial_lights(&scene, &plan(&scene, PlanOptions::default()));
+        for (i, light) in planned.iter().enumerate() {
+            model.set_planned_order(i, light.order);
         }
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
-        let render_jobs = spawn_render_worker(Arc::clone(&scene), sender.clone());
+        let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
         let encode_jobs = spawn_encode_worker(session.picker().clone(), sender);
-        let mut app = App {
+        Ok(App {
             model,
-            scene,
             room: room.to_path_buf(),
             events,
-            render_jobs,
+            engine,
             encode_jobs,
-            latest: None,
+            outbox: Vec::new(),
+            frame_changed: true,
             image: None,
-            requested: None,
             quit: false,
-        };
-        for i in 0..app.model.lights.len() {
-            app.dispatch(series_msg(i, &app.model.lights[i]))?;
-        }
-        Ok(app)
+        })
     }
 
     fn run(&mut self, session: &mut TerminalSession) -> Result<()> {
-        self.request_frame()?;
+        self.flush()?;
         self.draw(session)?;
         while !self.quit {
             let event = self.events.recv().map_err(|_| worker_stopped())?;
@@ -100,7 +93,7 @@ impl App {
                 self.handle(event)?;
             }
             if !self.quit {
-                self.request_frame()?;
+                self.flush()?;
                 self.draw(session)?;
             }
         }
@@ -133,15 +126,10 @@ impl App {
     }
 
     fn on_rendered(&mut self, frame: RenderedFrame) -> Result<()> {
-        self.latest = Some(Arc::clone(&frame.preview));
-        if frame.rebuilt {
-            self.dispatch(Msg::BakeDone)?;
-        }
         let (cell_w, cell_h) = self.model.cell_px;
-        let view = &frame.preview.view;
         let cells = Size::new(
-            u16::try_from(view.width() / u32::from(cell_w)).unwrap_or(u16::MAX),
-            u16::try_from(view.height() / u32::from(cell_h)).unwrap_or(u16::MAX),
+            u16::try_from(frame.pixmap.width() / u32::from(cell_w)).unwrap_or(u16::MAX),
+            u16::try_from(frame.pixmap.height() / u32::from(cell_h)).unwrap_or(u16::MAX),
         );
         self.encode_jobs
             .send(EncodeJob { frame, cells })
@@ -154,18 +142,14 @@ impl App {
         while let Some(msg) = queue.pop_front() {
             for effect in update(&mut self.model, msg) {
                 match effect {
-                    Effect::Relight { light } => {
-                        queue.push_back(series_msg(light, &self.model.lights[light]))
-                    }
-                    Effect::Rebake { light } => {
-                        queue.push_back(series_msg(light, &self.model.lights[light]));
-                        queue.push_back(Msg::BakeProgress { done: 0, total: 1 });
-                    }
-                    // The next frame request follows from the model (request_frame).
-                    Effect::Render => {}
-                    Effect::Pick { pixel, aim } => queue.push_back(Msg::Picked {
+                    Effect::Engine(command) => match self.outbox.last_mut() {
+                        Some(EngineRequest::Commands(commands)) => commands.push(command),
+                        _ => self.outbox.push(EngineRequest::Commands(vec![command])),
+                    },
+                    Effect::Render => self.frame_changed = true,
+                    Effect::Pick { pixel, aim } => self.outbox.push(EngineRequest::Pick {
                         pixel,
-                        hit: self.pick(pixel),
+                        preview_px: self.model.preview_px,
                         aim,
                     }),
                     Effect::Save => queue.push_back(self.save()),
@@ -174,21 +158,6 @@ impl App {
             }
         }
         Ok(())
-    }
-
-    /// The point and illuminance under preview `pixel` of the latest frame (scaled when that
-    /// frame was rendered at another size).
-    fn pick(&self, pixel: (u32, u32)) -> Option<(glam::DVec3, f64)> {
-        let frame = self.latest.as_ref()?;
-        let (w, h) = self.model.preview_px;
-        let scale = |p: u32, from: u32, to: u32| {
-            u32::try_from(u64::from(p) * u64::from(to) / u64::from(from.max(1))).unwrap_or(u32::MAX)
-        };
-        let at = (
-            scale(pixel.0, w, frame.view.width()),
-            scale(pixel.1, h, frame.view.height()),
-        );
-        frame.pick(&self.scene.fine, at)
     }
 
     fn save(&self) -> Msg {
@@ -203,14 +172,18 @@ impl App {
         }
     }
 
-    /// Sends the render worker the frame the model now shows, unless it was already asked for.
-    fn request_frame(&mut self) -> Result<()> {
-        let request = FrameRequest::from_model(&self.model);
-        if request.is_some() && request != self.requested {
-            if let Some(r) = &request {
-                self.render_jobs.send(r.clone()).map_err(|_| worker_stopped())?;
+    /// Sends the engine this turn's requests, in order, with the frame the model now shows
+    /// when it changed.
+    fn flush(&mut self) -> Result<()> {
+        if self.frame_changed {
+            self.frame_changed = false;
+            if let Some(spec) = frame_spec(&self.model) {
+                // Before picks of this turn, so they see the new frame.
+                self.outbox.insert(0, EngineRequest::Frame(spec));
             }
-            self.requested = request;
+        }
+        for request in self.outbox.drain(..) {
+            self.engine.send(request).map_err(|_| worker_stopped())?;
         }
         Ok(())
     }
@@ -222,6 +195,24 @@ impl App {
             view(model, frame, PreviewArea::Draw(&mut preview));
         })
     }
+}
+
+/// The frame `model` shows; `None` while the preview has no pixels (terminal too small).
+pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
+    let (width, height) = model.preview_px;
+    (width > 0 && height > 0).then(|| FrameSpec {
+        size_px: model.preview_px,
+        mode: if model.false_colour {
+            DisplayMode::FalseColor
+        } else {
+            DisplayMode::Photo
+        },
+        selected_light: model.light().map(|_| model.selected_light),
+        cursor: match model.mode {
+            Mode::Aim { cursor } => Some(cursor),
+            _ => None,
+        },
+    })
 }
 
 fn worker_stopped() -> Error {

@@ -1,9 +1,10 @@
-//! Undo and redo of light edits: each record keeps the edited light's whole state before and
-//! after, so undo restores it exactly (no inverse arithmetic, no rounding).
+//! Undo and redo as commands: each record keeps the command that was applied and the one that
+//! undoes it exactly ([`crate::session::Command::apply`] returns it), so undo restores the
+//! light bit for bit without snapshots.
 
 use std::collections::VecDeque;
 
-use crate::tui::model::LightEdit;
+use crate::session::Command;
 
 /// Most edits kept for undo; older ones are forgotten.
 pub const UNDO_LIMIT: usize = 1000;
@@ -11,12 +12,12 @@ pub const UNDO_LIMIT: usize = 1000;
 /// One edit of one light.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Change {
-    /// Index of the edited light.
+    /// Index of the edited light (selected again on undo and redo).
     pub light: usize,
-    /// Its state before the edit.
-    pub before: LightEdit,
-    /// Its state after the edit.
-    pub after: LightEdit,
+    /// The command that made the edit.
+    pub forward: Command,
+    /// The command that undoes it.
+    pub inverse: Command,
 }
 
 /// The undo and redo stacks.

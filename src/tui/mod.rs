@@ -1,9 +1,9 @@
-//! The terminal editor, in the Elm architecture (docs/ARCHITECTURE.md): [`model::Model`] holds the state,
-//! [`msg::Msg`] the events and worker results, [`update::update`] the only state transition
-//! (pure, tested without a terminal), [`view::view`] draws the state. The app loop (part 2)
-//! carries out the [`msg::Effect`]s and feeds results back as messages: [`app::run`] owns the
-//! loop, [`workers`] the render and encode threads, [`renderer`] the preview's pixels,
-//! [`preview`] the terminal image protocol, [`terminal`] the screen itself.
+//! The terminal editor, in the Elm architecture (docs/ARCHITECTURE.md): [`model::Model`] holds
+//! the state, [`msg::Msg`] the events and engine results, [`update::update`] the only state
+//! transition (pure, tested without a terminal; edits are [`crate::session::Command`]s),
+//! [`view::view`] draws the state. [`app::run`] owns the loop and carries out the
+//! [`msg::Effect`]s; [`workers`] holds the engine (a [`crate::session::Session`]), bake and
+//! encode threads; [`preview`] the terminal image protocol; [`terminal`] the screen itself.
 
 pub mod app;
 pub mod camera_nav;
@@ -14,15 +14,13 @@ pub mod model;
 pub mod msg;
 pub mod polar;
 pub mod preview;
-pub mod renderer;
 pub mod save;
-pub mod series;
 pub mod terminal;
 pub mod update;
 pub mod view;
 pub mod workers;
 
-pub use model::{LightEdit, Mode, Model, Window};
+pub use model::{LightEdit, Mode, Model, WindowChoice};
 pub use msg::{Effect, Msg};
 pub use save::save_room;
 pub use terminal::Graphics;

@@ -6,108 +6,12 @@
 
 use glam::DVec3;
 
-use crate::photometry::Curve;
-use crate::scene::{AimSpec, Camera, LidSource, Light, Scene};
+use crate::scene::{Camera, Scene};
+pub use crate::session::light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
+use crate::session::{LightStatus, RoomBounds, Series};
 use crate::tui::history::History;
 use crate::tui::keys::ModeKind;
 use crate::tui::view::preview_rect;
-
-/// SH order shown for a light whose room file fixes none (the app replaces it with the plan's
-/// choice through [`Model::set_planned_order`]).
-pub const DEFAULT_ORDER: usize = 16;
-/// Highest SH order the editor offers (docs/METHOD.md §2 shows the recurrence accurate to l = 150).
-pub const MAX_ORDER: usize = 150;
-
-/// The ringing window applied to a light's truncated series (docs/METHOD.md §4). Not stored in the
-/// room file: it is a session choice (the plan decides it when `Auto`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Window {
-    /// The plan decides: Hann only where the series dips below −0.5 % of the peak.
-    #[default]
-    Auto,
-    /// No window (σ_l = 1).
-    None,
-    /// Hann `½(1 + cos(π l / (N + 1)))`.
-    Hann,
-    /// Lanczos `sinc(l / (N + 1))`.
-    Lanczos,
-    /// Cesàro (C, 2): a positive kernel, never negative, but blurs edges.
-    Cesaro2,
-}
-
-impl Window {
-    /// The next window in the cycle the `w` key walks through.
-    pub fn next(self) -> Self {
-        match self {
-            Window::Auto => Window::None,
-            Window::None => Window::Hann,
-            Window::Hann => Window::Lanczos,
-            Window::Lanczos => Window::Cesaro2,
-            Window::Cesaro2 => Window::Auto,
-        }
-    }
-
-    /// The name shown in the UI.
-    pub fn label(self) -> &'static str {
-        match self {
-            Window::Auto => "auto",
-            Window::None => "none",
-            Window::Hann => "Hann",
-            Window::Lanczos => "Lanczos",
-            Window::Cesaro2 => "Cesàro-2",
-        }
-    }
-}
-
-/// The editable state of one light: everything an edit (and so undo) can change.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LightEdit {
-    /// Name from the room file.
-    pub name: String,
-    /// Position (world, m).
-    pub position: DVec3,
-    /// Unit aim axis (world); γ = 0 points along it.
-    pub aim: DVec3,
-    /// The aim as it will be written to the room file.
-    pub aim_spec: AimSpec,
-    /// Intensity curve (cd), before the dimmer.
-    pub curve: Curve,
-    /// Where the curve came from (a file-backed curve is written inline once edited).
-    pub lid_source: LidSource,
-    /// Dimmer factor, ≥ 0.
-    pub dimmer: f64,
-    /// SH order of the light's series.
-    pub order: usize,
-    /// Ringing window of the light's series.
-    pub window: Window,
-}
-
-impl LightEdit {
-    /// The editable state of a scene light; `order` defaults to [`DEFAULT_ORDER`].
-    pub fn from_light(light: &Light) -> Self {
-        LightEdit {
-            name: light.name.clone(),
-            position: light.position,
-            aim: light.aim,
-            aim_spec: light.aim_spec,
-            curve: light.curve.clone(),
-            lid_source: light.lid_source.clone(),
-            dimmer: light.dimmer,
-            order: light.order.unwrap_or(DEFAULT_ORDER),
-            window: Window::Auto,
-        }
-    }
-
-    /// True when the values a save writes (curve, aim, position, dimmer, order) are equal; the
-    /// window is a session choice and not compared.
-    pub fn same_saved_values(&self, other: &LightEdit) -> bool {
-        self.curve == other.curve
-            && self.aim_spec == other.aim_spec
-            && self.position == other.position
-            && self.dimmer == other.dimmer
-            && self.order == other.order
-    }
-}
 
 /// What the editor is doing; decides which key table applies.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,8 +25,9 @@ pub enum Mode {
     },
     /// Moving the selected light's position with the arrow keys.
     Move {
-        /// The light's state when the move started (for cancel and the undo record).
-        start: Box<LightEdit>,
+        /// The light's position when the move started (world, m; for cancel and the undo
+        /// record).
+        start: DVec3,
     },
     /// The key help overlay.
     Help,
@@ -181,15 +86,6 @@ pub struct Picked {
     pub lux: f64,
 }
 
-/// The truncated series of one light as the app last computed it, for the polar diagram.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SeriesView {
-    /// Samples `(γ in radians, intensity in cd)`, γ increasing over 0..=π.
-    pub samples: Vec<(f64, f64)>,
-    /// Relative L2 truncation error of the series against the curve (0.01 = 1 %).
-    pub relative_error: f64,
-}
-
 /// The editor's whole state.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -197,6 +93,8 @@ pub struct Model {
     pub room_name: String,
     /// Room interior extent (m): positions are kept within (0, 0, 0)..room_size.
     pub room_size: DVec3,
+    /// Where lights may stand (the room and its furniture), for commands.
+    pub bounds: RoomBounds,
     /// Every light's current editable state, in file order.
     pub lights: Vec<LightEdit>,
     /// The state as last loaded or saved: a save writes what differs from it.
@@ -225,14 +123,16 @@ pub struct Model {
     pub timings: Option<Timings>,
     /// Name of the image protocol in use (set by the app).
     pub protocol: String,
-    /// Bake progress `(done, total)` while a bake runs.
+    /// Progress `(done, total)` of the start-up bake while it runs.
     pub bake: Option<(usize, usize)>,
+    /// Per light, whether its result is final or a re-bake (after a move) is pending.
+    pub light_status: Vec<LightStatus>,
     /// True when some saved value differs from the file on disk.
     pub dirty: bool,
     /// A message for the user (an error or a confirmation), shown until the next key.
     pub message: Option<String>,
-    /// Per light, the truncated series last computed by the app (None until then).
-    pub series: Vec<Option<SeriesView>>,
+    /// Per light, the truncated series the engine last computed (None until then).
+    pub series: Vec<Option<Series>>,
     /// Undo and redo stacks.
     pub history: History,
 }
@@ -245,7 +145,9 @@ impl Model {
         let mut model = Model {
             room_name: scene.name.clone(),
             room_size: scene.room_size,
+            bounds: RoomBounds::of(scene),
             saved: lights.clone(),
+            light_status: vec![LightStatus::Ready; lights.len()],
             series: vec![None; lights.len()],
             lights,
             selected_light: 0,

@@ -1,10 +1,12 @@
-//! What reaches the editor (`Msg`: input events and worker results) and what it asks the app
-//! to do (`Effect`).
+//! What reaches the editor (`Msg`: input events and engine results) and what it asks the app to
+//! do (`Effect`).
 
 use glam::DVec3;
 use ratatui::crossterm::event::KeyEvent;
 
-/// An input event or a worker's result.
+use crate::session::{Command, LightStatus, Series};
+
+/// An input event or an engine's result.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Msg {
     /// A key press (or repeat; releases are ignored).
@@ -23,15 +25,17 @@ pub enum Msg {
         /// Rows.
         height: u16,
     },
-    /// The bake worker's progress: `done` of `total` columns.
+    /// The start-up bake's progress: `done` of `total` units of its current stage.
     BakeProgress {
-        /// Columns baked.
+        /// Units done.
         done: usize,
-        /// Columns in all.
+        /// Units in the stage.
         total: usize,
     },
-    /// The bake finished.
+    /// The start-up bake finished; the engine is ready.
     BakeDone,
+    /// Every light's status (a moved light is `Updating` until its new bake is installed).
+    LightStatus(Vec<LightStatus>),
     /// A new preview frame is on screen; its stage timings in milliseconds.
     Frame {
         /// Relight time, ms.
@@ -51,21 +55,19 @@ pub enum Msg {
         /// True when the pick was asked for to aim the selected light.
         aim: bool,
     },
-    /// The app recomputed light `light`'s truncated series (for the polar diagram).
+    /// The engine recomputed light `light`'s truncated series (for the polar diagram).
     Series {
         /// Index of the light.
         light: usize,
-        /// Samples `(γ rad, cd)` over 0..=π.
-        samples: Vec<(f64, f64)>,
-        /// Relative L2 truncation error (0.01 = 1 %).
-        relative_error: f64,
+        /// The series.
+        series: Series,
     },
     /// The app saved the room file; `message` says what was written.
     Saved {
         /// Status message from [`crate::tui::save::save_room`].
         message: String,
     },
-    /// A worker or the save failed; `message` is one line for the user.
+    /// The engine or the save failed; `message` is one line for the user.
     Failed {
         /// What went wrong.
         message: String,
@@ -73,20 +75,12 @@ pub enum Msg {
 }
 
 /// Work the app carries out for the editor; its results come back as [`Msg`]s.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Effect {
-    /// Re-blend light `light` (its curve, aim, dimmer or window changed).
-    Relight {
-        /// Index of the light.
-        light: usize,
-    },
-    /// Re-bake light `light` (its position or SH order changed: the basis columns depend on
-    /// both). The app re-blends and renders after the bake.
-    Rebake {
-        /// Index of the light.
-        light: usize,
-    },
-    /// Render and show a new preview frame (camera or display mode changed).
+    /// The engine applies this command (the model already has): it relights what the command
+    /// changed and renders a new frame.
+    Engine(Command),
+    /// The frame the model shows changed (size, display mode, selection, aim cursor): render it.
     Render,
     /// Find the 3D point under preview `pixel`; answer with [`Msg::Picked`].
     Pick {

@@ -1,5 +1,5 @@
-//! The preview image on the terminal: every ratatui-image call lives here (docs/DECISIONS.md "Editor": its
-//! 12.0 will change the API). Picks the graphics protocol (asking the terminal, or as forced by
+//! The preview image on the terminal: every ratatui-image call lives here (its 12.0 release
+//! will change the API). Picks the graphics protocol (asking the terminal, or as forced by
 //! `--graphics`), encodes rendered pixmaps into a [`Protocol`] and measures what a frame costs
 //! on the wire.
 

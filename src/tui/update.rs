@@ -1,16 +1,22 @@
 //! `update(&mut Model, Msg) -> Vec<Effect>`: the editor's only state transition. Pure: no I/O,
 //! no clock; the app carries out the returned effects and reports back with messages.
+//!
+//! An edit is a [`Command`]: `update` applies it to the model (the same pure function the
+//! engine applies to its session), records it with its inverse for undo, and returns it as
+//! [`Effect::Engine`] — so each change is made once, as a value, and never detected by
+//! comparing states.
 
 use glam::DVec3;
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
 use ratatui::layout::{Position, Rect};
 
 use crate::scene::{Camera, LidSource};
+use crate::session::{Change as Changed, Command, LightStatus};
 use crate::tui::camera_nav;
-use crate::tui::edits;
+use crate::tui::edits::{self, EditError};
 use crate::tui::history::Change;
 use crate::tui::keys::{self, Action};
-use crate::tui::model::{LightEdit, Mode, Model, Picked, SeriesView, Timings};
+use crate::tui::model::{LightEdit, Mode, Model, Picked, Timings};
 use crate::tui::msg::{Effect, Msg};
 use crate::tui::view::{cell_to_pixel, preview_rect};
 
@@ -43,6 +49,10 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.bake = None;
             vec![Effect::Render]
         }
+        Msg::LightStatus(status) => {
+            model.light_status = status;
+            Vec::new()
+        }
         Msg::Frame {
             relight_ms,
             render_ms,
@@ -56,16 +66,9 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             Vec::new()
         }
         Msg::Picked { hit, aim, .. } => on_picked(model, hit, aim),
-        Msg::Series {
-            light,
-            samples,
-            relative_error,
-        } => {
+        Msg::Series { light, series } => {
             if let Some(slot) = model.series.get_mut(light) {
-                *slot = Some(SeriesView {
-                    samples,
-                    relative_error,
-                });
+                *slot = Some(series);
             }
             Vec::new()
         }
@@ -120,16 +123,23 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         Action::PreviousLight => select_light(model, -1),
         Action::NextPoint => select_point(model, 1),
         Action::PreviousPoint => select_point(model, -1),
-        Action::Intensity(fraction) => edit(model, |l| edits::nudge_intensity(l, k, fraction)),
-        Action::Angle(delta_deg) => edit(model, |l| edits::move_angle(l, k, delta_deg)),
+        Action::Intensity(fraction) => edit(model, |l, i| edits::nudge_intensity(l, i, k, fraction)),
+        Action::Angle(delta_deg) => edit(model, |l, i| edits::move_angle(l, i, k, delta_deg)),
         Action::InsertPoint => {
             let mut inserted = k;
-            let effects = edit(model, |l| edits::insert_after(l, k).map(|i| inserted = i));
-            model.selected_point = inserted;
+            let effects = edit(model, |l, i| {
+                edits::insert_after(l, i, k).map(|(command, index)| {
+                    inserted = index;
+                    command
+                })
+            });
+            if !effects.is_empty() {
+                model.selected_point = inserted;
+            }
             effects
         }
         Action::DeletePoint => {
-            let effects = edit(model, |l| edits::delete_point(l, k));
+            let effects = edit(model, |l, i| edits::delete_point(l, i, k));
             clamp_selected_point(model);
             effects
         }
@@ -156,18 +166,14 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             Vec::new()
         }
         Action::Apply => apply_typed_value(model),
-        Action::Order(delta) => edit(model, |l| {
-            edits::change_order(l, delta);
-            Ok(())
+        Action::Order(delta) => edit(model, |l, i| Ok(edits::change_order(l, i, delta))),
+        Action::CycleWindow => edit(model, |l, i| {
+            Ok(Command::SetWindow {
+                light: i,
+                window: l.window.next(),
+            })
         }),
-        Action::CycleWindow => edit(model, |l| {
-            l.window = l.window.next();
-            Ok(())
-        }),
-        Action::Dimmer(delta) => edit(model, |l| {
-            edits::step_dimmer(l, delta);
-            Ok(())
-        }),
+        Action::Dimmer(delta) => edit(model, |l, i| Ok(edits::step_dimmer(l, i, delta))),
         Action::ToggleFalseColour => {
             model.false_colour = !model.false_colour;
             vec![Effect::Render]
@@ -179,15 +185,18 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             let (w, h) = model.preview_px;
             let cursor = (w / 2, h / 2);
             model.mode = Mode::Aim { cursor };
-            vec![Effect::Pick {
-                pixel: cursor,
-                aim: false,
-            }]
+            vec![
+                Effect::Render,
+                Effect::Pick {
+                    pixel: cursor,
+                    aim: false,
+                },
+            ]
         }
         Action::MoveMode => {
             if let Some(light) = model.light() {
                 model.mode = Mode::Move {
-                    start: Box::new(light.clone()),
+                    start: light.position,
                 };
             }
             Vec::new()
@@ -204,65 +213,83 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         Action::AimHere => match model.mode {
             Mode::Aim { cursor } => {
                 model.mode = Mode::Normal;
-                vec![Effect::Pick {
-                    pixel: cursor,
-                    aim: true,
-                }]
+                vec![
+                    Effect::Render,
+                    Effect::Pick {
+                        pixel: cursor,
+                        aim: true,
+                    },
+                ]
             }
             _ => Vec::new(),
         },
         Action::MoveBy(offset) => {
-            let room_size = model.room_size;
-            if let Some(light) = model.lights.get_mut(model.selected_light) {
-                edits::move_by(light, DVec3::from_array(offset), room_size);
+            let i = model.selected_light;
+            match model.lights.get(i) {
+                Some(light) => {
+                    let command = edits::move_by(light, i, DVec3::from_array(offset), model.room_size);
+                    // One undo record for the whole move, made when it is finished.
+                    run(model, command, false)
+                }
+                None => Vec::new(),
             }
-            model.refresh_dirty();
-            vec![Effect::Render]
         }
         Action::Finish => finish_move(model),
         Action::Cancel => cancel(model),
     }
 }
 
-/// Runs `change` on the selected light; records undo when it changed something, restores the
-/// light and shows the reason when it refused.
-fn edit(model: &mut Model, change: impl FnOnce(&mut LightEdit) -> Result<(), String>) -> Vec<Effect> {
+/// Builds a command for the selected light with `build` (given the light and its index) and
+/// runs it, recorded for undo; shows the reason when there is nothing to do.
+fn edit(
+    model: &mut Model,
+    build: impl FnOnce(&LightEdit, usize) -> Result<Command, EditError>,
+) -> Vec<Effect> {
     let i = model.selected_light;
-    let Some(light) = model.lights.get_mut(i) else {
+    let Some(light) = model.lights.get(i) else {
         return Vec::new();
     };
-    let before = light.clone();
-    if let Err(reason) = change(light) {
-        *light = before;
-        model.message = Some(reason);
-        return Vec::new();
+    match build(light, i) {
+        Ok(command) => run(model, command, true),
+        Err(reason) => {
+            model.message = Some(reason.to_string());
+            Vec::new()
+        }
     }
-    let after = light.clone();
-    commit(model, i, before, after)
 }
 
-/// Records an edit of light `i` (when it changed anything) and returns the effects.
-fn commit(model: &mut Model, i: usize, before: LightEdit, after: LightEdit) -> Vec<Effect> {
-    if before == after {
-        return Vec::new();
-    }
-    let effects = effects_of_change(i, &before, &after);
-    model.history.record(Change {
-        light: i,
-        before,
-        after,
-    });
-    model.refresh_dirty();
-    effects
-}
-
-/// What the app must redo after light `i` went from `before` to `after`: a new position or
-/// order needs new basis columns (a re-bake); anything else a re-blend.
-fn effects_of_change(i: usize, before: &LightEdit, after: &LightEdit) -> Vec<Effect> {
-    if before.position != after.position || before.order != after.order {
-        vec![Effect::Rebake { light: i }, Effect::Render]
-    } else {
-        vec![Effect::Relight { light: i }, Effect::Render]
+/// Applies `command` to the model and, when it changed something, returns it for the engine;
+/// with `record`, also pushes it and its inverse on the undo stack. A refused command changes
+/// nothing and says why.
+fn run(model: &mut Model, command: Command, record: bool) -> Vec<Effect> {
+    match command.apply(&mut model.lights, &mut model.camera, &model.bounds) {
+        Ok(applied) if applied.inverse == command => Vec::new(),
+        Ok(applied) => {
+            match applied.change {
+                Changed::Inserted { at } => {
+                    model.series.insert(at, None);
+                    model.light_status.insert(at, LightStatus::Updating);
+                }
+                Changed::Removed { at } => {
+                    model.series.remove(at);
+                    model.light_status.remove(at);
+                }
+                _ => {}
+            }
+            if record && let Some(light) = command.light() {
+                model.history.record(Change {
+                    light,
+                    forward: command.clone(),
+                    inverse: applied.inverse,
+                });
+            }
+            model.refresh_dirty();
+            vec![Effect::Engine(command)]
+        }
+        Err(reason) => {
+            model.message = Some(reason.to_string());
+            Vec::new()
+        }
     }
 }
 
@@ -283,27 +310,33 @@ fn undo_or_redo(model: &mut Model, undo: bool) -> Vec<Effect> {
         );
         return Vec::new();
     };
-    let (from, to) = if undo {
-        (&change.after, &change.before)
-    } else {
-        (&change.before, &change.after)
-    };
-    let effects = effects_of_change(change.light, from, to);
-    let (i, state) = (change.light, to.clone());
-    model.lights[i] = state;
-    model.selected_light = i;
+    let (light, command) = (
+        change.light,
+        if undo {
+            change.inverse.clone()
+        } else {
+            change.forward.clone()
+        },
+    );
+    let mut effects = run(model, command, false);
+    let selected = light.min(model.lights.len().saturating_sub(1));
+    if selected != model.selected_light {
+        model.selected_light = selected;
+        effects.push(Effect::Render);
+    }
     clamp_selected_point(model);
-    model.refresh_dirty();
     effects
 }
 
 fn select_light(model: &mut Model, step: isize) -> Vec<Effect> {
     let n = model.lights.len();
-    if n > 0 {
-        model.selected_light = (model.selected_light as isize + step).rem_euclid(n as isize) as usize;
-        clamp_selected_point(model);
+    if n < 2 {
+        return Vec::new();
     }
-    Vec::new()
+    model.selected_light = (model.selected_light as isize + step).rem_euclid(n as isize) as usize;
+    clamp_selected_point(model);
+    // The selected light's aim line moves to the new one.
+    vec![Effect::Render]
 }
 
 fn select_point(model: &mut Model, step: isize) -> Vec<Effect> {
@@ -324,21 +357,16 @@ fn apply_typed_value(model: &mut Model) -> Vec<Effect> {
     let Mode::ValueEntry { buffer } = std::mem::replace(&mut model.mode, Mode::Normal) else {
         return Vec::new();
     };
-    match edits::parse_intensity(&buffer) {
-        Ok(candela) => {
-            let k = model.selected_point;
-            edit(model, |l| edits::set_intensity(l, k, candela))
-        }
-        Err(reason) => {
-            model.message = Some(reason);
-            Vec::new()
-        }
-    }
+    let k = model.selected_point;
+    edit(model, |l, i| {
+        let candela = edits::parse_intensity(&buffer)?;
+        edits::set_intensity(l, i, k, candela)
+    })
 }
 
+/// Points the camera elsewhere (not an undoable edit).
 fn set_camera(model: &mut Model, camera: Camera) -> Vec<Effect> {
-    model.camera = camera;
-    vec![Effect::Render]
+    run(model, Command::SetCamera(camera), false)
 }
 
 fn clamp_pixel((x, y): (u32, u32), (w, h): (u32, u32)) -> (u32, u32) {
@@ -358,10 +386,13 @@ fn move_cursor(model: &mut Model, dx: i32, dy: i32, big: bool) -> Vec<Effect> {
         u32::try_from(moved.clamp(0, i64::from(size.saturating_sub(1)))).unwrap_or(0)
     };
     *cursor = (shift(cursor.0, dx, w), shift(cursor.1, dy, h));
-    vec![Effect::Pick {
-        pixel: *cursor,
-        aim: false,
-    }]
+    vec![
+        Effect::Render,
+        Effect::Pick {
+            pixel: *cursor,
+            aim: false,
+        },
+    ]
 }
 
 fn on_click(model: &mut Model, cell: Position) -> Vec<Effect> {
@@ -373,8 +404,14 @@ fn on_click(model: &mut Model, cell: Position) -> Vec<Effect> {
     let (pw, ph) = model.preview_px;
     match cell_to_pixel(cell, area, pw, ph) {
         Some(pixel) => {
+            let left_aim_mode = matches!(model.mode, Mode::Aim { .. });
             model.mode = Mode::Normal;
-            vec![Effect::Pick { pixel, aim: true }]
+            let pick = Effect::Pick { pixel, aim: true };
+            if left_aim_mode {
+                vec![Effect::Render, pick]
+            } else {
+                vec![pick]
+            }
         }
         None => Vec::new(),
     }
@@ -386,7 +423,7 @@ fn on_picked(model: &mut Model, hit: Option<(DVec3, f64)>, aim: bool) -> Vec<Eff
         return Vec::new();
     }
     match hit {
-        Some((point, _)) => edit(model, |l| edits::aim_at(l, point)),
+        Some((point, _)) => edit(model, |l, i| edits::aim_at(l, i, point)),
         None => {
             model.message = Some("nothing under the cursor to aim at".into());
             Vec::new()
@@ -394,23 +431,45 @@ fn on_picked(model: &mut Model, hit: Option<(DVec3, f64)>, aim: bool) -> Vec<Eff
     }
 }
 
+/// Ends move mode: the whole move becomes one undo record (the engine already has it).
 fn finish_move(model: &mut Model) -> Vec<Effect> {
     let Mode::Move { start } = std::mem::replace(&mut model.mode, Mode::Normal) else {
         return Vec::new();
     };
     let i = model.selected_light;
-    let after = model.lights[i].clone();
-    commit(model, i, *start, after)
+    if let Some(light) = model.lights.get(i)
+        && light.position != start
+    {
+        model.history.record(Change {
+            light: i,
+            forward: Command::Move {
+                light: i,
+                position: light.position,
+            },
+            inverse: Command::Move {
+                light: i,
+                position: start,
+            },
+        });
+    }
+    Vec::new()
 }
 
 fn cancel(model: &mut Model) -> Vec<Effect> {
     match std::mem::replace(&mut model.mode, Mode::Normal) {
         Mode::Move { start } => {
-            let moved = model.lights[model.selected_light] != *start;
-            model.lights[model.selected_light] = *start;
-            model.refresh_dirty();
-            if moved { vec![Effect::Render] } else { Vec::new() }
+            let light = model.selected_light;
+            run(
+                model,
+                Command::Move {
+                    light,
+                    position: start,
+                },
+                false,
+            )
         }
+        // The aim cursor leaves the preview.
+        Mode::Aim { .. } => vec![Effect::Render],
         _ => Vec::new(),
     }
 }

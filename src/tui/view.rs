@@ -8,6 +8,7 @@ use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
 
+use crate::session::LightStatus;
 use crate::tui::keys::{self, ModeKind};
 use crate::tui::model::{LightEdit, Mode, Model};
 use crate::tui::polar::{self, PolarDiagram};
@@ -71,7 +72,7 @@ pub fn preview_rect(area: Rect) -> Rect {
 }
 
 /// The preview pixel under terminal cell `cell`, for an image of `width × height` pixels
-/// covering `image_area` (docs/DECISIONS.md "Editor"): the cell's centre scaled to pixels,
+/// covering `image_area` (pixel centres as in docs/METHOD.md §1): the cell's centre scaled to pixels,
 /// `(col − x0 + ½) / cols · width`, in exact integer arithmetic.
 pub fn cell_to_pixel(cell: Position, image_area: Rect, width: u32, height: u32) -> Option<(u32, u32)> {
     let scale = |offset: u16, cells: u16, pixels: u32| {
@@ -241,6 +242,16 @@ fn status_line(model: &Model) -> Line<'static> {
     }
     if let Some((done, total)) = model.bake {
         parts.push(format!("baking {done}/{total}"));
+    }
+    let updating: Vec<&str> = model
+        .lights
+        .iter()
+        .zip(&model.light_status)
+        .filter(|(_, status)| **status == LightStatus::Updating)
+        .map(|(light, _)| light.name.as_str())
+        .collect();
+    if !updating.is_empty() {
+        parts.push(format!("updating {}", updating.join(", ")));
     }
     if let Some(picked) = model.picked {
         parts.push(format!("E {:.0} lx", picked.lux));

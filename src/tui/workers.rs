@@ -1,8 +1,11 @@
-//! The editor's background threads and the one channel the app loop blocks on (docs/ARCHITECTURE.md: gitui's
-//! shape). The render worker owns the [`PreviewRenderer`] (relight + render + overlays); the
-//! encode worker turns frames into the terminal's image protocol. Both coalesce their queue:
-//! only the latest request is worked on.
+//! The editor's background threads and the one channel the app loop blocks on
+//! (docs/ARCHITECTURE.md "Threads"). The engine worker owns the [`Session`]: it applies the
+//! editor's commands as given (everything queued at once), relights and renders once per batch,
+//! answers picks on the frame it just made, and hands moved lights to the bake worker, whose
+//! results come back as requests. The encode worker turns frames into the terminal's image
+//! protocol. Every worker works on the latest of what is queued.
 
+use std::collections::{BTreeSet, HashSet};
 use std::sync::Arc;
 use std::sync::mpsc::{self, Receiver, Sender};
 use std::thread;
@@ -12,14 +15,15 @@ use ratatui::crossterm::event::Event;
 use ratatui::layout::Size;
 use ratatui_image::picker::Picker;
 use ratatui_image::protocol::Protocol;
+use tiny_skia::Pixmap;
 
-use crate::error::Result;
 use crate::scene::Scene;
+use crate::session::{
+    BakeJob, BakeOutcome, Change, Command, FrameSpec, LightStatus, Session, SessionOptions,
+};
 use crate::transport::bake::Progress;
-use crate::transport::cache;
 use crate::tui::msg::Msg;
 use crate::tui::preview;
-use crate::tui::renderer::{FrameRequest, PreviewFrame, PreviewRenderer};
 
 /// Everything that reaches the app loop.
 pub enum AppEvent {
@@ -27,9 +31,9 @@ pub enum AppEvent {
     Input(Event),
     /// The input reader failed (the terminal went away); one line for the user.
     InputFailed(String),
-    /// A worker's message for `update` (bake progress, failures).
+    /// A worker's message for `update` (progress, series, statuses, picks, failures).
     Msg(Msg),
-    /// The render worker finished a frame.
+    /// The engine finished a frame.
     Rendered(RenderedFrame),
     /// The encode worker finished (or skipped) a frame.
     Encoded(EncodedFrame),
@@ -38,10 +42,9 @@ pub enum AppEvent {
 /// A rendered preview and what it cost.
 #[derive(Debug, Clone)]
 pub struct RenderedFrame {
-    /// The frame (shared with the encode worker).
-    pub preview: Arc<PreviewFrame>,
-    /// True when a light moved and the direct caches were rebuilt for this frame.
-    pub rebuilt: bool,
+    /// The image with overlays (shared with the encode worker; the engine reuses the buffer
+    /// once the encoder has let go of it).
+    pub pixmap: Arc<Pixmap>,
     /// Relight time, ms.
     pub relight_ms: f64,
     /// Render (rasterise + overlays) time, ms.
@@ -66,12 +69,33 @@ pub struct EncodeJob {
     pub cells: Size,
 }
 
+/// What the app asks of the engine worker.
+#[derive(Debug)]
+pub enum EngineRequest {
+    /// Apply these commands, in order (the editor's model already has).
+    Commands(Vec<Command>),
+    /// Show this frame (size, mode, overlays).
+    Frame(FrameSpec),
+    /// What does preview pixel `pixel` of a `preview_px` preview show? Answered after the
+    /// batch's frame is rendered, so an aim or an edit just made is in it.
+    Pick {
+        /// The preview pixel.
+        pixel: (u32, u32),
+        /// The preview's size the pixel refers to (scaled if the frame has another size).
+        preview_px: (u32, u32),
+        /// True when the pick aims the selected light.
+        aim: bool,
+    },
+    /// A bake the bake worker finished.
+    Baked(Box<BakeOutcome>),
+}
+
 /// Milliseconds since `start`.
 fn ms_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
-/// The newest job in `jobs`, waiting for one; `None` once the app is gone.
+/// The newest job in `jobs`, waiting for one; `None` once the sender is gone.
 fn latest<T>(jobs: &Receiver<T>) -> Option<T> {
     let mut job = jobs.recv().ok()?;
     while let Ok(newer) = jobs.try_recv() {
@@ -80,14 +104,17 @@ fn latest<T>(jobs: &Receiver<T>) -> Option<T> {
     Some(job)
 }
 
-/// Starts the render worker: it first builds the relighting caches (reporting
-/// [`Msg::BakeProgress`] and [`Msg::BakeDone`]), then renders each [`FrameRequest`] it
-/// receives (the latest one when several are queued), answering with [`AppEvent::Rendered`]
-/// or a [`Msg::Failed`].
-pub fn spawn_render_worker(scene: Arc<Scene>, events: Sender<AppEvent>) -> Sender<FrameRequest> {
-    let (jobs, queue) = mpsc::channel::<FrameRequest>();
+/// Starts the engine worker on `scene`: it bakes (reporting [`Msg::BakeProgress`], then
+/// [`Msg::BakeDone`] with every light's series), then serves [`EngineRequest`]s until the app
+/// hangs up.
+pub fn spawn_engine(
+    scene: Scene,
+    options: SessionOptions,
+    events: Sender<AppEvent>,
+) -> Sender<EngineRequest> {
+    let (requests, queue) = mpsc::channel::<EngineRequest>();
+    let bakes = spawn_bake_worker(requests.clone());
     thread::spawn(move || {
-        let _ = events.send(AppEvent::Msg(Msg::BakeProgress { done: 0, total: 1 }));
         let progress_events = events.clone();
         let mut progress = move |p: Progress| {
             let _ = progress_events.send(AppEvent::Msg(Msg::BakeProgress {
@@ -95,8 +122,9 @@ pub fn spawn_render_worker(scene: Arc<Scene>, events: Sender<AppEvent>) -> Sende
                 total: p.total.max(1),
             }));
         };
-        let mut renderer = match PreviewRenderer::new(scene, Some(cache::default_dir()), &mut progress) {
-            Ok(renderer) => renderer,
+        let _ = events.send(AppEvent::Msg(Msg::BakeProgress { done: 0, total: 1 }));
+        let session = match Session::new(scene, options, &mut progress) {
+            Ok(session) => session,
             Err(e) => {
                 let _ = events.send(AppEvent::Msg(Msg::Failed {
                     message: format!("bake: {e}"),
@@ -104,39 +132,213 @@ pub fn spawn_render_worker(scene: Arc<Scene>, events: Sender<AppEvent>) -> Sende
                 return;
             }
         };
-        if events.send(AppEvent::Msg(Msg::BakeDone)).is_err() {
-            return;
+        let mut engine = Engine {
+            session,
+            spec: None,
+            pixmap: None,
+            events,
+            bakes,
+        };
+        if engine.start().is_some() {
+            while let Ok(first) = queue.recv() {
+                let mut batch = vec![first];
+                batch.extend(queue.try_iter());
+                if engine.serve(batch).is_none() {
+                    return;
+                }
+            }
         }
-        while let Some(request) = latest(&queue) {
-            let event = match render_one(&mut renderer, &request) {
-                Ok(frame) => AppEvent::Rendered(frame),
-                Err(e) => AppEvent::Msg(Msg::Failed {
+    });
+    requests
+}
+
+/// The engine worker's state.
+struct Engine {
+    session: Session,
+    spec: Option<FrameSpec>,
+    /// The last frame's pixels, reused when the encoder has let go of them.
+    pixmap: Option<Arc<Pixmap>>,
+    events: Sender<AppEvent>,
+    bakes: Sender<BakeJob>,
+}
+
+impl Engine {
+    /// Sends `msg` to the app; `None` once the app is gone.
+    fn send(&self, msg: Msg) -> Option<()> {
+        self.events.send(AppEvent::Msg(msg)).ok()
+    }
+
+    /// After the bake: every light's series and status, then "done".
+    fn start(&mut self) -> Option<()> {
+        for light in 0..self.session.lights().len() {
+            self.send(Msg::Series {
+                light,
+                series: self.session.series(light),
+            })?;
+        }
+        self.send(Msg::LightStatus(self.statuses()))?;
+        self.send(Msg::BakeDone)
+    }
+
+    fn statuses(&self) -> Vec<LightStatus> {
+        (0..self.session.lights().len())
+            .map(|i| self.session.light_status(i))
+            .collect()
+    }
+
+    /// Handles one batch of requests: commands and finished bakes in order, then one relight and
+    /// render, then the picks. `None` once the app is gone.
+    fn serve(&mut self, batch: Vec<EngineRequest>) -> Option<()> {
+        let mut redraw = false;
+        let mut status_changed = false;
+        let mut series: BTreeSet<usize> = BTreeSet::new();
+        let mut picks = Vec::new();
+        for request in batch {
+            match request {
+                EngineRequest::Commands(commands) => {
+                    for command in commands {
+                        match self.session.apply(command) {
+                            Ok(applied) => {
+                                redraw = true;
+                                match applied.change {
+                                    Change::Point { light, .. }
+                                    | Change::Curve { light }
+                                    | Change::Window { light } => {
+                                        series.insert(light);
+                                    }
+                                    Change::Order { light } | Change::Moved { light } => {
+                                        series.insert(light);
+                                        status_changed = true;
+                                    }
+                                    Change::Inserted { .. } | Change::Removed { .. } => {
+                                        series.extend(0..self.session.lights().len());
+                                        status_changed = true;
+                                    }
+                                    Change::Aim { .. } | Change::Dimmer { .. } | Change::Camera => {}
+                                }
+                            }
+                            Err(e) => self.send(Msg::Failed {
+                                message: format!("engine: {e}"),
+                            })?,
+                        }
+                    }
+                }
+                EngineRequest::Frame(spec) => {
+                    redraw |= self.spec != Some(spec);
+                    self.spec = Some(spec);
+                }
+                EngineRequest::Pick {
+                    pixel,
+                    preview_px,
+                    aim,
+                } => picks.push((pixel, preview_px, aim)),
+                EngineRequest::Baked(outcome) => {
+                    status_changed = true;
+                    match self.session.finish_bake(*outcome) {
+                        Ok(installed) => redraw |= installed.is_some(),
+                        Err(e) => self.send(Msg::Failed {
+                            message: format!("bake: {e}"),
+                        })?,
+                    }
+                }
+            }
+        }
+        for job in self.session.take_bake_jobs() {
+            // The bake worker outlives the engine's use of it; a closed queue means shutdown.
+            let _ = self.bakes.send(job);
+        }
+        if status_changed {
+            self.send(Msg::LightStatus(self.statuses()))?;
+        }
+        if redraw && let Some(spec) = self.spec {
+            self.render(&spec)?;
+        }
+        for light in series {
+            self.send(Msg::Series {
+                light,
+                series: self.session.series(light),
+            })?;
+        }
+        for (pixel, preview_px, aim) in picks {
+            let hit = self.pick(pixel, preview_px);
+            self.send(Msg::Picked { pixel, hit, aim })?;
+        }
+        Some(())
+    }
+
+    /// Relights, renders `spec` into the session's buffers and hands the pixels to the app.
+    fn render(&mut self, spec: &FrameSpec) -> Option<()> {
+        let start = Instant::now();
+        self.session.relight();
+        let relight_ms = ms_since(start);
+        let start = Instant::now();
+        let frame = match self.session.render(spec) {
+            Ok(frame) => frame,
+            Err(e) => {
+                return self.send(Msg::Failed {
                     message: format!("preview: {e}"),
-                }),
-            };
-            if events.send(event).is_err() {
-                return;
+                });
+            }
+        };
+        let pixels = &frame.pixmap;
+        let reused = self
+            .pixmap
+            .as_mut()
+            .and_then(Arc::get_mut)
+            .filter(|p| (p.width(), p.height()) == (pixels.width(), pixels.height()));
+        match reused {
+            Some(buffer) => buffer.data_mut().copy_from_slice(pixels.data()),
+            None => self.pixmap = Some(Arc::new(pixels.clone())),
+        }
+        let pixmap = Arc::clone(self.pixmap.as_ref()?);
+        let rendered = RenderedFrame {
+            pixmap,
+            relight_ms,
+            render_ms: ms_since(start),
+        };
+        self.events.send(AppEvent::Rendered(rendered)).ok()
+    }
+
+    /// The point and illuminance under preview `pixel` (scaled from `preview_px` to the latest
+    /// frame's size).
+    fn pick(&self, pixel: (u32, u32), (w, h): (u32, u32)) -> Option<(glam::DVec3, f64)> {
+        let (frame, _) = self.session.latest_frame()?;
+        let scale = |p: u32, from: u32, to: u32| {
+            u32::try_from(u64::from(p) * u64::from(to) / u64::from(from.max(1))).unwrap_or(u32::MAX)
+        };
+        let at = (
+            scale(pixel.0, w, frame.pixmap.width()),
+            scale(pixel.1, h, frame.pixmap.height()),
+        );
+        self.session.pick(at).map(|hit| (hit.point, hit.lux))
+    }
+}
+
+/// Starts the bake worker: runs each [`BakeJob`] (the latest per light when several are queued)
+/// and sends the outcome back to the engine as [`EngineRequest::Baked`].
+fn spawn_bake_worker(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
+    let (jobs, queue) = mpsc::channel::<BakeJob>();
+    thread::spawn(move || {
+        while let Ok(first) = queue.recv() {
+            let mut pending = vec![first];
+            pending.extend(queue.try_iter());
+            // A newer job for the same light supersedes an older one.
+            let mut seen = HashSet::new();
+            let mut latest_first: Vec<BakeJob> = pending
+                .into_iter()
+                .rev()
+                .filter(|job| seen.insert(job.light()))
+                .collect();
+            latest_first.reverse();
+            for job in latest_first {
+                let outcome = job.run(&mut |_| {});
+                if engine.send(EngineRequest::Baked(Box::new(outcome))).is_err() {
+                    return;
+                }
             }
         }
     });
     jobs
-}
-
-/// Relights the lights that changed and renders `request`, timing both stages.
-///
-/// Errors: as [`PreviewRenderer::apply_lights`] and [`PreviewRenderer::render`].
-pub fn render_one(renderer: &mut PreviewRenderer, request: &FrameRequest) -> Result<RenderedFrame> {
-    let start = Instant::now();
-    let applied = renderer.apply_lights(&request.lights)?;
-    let relight_ms = ms_since(start);
-    let start = Instant::now();
-    let preview = renderer.render(request)?;
-    Ok(RenderedFrame {
-        preview: Arc::new(preview),
-        rebuilt: applied.rebuilt,
-        relight_ms,
-        render_ms: ms_since(start),
-    })
 }
 
 /// Starts the encode worker: each [`EncodeJob`] (the latest when several are queued) is encoded
@@ -148,7 +350,7 @@ pub fn spawn_encode_worker(picker: Picker, events: Sender<AppEvent>) -> Sender<E
         let mut previous: Option<(u64, Size)> = None;
         while let Some(job) = latest(&queue) {
             let start = Instant::now();
-            let pixmap = &job.frame.preview.frame.pixmap;
+            let pixmap = &job.frame.pixmap;
             let key = (preview::pixmap_hash(pixmap), job.cells);
             let protocol = if previous == Some(key) {
                 None
@@ -172,6 +374,7 @@ pub fn spawn_encode_worker(picker: Picker, events: Sender<AppEvent>) -> Sender<E
                 rendered: (job.frame.relight_ms, job.frame.render_ms),
                 encode_ms: ms_since(start),
             };
+            drop(job);
             if events.send(AppEvent::Encoded(encoded)).is_err() {
                 return;
             }

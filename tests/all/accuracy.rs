@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use haiko::cli::accuracy::{AccuracyOptions, AccuracyReport, ErrorStats, accuracy, format_report};
+use haiko::accuracy::{AccuracyOptions, AccuracyReport, ErrorStats, accuracy};
+use haiko::cli::accuracy::format_report;
 use haiko::scene::remesh::remesh;
 use haiko::scene::{Scene, load};
 
@@ -153,7 +154,7 @@ fn tables_on_a_small_room() {
     assert!(at_reference.errors.grid.max_rel < 1e-12 && at_reference.errors.vertices.max_rel < 1e-12);
 
     // 5. Quadrature: exact weights are the reference; the 5° rectangle rule errs by the order of
-    // magnitude docs/METHOD.md §3 measured for l ≤ 10 (4e-3 batwing), and 1° errs far less (O(Δγ²)).
+    // magnitude docs/METHOD.md §3 measured for l ≤ 10 (5e-3 batwing), and 1° errs far less (O(Δγ²)).
     let w = |method: &str| {
         report
             .quadrature

@@ -1,5 +1,5 @@
 //! The bake: conservation (Sumpner, zero-flux basis emitters), linearity of the blend, the plan's
-//! decisions and that they change no answer, and the cache's integrity (docs/METHOD.md §8).
+//! decisions and that they change no answer, and the cache's integrity (docs/METHOD.md §7, §8).
 
 use std::path::Path;
 
@@ -290,7 +290,7 @@ fn a_corrupted_cache_is_rebuilt_with_a_notice() {
     let cache_dir = dir.path().join("cache");
     let scene = uniform_room(dir.path(), 0.5, CENTRE_LIGHT);
     let options = BakeOptions {
-        cache_dir: Some(cache_dir.clone()),
+        cache: Some(haiko::transport::cache::BakeCache::in_dir(cache_dir.clone())),
         ..BakeOptions::default()
     };
     let first = bake(&scene, &options, &mut |_| {}).unwrap();

@@ -413,6 +413,34 @@ fn plan_and_bake_commands_report_their_decisions() {
     }
 }
 
+/// `haiko cache` lists what a bake left (one entry per light of the paper room, with sizes) and
+/// `haiko cache clear` removes it.
+#[test]
+fn cache_lists_and_clears_the_bake_entries() {
+    let cache = tempfile::tempdir().unwrap();
+    let paper = repo("rooms/paper.toml");
+    let o = haiko(cache.path(), &["cache"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains(": 0 entries"), "{}", stdout(&o));
+    assert!(
+        haiko(cache.path(), &["bake", paper.to_str().unwrap()])
+            .status
+            .success()
+    );
+    let o = haiko(cache.path(), &["cache", "list"]);
+    let listed = stdout(&o);
+    assert!(listed.contains(": 2 entries"), "{listed}");
+    assert_eq!(
+        listed.lines().filter(|l| l.contains(".bake")).count(),
+        2,
+        "{listed}"
+    );
+    let o = haiko(cache.path(), &["cache", "clear"]);
+    assert!(stdout(&o).contains("removed 2 entries"), "{}", stdout(&o));
+    let left = std::fs::read_dir(cache.path()).unwrap().count();
+    assert_eq!(left, 0, "nothing left in the cache directory");
+}
+
 #[test]
 fn bad_room_files_fail_before_anything_else() {
     let cache = tempfile::tempdir().unwrap();

@@ -650,7 +650,7 @@ fn rectangle_rule_error_is_second_order_and_of_the_tabulated_size() {
     let err = |step: f64, l: usize| {
         (ZonalWeights::rectangle_rule(&curve, 10, step).w[l] - exact.w[l]).abs() / scale
     };
-    // docs/METHOD.md §3 (batwing, 5° knots): l = 0 ≈ 5.5e-4, l = 10 ≈ 4.2e-3.
+    // docs/METHOD.md §3 (batwing, 5° knots): l = 0 ≈ 4.4e-4, l = 10 ≈ 5.0e-3.
     let e0 = err(5.0, 0);
     assert!((1e-4..2e-3).contains(&e0), "l = 0 at 5°: {e0:e}");
     let e10 = err(5.0, 10);

@@ -10,13 +10,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use glam::DVec3;
-use haiko::cli::pick::{Pixel, pick_pixel, to_json};
-use haiko::cli::render::{MAX_SIDE_PX, light_markers, scene_view, shade_scene};
-use haiko::relight::Relighter;
+use haiko::cli::pick::{PickReport, Pixel, pick_pixel, to_json};
+use haiko::render::DisplayMode;
 use haiko::render::golden::{Golden, Tolerance, UPDATE_ENV};
-use haiko::render::{DisplayMode, draw_lights};
 use haiko::scene::{self, Scene};
-use haiko::transport::bake::{BakeOptions, bake};
+use haiko::session::{FrameSpec, MAX_SIDE_PX, Session, SessionOptions};
 
 /// Size of the room goldens, pixels.
 const SNAPSHOT_SIZE: (u32, u32) = (160, 120);
@@ -31,6 +29,36 @@ fn room(name: &str) -> PathBuf {
 
 fn load(name: &str) -> Scene {
     scene::load(&room(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// A session on `scene` without a bake cache; `indirect` false for direct light only.
+fn session(scene: Scene, indirect: bool) -> Session {
+    let options = SessionOptions {
+        indirect,
+        ..SessionOptions::default()
+    };
+    Session::new(scene, options, &mut |_| {}).unwrap()
+}
+
+/// The room camera's frame at `size` in `mode`, with every light marked (none selected).
+fn spec(size: (u32, u32), mode: DisplayMode) -> FrameSpec {
+    FrameSpec {
+        size_px: size,
+        mode,
+        selected_light: None,
+        cursor: None,
+    }
+}
+
+/// `haiko pick` on `scene` (through a direct-light session, as the command does).
+fn pick(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    pixel: Pixel,
+    aim: Option<&str>,
+) -> haiko::Result<PickReport> {
+    pick_pixel(&mut session(scene.clone(), false), width, height, pixel, aim)
 }
 
 fn golden() -> Golden {
@@ -56,16 +84,12 @@ fn every_bundled_room_matches_its_golden_images() {
     assert!(rooms.len() >= 5, "bundled rooms: {rooms:?}");
     let (width, height) = SNAPSHOT_SIZE;
     for name in &rooms {
-        let scene = load(name);
-        let bake = bake(&scene, &BakeOptions::default(), &mut |_| {}).unwrap();
-        let relighter = Relighter::with_bake(&scene, &bake);
-        let view = scene_view(&scene, width, height).unwrap();
+        let mut session = session(load(name), true);
         for (mode, suffix) in [
             (DisplayMode::Photo, "photo"),
             (DisplayMode::FalseColor, "false_colour"),
         ] {
-            let (mut frame, _) = shade_scene(&scene, relighter.total(), &view, mode).unwrap();
-            draw_lights(&mut frame, &view, &light_markers(&scene));
+            let frame = session.render(&spec((width, height), mode)).unwrap();
             let tolerance = Tolerance {
                 channel: 2,
                 max_pixels: 16,
@@ -80,9 +104,10 @@ fn every_bundled_room_matches_its_golden_images() {
 #[test]
 fn paper_room_id_buffer_matches_its_exact_golden() {
     let scene = load("paper");
-    let view = scene_view(&scene, SNAPSHOT_SIZE.0, SNAPSHOT_SIZE.1).unwrap();
-    let attrs = vec![[0.0; 3]; scene.fine.n_vertices()];
-    let (frame, _) = shade_scene(&scene, &attrs, &view, DisplayMode::FalseColor).unwrap();
+    let mut session = session(scene.clone(), false);
+    let frame = session
+        .render(&spec(SNAPSHOT_SIZE, DisplayMode::FalseColor))
+        .unwrap();
     // The camera is inside a closed room: every pixel shows a patch.
     assert!(
         frame
@@ -153,7 +178,7 @@ fn picks_on_the_paper_room_land_on_the_analytic_ray_plane_intersection() {
             surface, expected_surface,
             "the test's pixel {pixel:?} must see the {expected_surface}"
         );
-        let report = pick_pixel(
+        let report = pick(
             &scene,
             size.0,
             size.1,
@@ -207,20 +232,17 @@ fn pick_rejects_bad_pixels_sizes_and_lights() {
     let at = |x, y| Pixel { x, y };
     let cases = [
         (
-            pick_pixel(&scene, 320, 240, at(320, 10), None),
+            pick(&scene, 320, 240, at(320, 10), None),
             "outside the 320×240 image",
         ),
         (
-            pick_pixel(&scene, 320, 240, at(10, 240), None),
+            pick(&scene, 320, 240, at(10, 240), None),
             "outside the 320×240 image",
         ),
-        (pick_pixel(&scene, 0, 240, at(0, 0), None), "--width"),
+        (pick(&scene, 0, 240, at(0, 0), None), "--width"),
+        (pick(&scene, 320, MAX_SIDE_PX + 1, at(0, 0), None), "--height"),
         (
-            pick_pixel(&scene, 320, MAX_SIDE_PX + 1, at(0, 0), None),
-            "--height",
-        ),
-        (
-            pick_pixel(&scene, 320, 240, at(10, 10), Some("spot")),
+            pick(&scene, 320, 240, at(10, 10), Some("spot")),
             "lights: centre, accent",
         ),
     ];
@@ -252,7 +274,7 @@ fn room_looking_away(dir: &Path) -> PathBuf {
 fn picking_the_background_is_an_input_error() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene::load(&room_looking_away(dir.path())).unwrap();
-    let err = pick_pixel(&scene, 64, 48, Pixel { x: 32, y: 24 }, None).unwrap_err();
+    let err = pick(&scene, 64, 48, Pixel { x: 32, y: 24 }, None).unwrap_err();
     assert_eq!(err.exit_code(), 2);
     assert!(
         err.to_string().contains("nothing at pixel 32,24 (background)"),
@@ -263,7 +285,7 @@ fn picking_the_background_is_an_input_error() {
 #[test]
 fn pick_json_has_the_documented_shape() {
     let scene = load("paper");
-    let report = pick_pixel(&scene, 1024, 768, Pixel { x: 512, y: 700 }, None).unwrap();
+    let report = pick(&scene, 1024, 768, Pixel { x: 512, y: 700 }, None).unwrap();
     let json = to_json(&report).unwrap();
     assert!(json.starts_with(&format!(
         "{{\"patch\": {}, \"surface\": \"floor\", \"point\": [",

@@ -5,9 +5,11 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 use haiko::photometry::Curve;
+use haiko::scene::design::Design;
 use haiko::scene::{AimSpec, Camera, LidSource, Light, PatchMesh, Scene, Settings};
+use haiko::session::{Command, Series};
 use haiko::tui::keys::{self, BINDINGS, ModeKind};
-use haiko::tui::model::{MAX_ORDER, Window};
+use haiko::tui::model::{MAX_ORDER, WindowChoice};
 use haiko::tui::save::{edit_room_text, round_significant, save_room};
 use haiko::tui::view::{cell_to_pixel, preview_rect};
 use haiko::tui::{Effect, Mode, Model, Msg, PreviewArea, update, view};
@@ -35,6 +37,7 @@ fn light(name: &str, position: DVec3, aim_spec: AimSpec, lid: &[(f64, f64)], sou
         radius: 0.05,
         dimmer: 1.0,
         color: [1.0; 3],
+        luminous: None,
     }
 }
 
@@ -75,6 +78,7 @@ fn scene() -> Scene {
             fov_deg: 60.0,
         },
         settings: Settings::default(),
+        design: Design::default_for(DVec3::new(6.0, 4.0, 2.7)),
     }
 }
 
@@ -145,15 +149,31 @@ fn assert_close(actual: f64, expected: f64) {
         "{actual} vs {expected}"
     );
 }
-const RELIGHT_0: [Effect; 2] = [Effect::Relight { light: 0 }, Effect::Render];
-const REBAKE_0: [Effect; 2] = [Effect::Rebake { light: 0 }, Effect::Render];
+/// The one command an edit sends the engine (and nothing else).
+fn command(effects: Vec<Effect>) -> Command {
+    match effects.as_slice() {
+        [Effect::Engine(command)] => command.clone(),
+        other => panic!("expected one engine command, got {other:?}"),
+    }
+}
+/// True when `effects` are one command for light 0.
+fn edits_light_0(effects: Vec<Effect>) -> bool {
+    command(effects).light() == Some(0)
+}
 
 // ---------------------------------------------------------------- update: curve edits
 
 #[test]
 fn up_and_down_change_the_point_by_five_percent_of_the_peak() {
     let mut m = model();
-    assert_eq!(update(&mut m, key(KeyCode::Up)), RELIGHT_0);
+    assert_eq!(
+        command(update(&mut m, key(KeyCode::Up))),
+        Command::SetIntensity {
+            light: 0,
+            point: 0,
+            candela: 1050.0
+        }
+    );
     assert_close(cd(&m, 0, 0), 1050.0); // 1000 + 5 % of 1000
     assert!(m.dirty);
     update(&mut m, ch('k'));
@@ -185,7 +205,10 @@ fn lowering_clamps_at_zero_and_a_no_op_is_not_an_edit() {
 fn shift_gives_the_fine_half_percent_step() {
     let mut m = model();
     send(&mut m, [ch('l')]);
-    assert_eq!(update(&mut m, press(KeyCode::Up, KeyModifiers::SHIFT)), RELIGHT_0);
+    assert!(edits_light_0(update(
+        &mut m,
+        press(KeyCode::Up, KeyModifiers::SHIFT)
+    )));
     assert_close(cd(&m, 0, 1), 955.0); // + 0.5 % of 1000
     update(&mut m, press(KeyCode::Char('K'), KeyModifiers::SHIFT));
     assert_close(cd(&m, 0, 1), 960.0);
@@ -198,7 +221,7 @@ fn shift_gives_the_fine_half_percent_step() {
 fn angle_keys_move_the_point_within_its_neighbours() {
     let mut m = model();
     send(&mut m, [ch('l')]);
-    assert_eq!(update(&mut m, ch('>')), RELIGHT_0);
+    assert!(edits_light_0(update(&mut m, ch('>'))));
     assert_eq!(gamma(&m, 0, 1), 31.0);
     update(&mut m, ch(','));
     assert_eq!(gamma(&m, 0, 1), 26.0);
@@ -220,7 +243,7 @@ fn angle_keys_move_the_point_within_its_neighbours() {
 fn insert_splits_a_segment_on_the_curve_and_delete_removes_it() {
     let mut m = model();
     send(&mut m, [ch('l')]);
-    assert_eq!(update(&mut m, ch('+')), RELIGHT_0);
+    assert!(edits_light_0(update(&mut m, ch('+'))));
     // Halfway between 30° (950 cd) and 60° (700 cd): 45°, 825 cd; the new point is selected.
     assert_eq!(points(&m, 0)[2], (45.0, 825.0));
     assert_eq!(m.selected_point, 2);
@@ -261,7 +284,7 @@ fn typed_value_sets_the_intensity_exactly() {
         }
     );
     type_keys(&mut m, "25");
-    assert_eq!(update(&mut m, key(KeyCode::Enter)), RELIGHT_0);
+    assert!(edits_light_0(update(&mut m, key(KeyCode::Enter))));
     assert_eq!(cd(&m, 0, 1), 12345.25);
     assert_eq!(m.mode, Mode::Normal);
 }
@@ -291,7 +314,10 @@ fn invalid_typed_value_changes_nothing_and_says_why() {
 fn order_changes_rebake_and_clamp_and_window_cycles() {
     let mut m = model();
     assert_eq!(m.lights[0].order, 5);
-    assert_eq!(update(&mut m, ch('O')), REBAKE_0);
+    assert_eq!(
+        command(update(&mut m, ch('O'))),
+        Command::SetOrder { light: 0, order: 6 }
+    );
     assert_eq!(m.lights[0].order, 6);
     send(&mut m, std::iter::repeat_n(ch('o'), 10));
     assert_eq!(m.lights[0].order, 0);
@@ -301,14 +327,17 @@ fn order_changes_rebake_and_clamp_and_window_cycles() {
 
     let mut m = model();
     let expected = [
-        Window::None,
-        Window::Hann,
-        Window::Lanczos,
-        Window::Cesaro2,
-        Window::Auto,
+        WindowChoice::None,
+        WindowChoice::Hann,
+        WindowChoice::Lanczos,
+        WindowChoice::Cesaro2,
+        WindowChoice::Auto,
     ];
     for window in expected {
-        assert_eq!(update(&mut m, ch('w')), RELIGHT_0);
+        assert_eq!(
+            command(update(&mut m, ch('w'))),
+            Command::SetWindow { light: 0, window }
+        );
         assert_eq!(m.lights[0].window, window);
     }
     // The window is a session choice: not a change to save.
@@ -319,7 +348,8 @@ fn order_changes_rebake_and_clamp_and_window_cycles() {
 fn tab_and_backtab_switch_lights_and_keep_the_point_in_range() {
     let mut m = model();
     send(&mut m, [ch('l'), ch('l'), ch('l')]);
-    assert_eq!(update(&mut m, key(KeyCode::Tab)), vec![]);
+    // The aim line drawn on the preview moves to the new light.
+    assert_eq!(update(&mut m, key(KeyCode::Tab)), vec![Effect::Render]);
     assert_eq!(m.selected_light, 1);
     assert_eq!(m.selected_point, 2); // the spot has 3 points
     update(&mut m, key(KeyCode::Tab));
@@ -343,10 +373,13 @@ fn aim_mode_cursor_steps_are_fractions_of_the_preview() {
     let centre = (w / 2, h / 2);
     assert_eq!(
         update(&mut m, ch('a')),
-        vec![Effect::Pick {
-            pixel: centre,
-            aim: false
-        }]
+        vec![
+            Effect::Render,
+            Effect::Pick {
+                pixel: centre,
+                aim: false
+            }
+        ]
     );
     assert_eq!(m.mode, Mode::Aim { cursor: centre });
     update(&mut m, key(KeyCode::Right));
@@ -360,10 +393,13 @@ fn aim_mode_cursor_steps_are_fractions_of_the_preview() {
     let cursor = (centre.0 + w / 40, centre.1 - h / 8);
     assert_eq!(
         effects,
-        vec![Effect::Pick {
-            pixel: cursor,
-            aim: false
-        }]
+        vec![
+            Effect::Render,
+            Effect::Pick {
+                pixel: cursor,
+                aim: false
+            }
+        ]
     );
     // The cursor stops at the preview's edge.
     send(
@@ -372,7 +408,8 @@ fn aim_mode_cursor_steps_are_fractions_of_the_preview() {
     );
     send(&mut m, std::iter::repeat_n(key(KeyCode::Down), 100));
     assert_eq!(m.mode, Mode::Aim { cursor: (0, h - 1) });
-    assert_eq!(update(&mut m, key(KeyCode::Esc)), vec![]);
+    // Leaving aim mode takes the cursor off the preview.
+    assert_eq!(update(&mut m, key(KeyCode::Esc)), vec![Effect::Render]);
     assert_eq!(m.mode, Mode::Normal);
 }
 
@@ -386,10 +423,13 @@ fn aiming_via_picked_sets_the_exact_axis_and_a_target() {
     };
     assert_eq!(
         update(&mut m, key(KeyCode::Enter)),
-        vec![Effect::Pick {
-            pixel: cursor,
-            aim: true
-        }]
+        vec![
+            Effect::Render,
+            Effect::Pick {
+                pixel: cursor,
+                aim: true
+            }
+        ]
     );
     assert_eq!(m.mode, Mode::Normal);
     let point = DVec3::new(4.0, 2.0, 0.0);
@@ -401,7 +441,13 @@ fn aiming_via_picked_sets_the_exact_axis_and_a_target() {
             aim: true,
         },
     );
-    assert_eq!(effects, RELIGHT_0);
+    assert_eq!(
+        command(effects),
+        Command::Aim {
+            light: 0,
+            spec: AimSpec::Target(point)
+        }
+    );
     // (4, 2, 0) − (3, 2, 2.6) = (1, 0, −2.6), length √7.76.
     let len = 7.76f64.sqrt();
     let aim = m.lights[0].aim;
@@ -506,7 +552,14 @@ fn move_mode_moves_in_tenths_and_rebakes_on_leaving() {
     let mut m = model();
     update(&mut m, ch('m'));
     assert!(matches!(m.mode, Mode::Move { .. }));
-    assert_eq!(update(&mut m, key(KeyCode::Right)), vec![Effect::Render]);
+    // Each step goes to the engine at once (it re-bakes the moved light in the background).
+    assert_eq!(
+        command(update(&mut m, key(KeyCode::Right))),
+        Command::Move {
+            light: 0,
+            position: DVec3::new(3.1, 2.0, 2.6)
+        }
+    );
     send(
         &mut m,
         [key(KeyCode::Right), key(KeyCode::Down), key(KeyCode::PageUp)],
@@ -514,17 +567,24 @@ fn move_mode_moves_in_tenths_and_rebakes_on_leaving() {
     let p = m.lights[0].position;
     assert_close(p.x, 3.2);
     assert_close(p.y, 1.9);
-    assert_close(p.z, 2.7); // the ceiling
+    assert_close(p.z, 2.69); // 1 cm below the ceiling: a light on it could not be loaded
     update(&mut m, key(KeyCode::PageUp));
-    assert_close(m.lights[0].position.z, 2.7); // clamped inside the room
+    assert_close(m.lights[0].position.z, 2.69); // clamped inside the room
     // Still aimed at its target (3, 2, 0).
     let expected_aim = (DVec3::new(3.0, 2.0, 0.0) - p).normalize();
     assert!((m.lights[0].aim - expected_aim).length() < 1e-12);
-    assert_eq!(update(&mut m, key(KeyCode::Enter)), REBAKE_0);
+    // The engine has every step already: leaving move mode sends nothing.
+    assert_eq!(update(&mut m, key(KeyCode::Enter)), vec![]);
     assert_eq!(m.mode, Mode::Normal);
     // The whole move is one undo step.
     assert_eq!(m.history.undo_len(), 1);
-    assert_eq!(update(&mut m, ch('u')), REBAKE_0);
+    assert_eq!(
+        command(update(&mut m, ch('u'))),
+        Command::Move {
+            light: 0,
+            position: DVec3::new(3.0, 2.0, 2.6)
+        }
+    );
     assert_eq!(m.lights, model().lights);
 }
 
@@ -533,8 +593,14 @@ fn move_mode_escape_restores_the_position() {
     let mut m = model();
     send(&mut m, [ch('m')]);
     send(&mut m, std::iter::repeat_n(key(KeyCode::Left), 40));
-    assert_eq!(m.lights[0].position.x, 0.0); // the wall x = 0
-    assert_eq!(update(&mut m, key(KeyCode::Esc)), vec![Effect::Render]);
+    assert_eq!(m.lights[0].position.x, 0.01); // 1 cm from the wall x = 0
+    assert_eq!(
+        command(update(&mut m, key(KeyCode::Esc))),
+        Command::Move {
+            light: 0,
+            position: DVec3::new(3.0, 2.0, 2.6)
+        }
+    );
     assert_eq!(m.lights, model().lights);
     assert_eq!(m.history.undo_len(), 0);
     assert!(!m.dirty);
@@ -543,7 +609,7 @@ fn move_mode_escape_restores_the_position() {
 #[test]
 fn dimmer_steps_by_tenths_and_clamps_at_zero() {
     let mut m = model();
-    assert_eq!(update(&mut m, ch('d')), RELIGHT_0);
+    assert!(edits_light_0(update(&mut m, ch('d'))));
     assert_eq!(m.lights[0].dimmer, 0.9);
     send(&mut m, std::iter::repeat_n(ch('d'), 8));
     assert_eq!(m.lights[0].dimmer, 0.1);
@@ -562,7 +628,7 @@ fn camera_keys_orbit_pan_dolly_and_reset() {
     let mut m = model();
     let home = m.camera;
     let offset = home.eye - home.target;
-    assert_eq!(update(&mut m, ch(']')), vec![Effect::Render]);
+    assert!(matches!(command(update(&mut m, ch(']'))), Command::SetCamera(_)));
     let turned = m.camera.eye - m.camera.target;
     // A 5° yaw about z: same height and horizontal distance, 5° between the horizontal parts.
     assert_close(turned.z, offset.z);
@@ -751,25 +817,20 @@ fn worker_messages_fill_the_status() {
         },
     );
     assert_eq!(m.timings.unwrap().render_ms, 4.0);
-    let samples = vec![(0.0, 990.0), (std::f64::consts::PI, 0.0)];
+    let series = Series {
+        samples: vec![(0.0, 990.0), (std::f64::consts::PI, 0.0)],
+        relative_error: 0.02,
+    };
     update(
         &mut m,
         Msg::Series {
             light: 1,
-            samples: samples.clone(),
-            relative_error: 0.02,
+            series: series.clone(),
         },
     );
-    assert_eq!(m.series[1].as_ref().unwrap().samples, samples);
+    assert_eq!(m.series[1].as_ref(), Some(&series));
     // An out-of-range light is ignored, not a panic.
-    update(
-        &mut m,
-        Msg::Series {
-            light: 7,
-            samples,
-            relative_error: 0.0,
-        },
-    );
+    update(&mut m, Msg::Series { light: 7, series });
 }
 
 #[test]
@@ -1014,8 +1075,10 @@ fn with_series(mut m: Model) -> Model {
         &mut m,
         Msg::Series {
             light: 0,
-            samples,
-            relative_error: 0.0412,
+            series: Series {
+                samples,
+                relative_error: 0.0412,
+            },
         },
     );
     update(

@@ -88,6 +88,15 @@ fn aim_title(screen: &str) -> Option<String> {
     Some(screen[start..=end].to_string())
 }
 
+/// True once the save has finished: the status reports "saved PATH" and the room is no longer
+/// marked "● unsaved" (a plain `contains("saved ")` also matches that marker).
+fn shows_saved(screen: &str) -> bool {
+    !screen.contains("unsaved")
+        && screen
+            .match_indices("saved ")
+            .any(|(i, _)| !screen[..i].ends_with("un"))
+}
+
 fn wait_for_file(path: &Path) -> String {
     let start = Instant::now();
     while start.elapsed() < STEP_TIMEOUT {
@@ -108,23 +117,29 @@ fn number(value: &toml::Value) -> f64 {
         .expect("a number")
 }
 
-#[test]
-fn edit_aim_save_and_quit_in_tmux() {
+/// The editor on a copy of the paper room in `dir`, with a private bake cache in `dir/cache`;
+/// its exit status goes to the returned file.
+fn start_editor(dir: &Path) -> (TmuxSession, PathBuf, PathBuf, String) {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let original = std::fs::read_to_string(repo.join("rooms/paper.toml")).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let room = dir.path().join("paper.toml");
+    let room = dir.join("paper.toml");
     std::fs::write(&room, &original).unwrap();
-    let exit_file = dir.path().join("exit-status");
+    let exit_file = dir.join("exit-status");
     // A private bake cache: the editor bakes on start (the preview appears when it is done).
     let command = format!(
         "HAIKO_CACHE_DIR='{}' '{}' edit '{}' --graphics halfblocks; echo EXIT=$? > '{}'",
-        dir.path().join("cache").display(),
+        dir.join("cache").display(),
         env!("CARGO_BIN_EXE_haiko"),
         room.display(),
         exit_file.display()
     );
-    let session = TmuxSession::start(&command, 160, 48);
+    (TmuxSession::start(&command, 160, 48), room, exit_file, original)
+}
+
+#[test]
+fn edit_aim_save_and_quit_in_tmux() {
+    let dir = tempfile::tempdir().unwrap();
+    let (session, room, exit_file, original) = start_editor(dir.path());
 
     // The first frame: the status line reports the stage timings of a rendered preview.
     let screen = session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
@@ -156,7 +171,7 @@ fn edit_aim_save_and_quit_in_tmux() {
     });
 
     session.send("s");
-    session.wait_for("the save", |s| s.contains("saved "));
+    session.wait_for("the save", shows_saved);
     session.send("q");
     assert_eq!(wait_for_file(&exit_file).trim(), "EXIT=0");
 
@@ -201,5 +216,54 @@ fn edit_aim_save_and_quit_in_tmux() {
         text[start..end].lines().map(str::to_string).collect()
     };
     assert_eq!(accent_lines(&saved_text), accent_lines(&original));
+    drop(session);
+}
+
+/// `m`, `↑`, `Enter`: the light moves 0.1 m, its new bake runs in the background and the status
+/// line is back to normal (no "updating", no "baking") within 10 s; the save writes the new
+/// position and the bake cache keeps one entry per light.
+#[test]
+fn a_move_in_tmux_finishes_its_bake_and_keeps_one_cache_entry_per_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let (session, room, exit_file, _) = start_editor(dir.path());
+    session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
+    session.send("m");
+    session.wait_for("move mode", |s| status_line(s).contains("MOVE"));
+    session.send("Up");
+    session.wait_for("the moved light", |s| s.contains("3.00 2.10 2.60"));
+    session.send("Enter");
+    let entered = Instant::now();
+    let screen = session.wait_for("the moved light's bake", |s| {
+        let status = status_line(s);
+        status.contains("EDIT") && !status.contains("updating") && !status.contains("baking")
+    });
+    assert!(
+        entered.elapsed() < Duration::from_secs(10),
+        "the move took {:?} to settle:\n{screen}",
+        entered.elapsed()
+    );
+    session.send("s");
+    session.wait_for("the save", shows_saved);
+    session.send("q");
+    assert_eq!(wait_for_file(&exit_file).trim(), "EXIT=0");
+    let saved: toml::Value = toml::from_str(&std::fs::read_to_string(&room).unwrap()).unwrap();
+    let position: Vec<f64> = saved["light"][0]["position"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(number)
+        .collect();
+    assert_eq!(position, [3.0, 2.1, 2.6]);
+    let entries = std::fs::read_dir(dir.path().join("cache"))
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "bake")
+        })
+        .count();
+    assert_eq!(entries, 2, "one cache entry per light");
     drop(session);
 }

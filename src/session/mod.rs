@@ -1,0 +1,615 @@
+//! The headless session: one path from a room file to numbers and pixels. It owns the scene,
+//! the plan, the bake, the relighter, the camera and reusable frame buffers; it takes
+//! [`Command`]s (plain values: a control point, a curve, an aim, a dimmer, an order, a window,
+//! a move, an added or removed light, the camera) and says what changed. `haiko render`,
+//! `probe`, `grid`, `pick` and the editor all go through it (docs/ARCHITECTURE.md).
+//!
+//! Commands only change state; the light is recomputed by [`Session::relight`] (or implicitly by
+//! [`Session::render`]), once for any number of queued commands. A light that moves (or whose
+//! SH order changes) needs new basis columns: the command yields a [`BakeJob`] that runs on any
+//! thread ([`BakeJob::run`]) while the session stays usable — the moved light's direct light is
+//! exact at once and its indirect light is the old bake's until [`Session::finish_bake`] installs
+//! the new one. Superseded cache entries of a moved light are removed, so the bake cache holds
+//! at most one entry per light of a session.
+//!
+//! ```no_run
+//! use haiko::session::{Command, FrameSpec, Session, SessionOptions};
+//! use haiko::render::DisplayMode;
+//!
+//! let mut session = Session::open("rooms/paper.toml".as_ref(), SessionOptions::default(), &mut |_| {})?;
+//! session.apply(Command::SetDimmer { light: 0, dimmer: 0.5 })?;
+//! let spec = FrameSpec { size_px: (640, 480), mode: DisplayMode::Photo, selected_light: None, cursor: None };
+//! let frame = session.render(&spec)?;
+//! frame.pixmap.save_png("paper.png").expect("written");
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod command;
+pub mod frame;
+pub mod light;
+pub mod series;
+
+use std::path::Path;
+use std::sync::Arc;
+
+pub use command::{Applied, Change, Command, CommandError, RoomBounds};
+pub use frame::{FrameSpec, MAX_SIDE_PX, PixelHit};
+pub use light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
+pub use series::Series;
+
+use crate::error::{Error, Result};
+use crate::photometry::IncrementalWeights;
+use crate::relight::Relighter;
+use crate::render;
+use crate::scene::{Camera, DirectMode, Scene};
+use crate::transport::bake::{Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake};
+use crate::transport::cache::BakeCache;
+use crate::transport::direct::Receiver;
+use crate::transport::gather::illuminance_at_receivers;
+use crate::transport::plan::{Plan, plan_light};
+use frame::FrameBuffers;
+
+/// How a session is set up.
+#[derive(Debug, Clone)]
+pub struct SessionOptions {
+    /// Plan overrides, solver settings and the bake cache (`bake.cache`; none by default).
+    pub bake: BakeOptions,
+    /// False for direct light only: no bake, no interreflection (`--direct-only`).
+    pub indirect: bool,
+}
+
+impl Default for SessionOptions {
+    fn default() -> Self {
+        SessionOptions {
+            bake: BakeOptions::default(),
+            indirect: true,
+        }
+    }
+}
+
+impl SessionOptions {
+    /// Indirect light, with the user's bake cache ([`BakeCache::user`]).
+    pub fn with_user_cache() -> Self {
+        SessionOptions {
+            bake: BakeOptions {
+                cache: Some(BakeCache::user()),
+                ..BakeOptions::default()
+            },
+            indirect: true,
+        }
+    }
+}
+
+/// A light's identity within a session: indices shift when lights are inserted or removed,
+/// ids do not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct LightId(u64);
+
+/// Whether a light's result is final.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LightStatus {
+    /// Its direct and indirect light are up to date.
+    Ready,
+    /// It moved (or its order changed) and its new bake is pending: the direct light is exact,
+    /// the indirect light is the previous bake's.
+    Updating,
+}
+
+/// What of a light must be recomputed at the next [`Session::relight`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct Dirty {
+    state: bool,
+    moved: bool,
+}
+
+/// The session's bookkeeping of one light.
+#[derive(Debug, Clone)]
+struct LightSlot {
+    id: LightId,
+    /// The curve's Legendre weights at the light's order, kept current edit by edit.
+    weights: IncrementalWeights,
+    dirty: Dirty,
+    /// Generation of the latest bake asked for; `installed` is the one in use.
+    generation: u64,
+    installed: u64,
+    /// Cache key of the installed bake.
+    key: Option<u64>,
+}
+
+/// Re-bakes one light: runs on any thread, then goes back to [`Session::finish_bake`].
+#[derive(Debug, Clone)]
+pub struct BakeJob {
+    light: LightId,
+    name: String,
+    generation: u64,
+    transport: Arc<Transport>,
+    spec: LightBakeSpec,
+    cache: Option<BakeCache>,
+}
+
+/// A finished [`BakeJob`].
+#[derive(Debug)]
+pub struct BakeOutcome {
+    light: LightId,
+    generation: u64,
+    key: u64,
+    result: Result<BakedLight>,
+}
+
+impl BakeJob {
+    /// The light it bakes.
+    pub fn light(&self) -> LightId {
+        self.light
+    }
+
+    /// The light's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Bakes the light (or loads it from the cache), reporting progress.
+    pub fn run(self, progress: &mut dyn FnMut(Progress)) -> BakeOutcome {
+        let key = self.transport.light_key(&self.spec);
+        let result = self
+            .transport
+            .bake_lights(std::slice::from_ref(&self.spec), self.cache.as_ref(), progress)
+            .and_then(|(mut lights, _)| {
+                lights
+                    .pop()
+                    .ok_or_else(|| Error::internal("the bake returned no light"))
+            });
+        BakeOutcome {
+            light: self.light,
+            generation: self.generation,
+            key,
+            result,
+        }
+    }
+}
+
+/// The headless engine under the CLI and the editor.
+#[derive(Debug)]
+pub struct Session {
+    scene: Scene,
+    /// True when `scene.lights` lag behind `lights`.
+    scene_lights_stale: bool,
+    lights: Vec<LightEdit>,
+    slots: Vec<LightSlot>,
+    next_id: u64,
+    camera: Camera,
+    bounds: RoomBounds,
+    options: SessionOptions,
+    bake: Option<Bake>,
+    relighter: Option<Relighter>,
+    /// Bumped whenever the fine-vertex illuminance changes.
+    illuminance_version: u64,
+    jobs: Vec<BakeJob>,
+    buffers: FrameBuffers,
+}
+
+/// The lights of `scene` as a session starts them: the room file's values, each light's order
+/// the file's or else the plan's choice.
+pub fn initial_lights(scene: &Scene, plan: &Plan) -> Vec<LightEdit> {
+    scene
+        .lights
+        .iter()
+        .zip(&plan.lights)
+        .map(|(light, lp)| LightEdit {
+            order: lp.order.min(MAX_ORDER),
+            ..LightEdit::from_light(light)
+        })
+        .collect()
+}
+
+impl Session {
+    /// Loads the room file at `path` and starts a session on it ([`Session::new`]).
+    ///
+    /// Errors: the room file (bad input), the bake (internal).
+    pub fn open(path: &Path, options: SessionOptions, progress: &mut dyn FnMut(Progress)) -> Result<Session> {
+        Session::new(crate::scene::load(path)?, options, progress)
+    }
+
+    /// Plans `scene` and, unless `options.indirect` is false, bakes it (from the cache when
+    /// valid), reporting progress. The relighter is built on first need.
+    ///
+    /// Errors: the interreflection solve failing (internal).
+    pub fn new(scene: Scene, options: SessionOptions, progress: &mut dyn FnMut(Progress)) -> Result<Session> {
+        let (bake, plan) = if options.indirect {
+            let bake = bake(&scene, &options.bake, progress)?;
+            let plan = bake.plan.clone();
+            (Some(bake), plan)
+        } else {
+            (None, crate::transport::plan::plan(&scene, options.bake.plan))
+        };
+        let lights = initial_lights(&scene, &plan);
+        let slots = lights
+            .iter()
+            .enumerate()
+            .map(|(i, light)| LightSlot {
+                id: LightId(i as u64),
+                weights: IncrementalWeights::new(light.curve.clone(), light.order),
+                dirty: Dirty::default(),
+                generation: 0,
+                installed: 0,
+                key: bake.as_ref().map(|b| {
+                    b.transport
+                        .light_key(&LightBakeSpec::new(&scene.lights[i], &b.plan.lights[i]))
+                }),
+            })
+            .collect();
+        Ok(Session {
+            camera: scene.camera,
+            bounds: RoomBounds::of(&scene),
+            next_id: lights.len() as u64,
+            scene_lights_stale: false,
+            scene,
+            lights,
+            slots,
+            options,
+            bake,
+            relighter: None,
+            illuminance_version: 0,
+            jobs: Vec::new(),
+            buffers: FrameBuffers::default(),
+        })
+    }
+
+    /// The room's geometry, surfaces and settings. Its `lights` are as loaded; the current ones
+    /// are [`Session::lights`].
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The lights as the commands left them, in order.
+    pub fn lights(&self) -> &[LightEdit] {
+        &self.lights
+    }
+
+    /// The id of light `i`.
+    pub fn light_id(&self, i: usize) -> Option<LightId> {
+        self.slots.get(i).map(|s| s.id)
+    }
+
+    /// The index of the light with id `id`, if it still exists.
+    pub fn light_index(&self, id: LightId) -> Option<usize> {
+        self.slots.iter().position(|s| s.id == id)
+    }
+
+    /// The preview camera.
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    /// The bake (plan, transport, per-light basis), unless the session is direct-only.
+    pub fn bake(&self) -> Option<&Bake> {
+        self.bake.as_ref()
+    }
+
+    /// Whether light `i`'s result is final or a bake for it is pending.
+    pub fn light_status(&self, i: usize) -> LightStatus {
+        let slot = &self.slots[i];
+        if slot.generation == slot.installed {
+            LightStatus::Ready
+        } else {
+            LightStatus::Updating
+        }
+    }
+
+    /// Applies `command`, or refuses it and changes nothing. The light is recomputed at the next
+    /// [`Session::relight`]; a move, an order change or an inserted light queue a [`BakeJob`]
+    /// ([`Session::take_bake_jobs`]).
+    pub fn apply(&mut self, command: Command) -> std::result::Result<Applied, CommandError> {
+        let applied = command.apply(&mut self.lights, &mut self.camera, &self.bounds)?;
+        match applied.change {
+            Change::Point { light, point } => {
+                let slot = &mut self.slots[light];
+                let curve = &self.lights[light].curve;
+                // The model's curve already holds the new value; the weights follow in O(N).
+                let synced = match command {
+                    Command::SetIntensity { .. } => {
+                        slot.weights.set_intensity(point, curve.intensities_cd()[point])
+                    }
+                    _ => slot.weights.set_gamma(point, curve.gammas_deg()[point]),
+                };
+                if synced.is_err() {
+                    slot.weights = IncrementalWeights::new(curve.clone(), self.lights[light].order);
+                }
+                slot.dirty.state = true;
+            }
+            Change::Curve { light } => {
+                self.slots[light].weights =
+                    IncrementalWeights::new(self.lights[light].curve.clone(), self.lights[light].order);
+                self.slots[light].dirty.state = true;
+            }
+            Change::Aim { light } | Change::Dimmer { light } | Change::Window { light } => {
+                self.slots[light].dirty.state = true;
+            }
+            Change::Order { light } => {
+                self.slots[light].weights =
+                    IncrementalWeights::new(self.lights[light].curve.clone(), self.lights[light].order);
+                self.slots[light].dirty.state = true;
+                self.queue_bake(light);
+            }
+            Change::Moved { light } => {
+                self.slots[light].dirty = Dirty {
+                    state: true,
+                    moved: true,
+                };
+                self.queue_bake(light);
+            }
+            Change::Inserted { at } => self.insert_slot(at),
+            Change::Removed { at } => self.remove_slot(at),
+            Change::Camera => {}
+        }
+        self.scene_lights_stale |= applied.change != Change::Camera;
+        Ok(applied)
+    }
+
+    /// Queues a bake of light `i` for its current position and order (replacing a queued one).
+    fn queue_bake(&mut self, i: usize) {
+        let Some(bake) = &self.bake else {
+            return;
+        };
+        let light = self.lights[i].to_light();
+        let spec = LightBakeSpec::new(&light, &plan_light(&self.scene, &light, self.options.bake.plan));
+        let slot = &mut self.slots[i];
+        slot.generation += 1;
+        let job = BakeJob {
+            light: slot.id,
+            name: light.name,
+            generation: slot.generation,
+            transport: Arc::clone(&bake.transport),
+            spec,
+            cache: self.options.bake.cache.clone(),
+        };
+        self.jobs.retain(|j| j.light != job.light);
+        self.jobs.push(job);
+    }
+
+    fn insert_slot(&mut self, at: usize) {
+        let light = &self.lights[at];
+        let id = LightId(self.next_id);
+        self.next_id += 1;
+        self.slots.insert(
+            at,
+            LightSlot {
+                id,
+                weights: IncrementalWeights::new(light.curve.clone(), light.order),
+                dirty: Dirty::default(),
+                generation: 0,
+                installed: 0,
+                key: None,
+            },
+        );
+        let scene_light = light.to_light();
+        if let Some(bake) = &mut self.bake {
+            let lp = plan_light(&self.scene, &scene_light, self.options.bake.plan);
+            // Until its bake arrives the light has no indirect light.
+            bake.lights.insert(at, BakedLight::without_indirect(&lp));
+            bake.plan.lights.insert(at, lp);
+        }
+        if let Some(relighter) = &mut self.relighter {
+            let baked = self.bake.as_ref().map(|b| b.lights[at].clone());
+            relighter.insert_light(at, &scene_light, baked);
+            self.illuminance_version += 1;
+        }
+        self.queue_bake(at);
+    }
+
+    fn remove_slot(&mut self, at: usize) {
+        let slot = self.slots.remove(at);
+        self.jobs.retain(|j| j.light != slot.id);
+        if let Some(bake) = &mut self.bake {
+            bake.lights.remove(at);
+            bake.plan.lights.remove(at);
+        }
+        if let Some(relighter) = &mut self.relighter {
+            relighter.remove_light(at);
+            self.illuminance_version += 1;
+        }
+        if let Some(key) = slot.key {
+            self.forget_cache_entry(key);
+        }
+    }
+
+    /// Removes the cache entry `key` unless a light of the session still uses it.
+    fn forget_cache_entry(&self, key: u64) {
+        if let Some(cache) = &self.options.bake.cache
+            && !self.slots.iter().any(|s| s.key == Some(key))
+        {
+            cache.remove(key);
+        }
+    }
+
+    /// The bake jobs queued by commands since the last call (one per light at most).
+    pub fn take_bake_jobs(&mut self) -> Vec<BakeJob> {
+        std::mem::take(&mut self.jobs)
+    }
+
+    /// Installs a finished bake if it is still the latest for its light (else it is dropped and
+    /// its cache entry removed). Returns the index of the light it updated.
+    ///
+    /// Errors: the bake itself failed (internal); the light keeps its previous bake.
+    pub fn finish_bake(&mut self, outcome: BakeOutcome) -> Result<Option<usize>> {
+        let current = self
+            .light_index(outcome.light)
+            .filter(|&i| self.slots[i].generation == outcome.generation);
+        let Some(i) = current else {
+            if outcome.result.is_ok() {
+                self.forget_cache_entry(outcome.key);
+            }
+            return Ok(None);
+        };
+        let baked = outcome.result?;
+        let slot = &mut self.slots[i];
+        slot.installed = outcome.generation;
+        if let Some(old) = slot.key.replace(outcome.key)
+            && old != outcome.key
+        {
+            self.forget_cache_entry(old);
+        }
+        if let Some(bake) = &mut self.bake {
+            bake.plan.lights[i] = baked.plan.clone();
+            bake.lights[i] = baked.clone();
+        }
+        if let Some(relighter) = &mut self.relighter {
+            relighter.install_baked(i, baked);
+            self.illuminance_version += 1;
+        }
+        Ok(Some(i))
+    }
+
+    /// Runs the queued bake jobs here and installs them (headless use).
+    ///
+    /// Errors: a bake failed (internal).
+    pub fn run_bake_jobs(&mut self, progress: &mut dyn FnMut(Progress)) -> Result<()> {
+        for job in self.take_bake_jobs() {
+            let outcome = job.run(progress);
+            self.finish_bake(outcome)?;
+        }
+        Ok(())
+    }
+
+    /// The scene with its lights brought up to date (for building the relighter and gathers).
+    fn synced_scene(&mut self) -> &Scene {
+        if self.scene_lights_stale {
+            self.scene.lights = self.lights.iter().map(LightEdit::to_light).collect();
+            self.scene_lights_stale = false;
+        }
+        &self.scene
+    }
+
+    /// Recomputes the lights that commands changed (building the relighter on first use);
+    /// returns their indices.
+    pub fn relight(&mut self) -> Vec<usize> {
+        if self.relighter.is_none() {
+            self.synced_scene();
+            let relighter = match &self.bake {
+                Some(bake) => Relighter::with_bake(&self.scene, bake),
+                None => Relighter::new(&self.scene),
+            };
+            self.relighter = Some(relighter);
+            for slot in &mut self.slots {
+                slot.dirty.moved = false;
+            }
+        }
+        let Some(relighter) = self.relighter.as_mut() else {
+            return Vec::new();
+        };
+        let mut relit = Vec::new();
+        for (i, (slot, light)) in self.slots.iter_mut().zip(&self.lights).enumerate() {
+            if slot.dirty.moved {
+                relighter.move_light(i, light.position);
+            }
+            if slot.dirty.state || slot.dirty.moved {
+                relighter.set_light(
+                    i,
+                    &light.curve,
+                    slot.weights.weights(),
+                    light.aim,
+                    light.dimmer,
+                    light.window.forced(),
+                );
+                relit.push(i);
+            }
+            slot.dirty = Dirty::default();
+        }
+        if !relit.is_empty() {
+            self.illuminance_version += 1;
+        }
+        relit
+    }
+
+    /// Total illuminance per fine vertex (lx, linear RGB), recomputed first if commands changed
+    /// a light.
+    pub fn vertex_illuminance(&mut self) -> &[[f64; 3]] {
+        self.relight();
+        self.relighter.as_ref().map_or(&[], |r| r.total())
+    }
+
+    /// Renders the current state through the session's camera as `spec` says (relighting first
+    /// if needed), into buffers kept across calls.
+    ///
+    /// Errors: a bad size (bad input naming `width`/`height`), an internal render failure.
+    pub fn render(&mut self, spec: &FrameSpec) -> Result<&render::Frame> {
+        self.relight();
+        let relighter = self
+            .relighter
+            .as_ref()
+            .ok_or_else(|| Error::internal("session: no relighter"))?;
+        self.buffers.render(
+            &self.scene,
+            (relighter.total(), self.illuminance_version),
+            self.camera,
+            spec,
+            &self.lights,
+        )
+    }
+
+    /// The latest frame and the view it was rendered through.
+    pub fn latest_frame(&self) -> Option<(&render::Frame, &render::View)> {
+        self.buffers.latest()
+    }
+
+    /// The display shader of `mode` as fitted at its first frame (exposure or lux range).
+    pub fn fitted_shader(&self, mode: render::DisplayMode) -> Option<render::DisplayShader> {
+        self.buffers.fitted(mode)
+    }
+
+    /// The index of the light named `name`.
+    ///
+    /// Errors (bad input naming the room file and `place`): no such light; the message lists
+    /// the lights.
+    pub fn light_named(&self, name: &str, place: &str) -> Result<usize> {
+        self.lights.iter().position(|l| l.name == name).ok_or_else(|| {
+            let names: Vec<&str> = self.lights.iter().map(|l| l.name.as_str()).collect();
+            Error::input(
+                &self.scene.path,
+                place,
+                format!("no light named `{name}` (lights: {})", names.join(", ")),
+            )
+        })
+    }
+
+    /// Forgets the exposure and lux range fitted at the first frame: the next frame fits anew.
+    pub fn refit_display(&mut self) {
+        self.buffers.refit_display();
+    }
+
+    /// What pixel `pixel` of the latest frame shows, with the illuminance there.
+    pub fn pick(&self, pixel: (u32, u32)) -> Option<PixelHit> {
+        self.buffers.pick(&self.scene.fine, pixel)
+    }
+
+    /// Illuminance (lx, photopic) at `receivers` for the current lights: exact direct light plus,
+    /// unless `direct_only`, the indirect light gathered from the bake. `mode` chooses how direct
+    /// light is evaluated (exact, or from the SH series as in paper mode).
+    ///
+    /// Errors (bad input): paper mode asked for with `direct_only` or without a bake.
+    pub fn illuminance_at(
+        &mut self,
+        receivers: &[Receiver],
+        direct_only: bool,
+        mode: DirectMode,
+    ) -> Result<Vec<f64>> {
+        let bake = if direct_only { None } else { self.bake.as_ref() };
+        if mode == DirectMode::Basis && bake.is_none() {
+            return Err(Error::input(
+                "--mode",
+                "",
+                "basis mode needs the bake: drop --direct-only",
+            ));
+        }
+        if self.scene_lights_stale {
+            self.scene.lights = self.lights.iter().map(LightEdit::to_light).collect();
+            self.scene_lights_stale = false;
+        }
+        Ok(illuminance_at_receivers(&self.scene, bake, mode, receivers))
+    }
+
+    /// Light `i`'s series as the polar diagram shows it: its order-N series windowed as the
+    /// light says, from the weights kept edit by edit.
+    pub fn series(&self, i: usize) -> Series {
+        Series::of(&self.lights[i], self.slots[i].weights.weights())
+    }
+}

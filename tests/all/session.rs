@@ -1,0 +1,292 @@
+//! The session: commands against fresh sessions of the edited room, light moves that re-bake one
+//! light and keep the cache at one entry per light, inserted and removed lights, frames reused
+//! across edits, picks.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use haiko::photometry::Curve;
+use haiko::render::shade::luma;
+use haiko::render::{DisplayMode, render_attributes, vertex_attributes};
+use haiko::scene::{self, AimSpec, Scene};
+use haiko::session::{Command, FrameSpec, LightEdit, LightStatus, Session, SessionOptions, WindowChoice};
+use haiko::transport::bake::BakeOptions;
+use haiko::transport::cache::BakeCache;
+
+fn room(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("rooms")
+        .join(format!("{name}.toml"))
+}
+
+fn paper() -> Scene {
+    scene::load(&room("paper")).expect("the paper room loads")
+}
+
+fn session(scene: Scene) -> Session {
+    Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("the room bakes")
+}
+
+fn cached_session(scene: Scene, cache: &Path) -> Session {
+    let options = SessionOptions {
+        bake: BakeOptions {
+            cache: Some(BakeCache::in_dir(cache)),
+            ..BakeOptions::default()
+        },
+        indirect: true,
+    };
+    Session::new(scene, options, &mut |_| {}).expect("the room bakes")
+}
+
+/// The two per-vertex fields agree to `1e-9` of the larger field's peak.
+fn assert_fields_close(got: &[[f64; 3]], want: &[[f64; 3]]) {
+    assert_eq!(got.len(), want.len());
+    let peak = want.iter().flatten().fold(0.0_f64, |m, &x| m.max(x.abs()));
+    assert!(peak > 0.0, "the room is lit");
+    for (v, (g, w)) in got.iter().zip(want).enumerate() {
+        for ch in 0..3 {
+            assert!(
+                (g[ch] - w[ch]).abs() <= 1e-9 * peak,
+                "vertex {v} channel {ch}: {g:?} vs {w:?}"
+            );
+        }
+    }
+}
+
+fn spec(size: (u32, u32)) -> FrameSpec {
+    FrameSpec {
+        size_px: size,
+        mode: DisplayMode::Photo,
+        selected_light: Some(0),
+        cursor: None,
+    }
+}
+
+/// Curve, aim, dimmer, window and point edits, applied as commands, give the light of a fresh
+/// session on the room file edited the same way.
+#[test]
+fn commands_give_the_light_of_a_fresh_session_of_the_edited_room() {
+    let mut s = session(paper());
+    let edits = [
+        Command::SetIntensity {
+            light: 0,
+            point: 1,
+            candela: 1234.5,
+        },
+        Command::SetGamma {
+            light: 0,
+            point: 1,
+            gamma_deg: 25.0,
+        },
+        Command::SetDimmer {
+            light: 1,
+            dimmer: 0.4,
+        },
+        Command::Aim {
+            light: 1,
+            spec: AimSpec::Target(DVec3::new(2.0, 3.0, 0.0)),
+        },
+        Command::SetCurve {
+            light: 1,
+            curve: Curve::new(&[(0.0, 3000.0), (20.0, 2500.0), (40.0, 0.0)]).unwrap(),
+        },
+    ];
+    for edit in edits {
+        s.apply(edit).expect("a valid edit");
+    }
+    assert_eq!(
+        s.relight(),
+        vec![0, 1],
+        "both lights changed, each recomputed once"
+    );
+    let mut edited = paper();
+    for (light, edit) in edited.lights.iter_mut().zip(s.lights()) {
+        light.curve = edit.curve.clone();
+        light.aim = edit.aim;
+        light.aim_spec = edit.aim_spec;
+        light.dimmer = edit.dimmer;
+    }
+    let fresh = session(edited).vertex_illuminance().to_vec();
+    assert_fields_close(s.vertex_illuminance(), &fresh);
+    // A window is a session choice: forcing Hann changes light 1's indirect light only.
+    s.apply(Command::SetWindow {
+        light: 1,
+        window: WindowChoice::Hann,
+    })
+    .unwrap();
+    assert_eq!(s.relight(), vec![1]);
+}
+
+/// Ten 0.1 m moves: each step's direct light is exact at once while the indirect light waits
+/// for the light's own bake (status `Updating`), other lights are never re-baked, the cache
+/// keeps one entry per light, and the result equals a fresh session of the moved room.
+#[test]
+fn ten_moves_rebake_one_light_and_keep_one_cache_entry_per_light() {
+    let cache = tempfile::tempdir().unwrap();
+    let mut s = cached_session(paper(), cache.path());
+    let entries = || BakeCache::in_dir(cache.path()).entries().len();
+    assert_eq!(entries(), 2, "one entry per light after the first bake");
+    let start = s.lights()[0].position;
+    for step in 1..=10 {
+        let position = start - DVec3::new(0.1 * f64::from(step), 0.0, 0.0);
+        s.apply(Command::Move { light: 0, position }).unwrap();
+        assert_eq!(s.light_status(0), LightStatus::Updating);
+        assert_eq!(s.light_status(1), LightStatus::Ready);
+        let jobs = s.take_bake_jobs();
+        assert_eq!(jobs.len(), 1, "only the moved light is baked again");
+        assert_eq!(jobs[0].name(), "centre");
+        for job in jobs {
+            let outcome = job.run(&mut |_| {});
+            assert_eq!(s.finish_bake(outcome).unwrap(), Some(0));
+        }
+        assert_eq!(s.light_status(0), LightStatus::Ready);
+        assert_eq!(entries(), 2, "step {step}: superseded entries are removed");
+    }
+    // The room file with the light where it ended (its target aim follows it).
+    let mut moved = paper();
+    moved.lights[0] = s.lights()[0].to_light();
+    let fresh = session(moved).vertex_illuminance().to_vec();
+    assert_fields_close(s.vertex_illuminance(), &fresh);
+}
+
+/// A bake that finishes after its light moved again is dropped, and its cache entry with it.
+#[test]
+fn a_superseded_bake_is_dropped_with_its_cache_entry() {
+    let cache = tempfile::tempdir().unwrap();
+    let mut s = cached_session(paper(), cache.path());
+    let start = s.lights()[0].position;
+    s.apply(Command::Move {
+        light: 0,
+        position: start + DVec3::X * 0.1,
+    })
+    .unwrap();
+    let stale = s.take_bake_jobs().pop().unwrap();
+    s.apply(Command::Move {
+        light: 0,
+        position: start + DVec3::X * 0.2,
+    })
+    .unwrap();
+    assert_eq!(s.finish_bake(stale.run(&mut |_| {})).unwrap(), None);
+    assert_eq!(s.light_status(0), LightStatus::Updating);
+    s.run_bake_jobs(&mut |_| {}).unwrap();
+    assert_eq!(s.light_status(0), LightStatus::Ready);
+    assert_eq!(BakeCache::in_dir(cache.path()).entries().len(), 2);
+}
+
+/// An inserted light is lit at once (direct light) and fully after its bake; the session then
+/// equals a fresh one of the room with that light; removing it restores the original.
+#[test]
+fn inserted_and_removed_lights_match_fresh_sessions() {
+    let mut s = session(paper());
+    let original = s.vertex_illuminance().to_vec();
+    let mut copy: LightEdit = s.lights()[0].clone();
+    copy.name = "copy".into();
+    copy.position = DVec3::new(1.5, 1.0, 2.6);
+    s.apply(Command::Insert {
+        at: 1,
+        light: Box::new(copy.clone()),
+    })
+    .unwrap();
+    assert_eq!(s.light_status(1), LightStatus::Updating);
+    s.run_bake_jobs(&mut |_| {}).unwrap();
+    let mut three = paper();
+    three.lights.insert(1, copy.to_light());
+    let fresh = session(three).vertex_illuminance().to_vec();
+    assert_fields_close(s.vertex_illuminance(), &fresh);
+    s.apply(Command::Remove { light: 1 }).unwrap();
+    assert_fields_close(s.vertex_illuminance(), &original);
+}
+
+/// An order change re-bakes that light at the new order.
+#[test]
+fn an_order_change_rebakes_the_light_at_the_new_order() {
+    let mut s = session(paper());
+    s.apply(Command::SetOrder { light: 1, order: 3 }).unwrap();
+    assert_eq!(s.series(1).samples.len(), 181);
+    s.run_bake_jobs(&mut |_| {}).unwrap();
+    assert_eq!(s.bake().unwrap().lights[1].plan.order, 3);
+    assert_eq!(s.bake().unwrap().lights[1].n_columns, 16);
+}
+
+/// A cursor move redraws only the overlay: the image without it is reused, not re-rendered.
+#[test]
+fn a_cursor_move_redraws_only_the_overlay() {
+    let mut s = session(paper());
+    let plain = s.render(&spec((160, 120))).unwrap().clone();
+    let cursor = (80, 60);
+    let with_cursor = s
+        .render(&FrameSpec {
+            cursor: Some(cursor),
+            ..spec((160, 120))
+        })
+        .unwrap();
+    assert_eq!(plain.ids, with_cursor.ids);
+    assert_eq!(plain.depth, with_cursor.depth);
+    let reach = haiko::render::overlay::CROSSHAIR_ARM_PX as i64 + 2;
+    let mut changed = 0;
+    for (i, (a, b)) in plain
+        .pixmap
+        .pixels()
+        .iter()
+        .zip(with_cursor.pixmap.pixels())
+        .enumerate()
+    {
+        if a != b {
+            changed += 1;
+            let (x, y) = ((i % 160) as i64, (i / 160) as i64);
+            assert!(
+                (x - 80).abs() <= reach && (y - 60).abs() <= reach,
+                "pixel ({x}, {y}) changed"
+            );
+        }
+    }
+    assert!(changed > 0, "the crosshair was not drawn");
+}
+
+/// With the exposure kept from the first frame, dimming every light darkens the picture.
+#[test]
+fn dimming_every_light_darkens_the_photo() {
+    let mut s = session(paper());
+    let mean = |s: &mut Session| {
+        let frame = s
+            .render(&FrameSpec {
+                selected_light: None,
+                ..spec((160, 120))
+            })
+            .unwrap();
+        let pixels = frame.pixmap.pixels();
+        pixels.iter().map(|p| f64::from(p.green())).sum::<f64>() / pixels.len() as f64
+    };
+    let bright = mean(&mut s);
+    for light in 0..s.lights().len() {
+        s.apply(Command::SetDimmer { light, dimmer: 0.1 }).unwrap();
+    }
+    let dim = mean(&mut s);
+    assert!(dim < 0.6 * bright, "{dim} vs {bright}");
+}
+
+/// A pick reads the illuminance the preview shades with: the interpolated vertex illuminance
+/// at the pixel, within 1 %.
+#[test]
+fn a_pick_reads_the_same_lux_as_the_rasterised_illuminance() {
+    let mut s = session(paper());
+    s.render(&spec((160, 120))).unwrap();
+    let (_, view) = s.latest_frame().unwrap();
+    let view = *view;
+    let field = s.vertex_illuminance().to_vec();
+    let scene = s.scene();
+    let attrs = vertex_attributes(DisplayMode::FalseColor, &scene.fine, &scene.surfaces, &field).unwrap();
+    let raster = render_attributes(&scene.fine, &attrs, &view).unwrap();
+    for pixel in [(80, 60), (20, 100), (140, 15)] {
+        let hit = s.pick(pixel).expect("the room fills the view");
+        let size = s.scene().room_size;
+        let inside = (0..3).all(|a| hit.point[a] > -1e-3 && hit.point[a] < size[a] + 1e-3);
+        assert!(inside, "{}", hit.point);
+        let expected = luma(raster.pixels[(pixel.1 * 160 + pixel.0) as usize].map(f64::from));
+        assert!(
+            (hit.lux - expected).abs() <= 0.01 * expected,
+            "{pixel:?}: {} vs {expected}",
+            hit.lux
+        );
+    }
+}
