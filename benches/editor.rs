@@ -43,10 +43,8 @@ fn editor() -> (Model, Session, FrameSpec) {
     let model = Model::new(&scene, TERMINAL, FONT);
     let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
     let spec = FrameSpec {
-        size_px: SIZE,
-        mode: DisplayMode::Photo,
         selected_light: Some(0),
-        cursor: None,
+        ..FrameSpec::new(SIZE, DisplayMode::Photo)
     };
     session.render(&spec).expect("the first frame renders");
     (model, session, spec)

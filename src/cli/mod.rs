@@ -8,7 +8,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use crate::error::Result;
 use crate::photometry::Window;
 use crate::scene::Scene;
-use crate::session::{Session, SessionOptions};
+use crate::session::{ExposureChoice, Session, SessionOptions};
 use crate::tui::Graphics;
 
 pub mod accuracy;
@@ -117,6 +117,26 @@ pub enum Command {
         /// What the image shows.
         #[arg(long, value_enum, default_value_t = render::ModeArg::Photo)]
         mode: render::ModeArg,
+        /// Where the image looks from: the room's camera, or the plan (top-down, parallel).
+        #[arg(long, value_enum, default_value_t = render::ViewArg::Camera)]
+        view: render::ViewArg,
+        /// Also write the per-pixel illuminance (lx) of the visible surfaces to this Portable
+        /// Float Map (`Pf`, little-endian, rows bottom to top, 0 where no surface is seen).
+        #[arg(long, value_name = "PFM")]
+        lux: Option<PathBuf>,
+        /// Direct light only: no bake, no interreflection.
+        #[arg(long)]
+        direct_only: bool,
+        /// Draw isolux lines at round lux values of the false-colour scale.
+        #[arg(long)]
+        isolux: bool,
+        /// Leave out the false-colour legend (colour bar with lux ticks).
+        #[arg(long)]
+        no_legend: bool,
+        /// Photo exposure: EV at ISO 100 of the luminance shown as mid-grey, or `auto`
+        /// (default: the room's exposure, chosen from its light).
+        #[arg(long, value_name = "EV100|auto")]
+        exposure: Option<render::ExposureArg>,
     },
     /// What a pixel of the `render` image shows (patch, surface, point, normal); aims a light at it.
     Pick {
@@ -253,7 +273,27 @@ pub fn run(cli: Cli) -> Result<()> {
             width,
             height,
             mode,
-        } => render::run(&room, &output, width, height, mode.into()),
+            view,
+            lux,
+            direct_only,
+            isolux,
+            no_legend,
+            exposure,
+        } => render::run(
+            &room,
+            &output,
+            &render::RenderOptions {
+                width,
+                height,
+                mode: mode.into(),
+                view: view.into(),
+                lux,
+                direct_only,
+                isolux,
+                legend: !no_legend,
+                exposure: exposure.map_or_else(ExposureChoice::default, Into::into),
+            },
+        ),
         Command::Pick {
             room,
             pixel,

@@ -44,7 +44,7 @@ impl Exposure {
     /// [`DEFAULT_EV100`] for a room without light.
     pub fn fixed_for(mesh: &PatchMesh, luminance_cd_m2: &[[f32; 3]]) -> Exposure {
         Exposure::Fixed {
-            ev100: auto_key(mesh, luminance_cd_m2).map_or(DEFAULT_EV100, ev100_of_key),
+            ev100: room_ev100(mesh, luminance_cd_m2),
         }
     }
 
@@ -67,6 +67,12 @@ impl Exposure {
             ev100: ev100 + delta_ev,
         }
     }
+}
+
+/// EV₁₀₀ of the room's exposure: of its automatic key (per-vertex luminance `luminance_cd_m2`),
+/// or [`DEFAULT_EV100`] for a room without light.
+pub fn room_ev100(mesh: &PatchMesh, luminance_cd_m2: &[[f32; 3]]) -> f64 {
+    auto_key(mesh, luminance_cd_m2).map_or(DEFAULT_EV100, ev100_of_key)
 }
 
 /// EV₁₀₀ of a key luminance (cd/m²).

@@ -197,6 +197,21 @@ impl PixelLighting {
         Ok(())
     }
 
+    /// Replaces every light (a light added or removed): each one's shadow rays are cast again,
+    /// the surfaces are kept.
+    pub fn set_lights(&mut self, lights: Vec<PixelLight>, occluders: Option<&Occluders>) {
+        self.entries = lights
+            .into_iter()
+            .map(|light| Entry {
+                visible: occluders.map(|o| visibility_bits(&self.surfaces, &light, o)),
+                lookup: CurveLookup::new(&light.state.curve),
+                light,
+            })
+            .collect();
+        self.active = None;
+        self.resum_others();
+    }
+
     /// The surfaces the light is evaluated on.
     pub fn surfaces(&self) -> &PixelSurfaces {
         &self.surfaces

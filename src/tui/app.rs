@@ -19,7 +19,7 @@ use ratatui_image::protocol::Protocol;
 use crate::error::{Error, Result};
 use crate::render::DisplayMode;
 use crate::scene;
-use crate::session::{FrameSpec, SessionOptions, initial_lights};
+use crate::session::{FrameSpec, SessionOptions, ViewChoice, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::msg::{Effect, Msg};
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
@@ -207,6 +207,15 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
         } else {
             DisplayMode::Photo
         },
+        view: if model.plan_view {
+            ViewChoice::Plan
+        } else {
+            ViewChoice::Camera
+        },
+        exposure: model.exposure,
+        isolux: model.isolux,
+        legend: true,
+        refit: model.display_refit,
         selected_light: model.light().map(|_| model.selected_light),
         cursor: match model.mode {
             Mode::Aim { cursor } => Some(cursor),

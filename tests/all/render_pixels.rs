@@ -525,3 +525,208 @@ fn dimming_every_light_to_ten_percent_darkens_the_photo_at_a_fixed_exposure() {
         "auto: {full_auto} → {dim_auto}"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// The same through `haiko render` and the session.
+
+/// Runs the built `haiko` with `args` (its bake cache in a temporary folder).
+fn haiko(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_haiko"))
+        .args(args)
+        .env(
+            "HAIKO_CACHE_DIR",
+            std::env::temp_dir().join("haiko-test-bake-cache"),
+        )
+        .output()
+        .unwrap()
+}
+
+/// Reads a one-channel PFM as this test expects it (`Pf`, `W H`, scale −1.0 for little-endian,
+/// rows bottom to top) into row-major values from the top-left pixel.
+fn read_pfm(path: &Path) -> (u32, u32, Vec<f64>) {
+    let bytes = std::fs::read(path).unwrap();
+    let mut lines = Vec::new();
+    let mut at = 0;
+    while lines.len() < 3 {
+        let end = at + bytes[at..].iter().position(|&b| b == b'\n').unwrap();
+        lines.push(String::from_utf8(bytes[at..end].to_vec()).unwrap());
+        at = end + 1;
+    }
+    assert_eq!(lines[0], "Pf");
+    let size: Vec<u32> = lines[1].split_whitespace().map(|s| s.parse().unwrap()).collect();
+    assert_eq!(lines[2].parse::<f64>().unwrap(), -1.0, "little-endian scale");
+    let (w, h) = (size[0], size[1]);
+    let floats: Vec<f64> = bytes[at..]
+        .chunks_exact(4)
+        .map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+        .collect();
+    assert_eq!(floats.len(), (w * h) as usize);
+    let rows: Vec<&[f64]> = floats.chunks_exact(w as usize).rev().collect();
+    (w, h, rows.concat())
+}
+
+#[test]
+fn render_direct_only_lux_pfm_equals_the_exact_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, room) in [("spots and boxes", spots_and_boxes()), ("gallery", gallery())] {
+        let path = dir.path().join("room.toml");
+        std::fs::write(&path, room.toml()).unwrap();
+        let (png, pfm) = (dir.path().join("out.png"), dir.path().join("out.pfm"));
+        let (w, h) = (SIZE.0.to_string(), SIZE.1.to_string());
+        let run = haiko(&[
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            &w,
+            "--height",
+            &h,
+            "--direct-only",
+            "--lux",
+            pfm.to_str().unwrap(),
+        ]);
+        assert!(
+            run.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let (width, height, got) = read_pfm(&pfm);
+        assert_eq!((width, height), SIZE);
+        let a = agreement(&got, &room.image(SIZE.0, SIZE.1));
+        println!(
+            "{name} (haiko render --lux): {} lit pixels, median relative error {:.2e}, {:.3} % off by > 5 % of the maximum",
+            a.lit,
+            a.median_rel,
+            100.0 * a.off_fraction
+        );
+        // The bounds.
+        assert!(a.median_rel <= 0.005, "{name}: median {}", a.median_rel);
+        assert!(a.off_fraction <= 0.01, "{name}: {} off", a.off_fraction);
+        // What exact evaluation at the exact point gives (see `assert_agrees`).
+        assert!(a.median_rel <= 1e-5 && a.off_fraction <= 0.002, "{name}");
+    }
+}
+
+#[test]
+fn render_lux_with_indirect_light_adds_to_the_direct_light_and_sky_pixels_hold_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = spots_and_boxes();
+    let path = dir.path().join("room.toml");
+    std::fs::write(&path, room.toml()).unwrap();
+    let mut images = Vec::new();
+    for direct_only in [true, false] {
+        let pfm = dir.path().join(format!("{direct_only}.pfm"));
+        let png = dir.path().join("out.png");
+        let mut args = vec![
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--view",
+            "plan",
+            "--lux",
+            pfm.to_str().unwrap(),
+        ];
+        if direct_only {
+            args.push("--direct-only");
+        }
+        let run = haiko(&args);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        images.push(read_pfm(&pfm).2);
+    }
+    let (direct, total) = (&images[0], &images[1]);
+    // The plan's margin around the footprint sees no surface: exactly 0 in both.
+    assert_eq!(direct[0], 0.0);
+    assert_eq!(total[0], 0.0);
+    // Interreflection only adds light (ρ > 0 everywhere): every floor pixel gains.
+    let floor: Vec<usize> = (0..direct.len()).filter(|&i| total[i] > 0.0).collect();
+    assert!(floor.len() > direct.len() / 2, "the plan shows the floor");
+    assert!(floor.iter().all(|&i| total[i] >= direct[i]));
+    let gain: f64 = floor.iter().map(|&i| total[i] - direct[i]).sum::<f64>() / floor.len() as f64;
+    assert!(gain > 1.0, "mean indirect gain {gain} lx");
+}
+
+/// Mean sRGB value of a frame's pixels.
+fn mean_pixel(pixmap: &tiny_skia::Pixmap) -> f64 {
+    let sum: u64 = pixmap
+        .pixels()
+        .iter()
+        .map(|p| u64::from(p.red()) + u64::from(p.green()) + u64::from(p.blue()))
+        .sum();
+    sum as f64 / (3 * pixmap.pixels().len()) as f64
+}
+
+#[test]
+fn through_the_session_a_dimmed_room_is_darker_at_the_room_exposure_and_an_unlit_one_black() {
+    use haiko::render::DisplayMode;
+    use haiko::session::{Command, ExposureChoice, FrameSpec, Session, SessionOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let room = spots_and_boxes();
+    let scene = room.load(dir.path());
+    let n = scene.lights.len();
+    let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).unwrap();
+    let fixed = FrameSpec::new(SIZE, DisplayMode::Photo);
+    let auto = FrameSpec {
+        exposure: ExposureChoice::Auto,
+        ..fixed
+    };
+    let full = mean_pixel(&session.render(&fixed).unwrap().pixmap);
+    let full_auto = mean_pixel(&session.render(&auto).unwrap().pixmap);
+    let dim_to = |session: &mut Session, factor: f64| {
+        for (light, dimmer) in room.lamps.iter().map(|l| l.dimmer * factor).enumerate() {
+            session.apply(Command::SetDimmer { light, dimmer }).unwrap();
+        }
+    };
+    dim_to(&mut session, 0.1);
+    let dim = mean_pixel(&session.render(&fixed).unwrap().pixmap);
+    let dim_auto = mean_pixel(&session.render(&auto).unwrap().pixmap);
+    println!(
+        "mean pixel value: room exposure {full:.1} → {dim:.1}, automatic {full_auto:.1} → {dim_auto:.1}"
+    );
+    assert!(dim < 0.6 * full, "room exposure: {full} → {dim}");
+    assert!(
+        (dim_auto - full_auto).abs() < 2.0,
+        "automatic: {full_auto} → {dim_auto}"
+    );
+    // One stop brighter than the room's exposure is brighter than it.
+    let brighter = FrameSpec {
+        exposure: ExposureChoice::Room { brighter_ev: 1.0 },
+        ..fixed
+    };
+    assert!(mean_pixel(&session.render(&brighter).unwrap().pixmap) > dim + 1.0);
+
+    // Every light off, indirect light included: every pixel black, every lux 0.
+    dim_to(&mut session, 0.0);
+    let frame = session.render(&fixed).unwrap();
+    let shown: Vec<[u8; 3]> = frame
+        .pixmap
+        .pixels()
+        .iter()
+        .map(|p| [p.red(), p.green(), p.blue()])
+        .collect();
+    // Only the light markers (an overlay) are drawn: every other pixel is black.
+    let view = View::new(session.camera(), SIZE.0, SIZE.1).unwrap();
+    let markers: Vec<DVec3> = room
+        .lamps
+        .iter()
+        .filter_map(|l| view.project(l.position))
+        .collect();
+    let reach = f64::from(haiko::render::overlay::LIGHT_RADIUS_PX) + 2.0;
+    for (i, &p) in shown.iter().enumerate() {
+        let (x, y) = ((i as u32 % SIZE.0) as f64 + 0.5, (i as u32 / SIZE.0) as f64 + 0.5);
+        let on_marker = markers.iter().any(|m| (m.x - x).hypot(m.y - y) <= reach);
+        assert!(
+            on_marker || p == [0, 0, 0],
+            "pixel ({x}, {y}) of an unlit room shows {p:?}"
+        );
+    }
+    let lux = session.lux_image().unwrap();
+    assert_eq!(lux.len(), (SIZE.0 * SIZE.1) as usize);
+    assert!(lux.iter().all(|&e| e.to_bits() == 0), "every pixel reads +0 lx");
+    assert_eq!(n, room.lamps.len());
+}

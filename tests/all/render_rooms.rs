@@ -42,12 +42,7 @@ fn session(scene: Scene, indirect: bool) -> Session {
 
 /// The room camera's frame at `size` in `mode`, with every light marked (none selected).
 fn spec(size: (u32, u32), mode: DisplayMode) -> FrameSpec {
-    FrameSpec {
-        size_px: size,
-        mode,
-        selected_light: None,
-        cursor: None,
-    }
+    FrameSpec::new(size, mode)
 }
 
 /// `haiko pick` on `scene` (through a direct-light session, as the command does).
