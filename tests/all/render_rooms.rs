@@ -14,7 +14,7 @@ use haiko::cli::pick::{PickReport, Pixel, pick_pixel, to_json};
 use haiko::render::DisplayMode;
 use haiko::render::golden::{Golden, Tolerance, UPDATE_ENV};
 use haiko::scene::{self, Scene};
-use haiko::session::{FrameSpec, MAX_SIDE_PX, Session, SessionOptions};
+use haiko::session::{FrameSpec, MAX_SIDE_PX, Session, SessionOptions, ViewChoice};
 
 /// Size of the room goldens, pixels.
 const SNAPSHOT_SIZE: (u32, u32) = (160, 120);
@@ -94,6 +94,26 @@ fn every_bundled_room_matches_its_golden_images() {
                 .unwrap_or_else(|e| panic!("{}", regenerate_hint(e)));
         }
     }
+}
+
+/// The office in plan view, false colour with isolux lines and the legend, at a size where the
+/// symbols and labels are legible.
+#[test]
+fn office_plan_view_with_isolux_and_legend_matches_its_golden() {
+    let mut session = session(load("office"), true);
+    let spec = FrameSpec {
+        view: ViewChoice::Plan,
+        isolux: true,
+        ..spec((480, 360), DisplayMode::FalseColor)
+    };
+    let frame = session.render(&spec).unwrap();
+    let tolerance = Tolerance {
+        channel: 2,
+        max_pixels: 64,
+    };
+    golden()
+        .check_image("office_plan_isolux", &frame.pixmap, tolerance)
+        .unwrap_or_else(|e| panic!("{}", regenerate_hint(e)));
 }
 
 #[test]
