@@ -413,8 +413,10 @@ fn bad_render_and_pick_input_exits_2_with_a_message() {
     let out = dir.path().join("x.png");
     let out = out.to_str().unwrap();
     let away = room_looking_away(dir.path());
-    let cases: [(Vec<&str>, &str); 8] = [
+    let cases: [(Vec<&str>, &str); 10] = [
         (vec!["render", paper, "-o", out, "--width", "0"], "--width"),
+        (vec!["render", paper, "-o", out, "--exposure", "bright"], "bright"),
+        (vec!["render", paper, "-o", out, "--view", "top"], "top"),
         (vec!["render", paper, "-o", out, "--height", "8193"], "--height"),
         (vec!["render", paper, "-o", out, "--mode", "sepia"], "sepia"),
         (
