@@ -59,13 +59,25 @@ pub struct PixelLight {
     pub state: LightState,
 }
 
+impl PixelLight {
+    /// A light at `position` (world, m) with luminous radius `radius_m` emitting as `state`
+    /// says, its aim scaled to unit length (kept bit for bit when already unit to rounding, so
+    /// the same light built twice compares equal).
+    pub fn new(position: DVec3, radius_m: f64, state: LightState) -> PixelLight {
+        PixelLight {
+            position,
+            radius_m,
+            state: LightState {
+                aim: unit(state.aim),
+                ..state
+            },
+        }
+    }
+}
+
 impl From<&crate::scene::Light> for PixelLight {
     fn from(light: &crate::scene::Light) -> Self {
-        PixelLight {
-            position: light.position,
-            radius_m: light.radius,
-            state: LightState::from(light),
-        }
+        PixelLight::new(light.position, light.radius, LightState::from(light))
     }
 }
 
@@ -239,10 +251,7 @@ impl PixelLighting {
     /// Errors (internal): `i` is not a light.
     pub fn set_state(&mut self, i: usize, state: LightState) -> Result<()> {
         self.check(i)?;
-        let state = LightState {
-            aim: state.aim.normalize(),
-            ..state
-        };
+        let state = PixelLight::new(DVec3::ZERO, 0.0, state).state;
         let entry = &mut self.entries[i];
         let re_aimed = entry.light.state.aim != state.aim;
         let mut angles_moved = false;
@@ -637,6 +646,16 @@ impl PixelLighting {
             0.0
         };
         (shared as f64, per_light)
+    }
+}
+
+/// `v` scaled to unit length; a `v` already unit to rounding is kept bit for bit, so setting the
+/// same state twice changes nothing.
+fn unit(v: DVec3) -> DVec3 {
+    if (v.length_squared() - 1.0).abs() <= 4.0 * f64::EPSILON {
+        v
+    } else {
+        v.normalize()
     }
 }
 

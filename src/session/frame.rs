@@ -238,9 +238,10 @@ impl FrameBuffers {
         self.sync_vertex_light(relighter, illuminance_version, paper_mode);
         self.sync_pixels(scene, camera, spec, lights, paper_mode)?;
         let shader = self.shader(scene, relighter, spec)?;
-        let Some(pixel) = self.pixel.as_ref() else {
-            unreachable!("the per-pixel light was built above");
-        };
+        let pixel = self
+            .pixel
+            .as_ref()
+            .ok_or_else(|| crate::error::Error::internal("frame: no per-pixel light after building it"))?;
         let key = BaseKey {
             view: pixel.key,
             mode: spec.mode,
@@ -361,58 +362,50 @@ impl FrameBuffers {
             Some(frame) => frame,
             none => none.insert(render::Frame::new(width, height)?),
         };
-        match &mut self.pixel {
-            Some(pixel) if pixel.key == key => {
-                let lighting = &mut pixel.lighting;
-                if lighting.n_lights() != wanted.len() {
-                    lighting.set_lights(wanted, occluders);
-                    self.light_version += 1;
-                    return Ok(());
+        let stale = self.pixel.as_ref().is_none_or(|pixel| pixel.key != key);
+        if stale {
+            let view = match spec.view {
+                ViewChoice::Camera => View::new(camera, width, height)?,
+                ViewChoice::Plan => plan_view(scene.room_size, width, height)?,
+            };
+            match &mut self.pixel {
+                // The lights' own changes follow below, with those of an unchanged view.
+                Some(pixel) => {
+                    pixel
+                        .lighting
+                        .set_view(frame, &scene.fine, &scene.surfaces, &view, occluders)?;
+                    pixel.view = view;
+                    pixel.key = key;
                 }
-                for (i, light) in wanted.into_iter().enumerate() {
-                    let now = lighting.light(i);
-                    if now.position != light.position || now.radius_m != light.radius_m {
-                        lighting.set_position(i, light.position, light.radius_m, occluders)?;
-                        self.light_version += 1;
-                    }
-                    if lighting.light(i).state != light.state {
-                        lighting.set_state(i, light.state)?;
-                        self.light_version += 1;
-                    }
+                none => {
+                    let surfaces = PixelSurfaces::build(frame, &scene.fine, &scene.surfaces, &view)?;
+                    *none = Some(PixelState {
+                        lighting: PixelLighting::new(surfaces, wanted.clone(), occluders),
+                        view,
+                        key,
+                    });
                 }
             }
-            slot => {
-                let view = match spec.view {
-                    ViewChoice::Camera => View::new(camera, width, height)?,
-                    ViewChoice::Plan => plan_view(scene.room_size, width, height)?,
-                };
-                match slot {
-                    Some(pixel) => {
-                        pixel
-                            .lighting
-                            .set_view(frame, &scene.fine, &scene.surfaces, &view, occluders)?;
-                        if pixel.lighting.n_lights() != wanted.len() {
-                            pixel.lighting.set_lights(wanted, occluders);
-                        } else {
-                            for (i, light) in wanted.into_iter().enumerate() {
-                                pixel
-                                    .lighting
-                                    .set_position(i, light.position, light.radius_m, occluders)?;
-                                pixel.lighting.set_state(i, light.state)?;
-                            }
-                        }
-                        pixel.view = view;
-                        pixel.key = key;
-                    }
-                    none => {
-                        let surfaces = PixelSurfaces::build(frame, &scene.fine, &scene.surfaces, &view)?;
-                        *none = Some(PixelState {
-                            lighting: PixelLighting::new(surfaces, wanted, occluders),
-                            view,
-                            key,
-                        });
-                    }
-                }
+            self.light_version += 1;
+        }
+        let pixel = self
+            .pixel
+            .as_mut()
+            .ok_or_else(|| crate::error::Error::internal("frame: no per-pixel light after building it"))?;
+        let lighting = &mut pixel.lighting;
+        if lighting.n_lights() != wanted.len() {
+            lighting.set_lights(wanted, occluders);
+            self.light_version += 1;
+            return Ok(());
+        }
+        for (i, light) in wanted.into_iter().enumerate() {
+            let now = lighting.light(i);
+            if now.position != light.position || now.radius_m != light.radius_m {
+                lighting.set_position(i, light.position, light.radius_m, occluders)?;
+                self.light_version += 1;
+            }
+            if lighting.light(i).state != light.state {
+                lighting.set_state(i, light.state)?;
                 self.light_version += 1;
             }
         }
@@ -485,16 +478,16 @@ impl FrameBuffers {
 
 /// A session light as the per-pixel direct light sees it.
 fn pixel_light(light: &LightEdit) -> PixelLight {
-    PixelLight {
-        position: light.position,
-        radius_m: light.radius_m,
-        state: crate::photometry::LightState {
+    PixelLight::new(
+        light.position,
+        light.radius_m,
+        crate::photometry::LightState {
             curve: light.curve.clone(),
             aim: light.aim,
             dimmer: light.dimmer,
             color: light.color,
         },
-    }
+    )
 }
 
 /// Per-vertex photo attributes (luminance, cd/m²) of the relighter's light into `attrs`.
