@@ -1,4 +1,5 @@
-//! The editor's costs per keystroke (docs/BENCHMARKS.md), on one core: a key press → a new
+//! The editor's costs per keystroke (docs/BENCHMARKS.md), on one core (wall time, and `…-cpu`:
+//! CPU time of the pool's one thread, see `common/cpu_time.rs`): a key press → a new
 //! 1024 × 768 preview pixmap of the paper and office rooms (update → command → session relight,
 //! per-pixel direct light, shading and overlays, into reused buffers; targets 16 ms and 33 ms), a
 //! 5° camera orbit step (target 200 ms), the per-pixel light's memory (printed), the heap
@@ -19,6 +20,10 @@ use haiko::tui::{Effect, Model, Msg, preview, update};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::{Rect, Size};
 use ratatui_image::picker::{Picker, ProtocolType};
+
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+use cpu_time::cpu_time_of;
 
 #[global_allocator]
 static ALLOCATOR: dhat::Alloc = dhat::Alloc;
@@ -107,6 +112,16 @@ fn key_to_pixmap(c: &mut Criterion) {
                 up = !up;
             })
         });
+        group.bench_function(format!("{name}-cpu"), |b| {
+            b.iter_custom(|iters| {
+                pool.install(|| {
+                    cpu_time_of(iters, || {
+                        press(&mut model, &mut session, &spec, up);
+                        up = !up;
+                    })
+                })
+            })
+        });
     }
     group.finish();
 }
@@ -119,12 +134,16 @@ fn camera_orbit(c: &mut Criterion) {
     for name in ["paper", "office"] {
         let (mut model, mut session, spec) = pool.install(|| editor(name));
         let mut left = true;
+        let mut orbit = |model: &mut Model, session: &mut Session| {
+            let code = KeyCode::Char(if left { '[' } else { ']' });
+            press_key(model, session, &spec, code);
+            left = !left;
+        };
         group.bench_function(name, |b| {
-            b.iter(|| {
-                let code = KeyCode::Char(if left { '[' } else { ']' });
-                pool.install(|| press_key(&mut model, &mut session, &spec, code));
-                left = !left;
-            })
+            b.iter(|| pool.install(|| orbit(&mut model, &mut session)))
+        });
+        group.bench_function(format!("{name}-cpu"), |b| {
+            b.iter_custom(|iters| pool.install(|| cpu_time_of(iters, || orbit(&mut model, &mut session))))
         });
     }
     group.finish();

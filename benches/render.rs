@@ -16,7 +16,7 @@
 
 use std::hint::black_box;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::DQuat;
@@ -30,6 +30,10 @@ use haiko::scene::{self, Camera, Scene};
 use haiko::transport::bake::{BakeOptions, bake};
 use haiko::transport::occlusion::Occluders;
 use rayon::ThreadPool;
+
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+use cpu_time::cpu_time_of;
 
 const ROOMS: [&str; 2] = ["paper", "office"];
 const THREADS: [usize; 2] = [1, 2];
@@ -54,26 +58,6 @@ fn load(name: &str) -> Scene {
         .join("rooms")
         .join(format!("{name}.toml"));
     scene::load(&path).expect("a bundled room loads")
-}
-
-/// CPU time the calling thread has run so far, when the OS tells (Linux).
-fn thread_cpu_time() -> Option<Duration> {
-    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
-    let nanos = text.split_whitespace().next()?.parse().ok()?;
-    Some(Duration::from_nanos(nanos))
-}
-
-/// Runs `f` `iters` times on the calling thread and returns its CPU time (wall time when the
-/// CPU time is not available).
-fn cpu_time_of(iters: u64, mut f: impl FnMut()) -> Duration {
-    let (cpu, wall) = (thread_cpu_time(), Instant::now());
-    for _ in 0..iters {
-        f();
-    }
-    match (cpu, thread_cpu_time()) {
-        (Some(before), Some(after)) => after.saturating_sub(before),
-        _ => wall.elapsed(),
-    }
 }
 
 /// The room camera's view at `width × height`.
