@@ -1,6 +1,12 @@
 //! The crate's error type: every failure names the file and the place, and says whether the
 //! user's input was at fault (exit code 2) or the program was (exit code 1).
+//!
+//! Messages are one line: [`printable`] escapes control characters (and Unicode direction
+//! overrides) in every part when an error is displayed, and file content is quoted only through
+//! [`quoted`], which keeps at most [`MAX_QUOTED_CHARS`] characters of the offending token
+//! (docs/DECISIONS.md, "Bad input").
 
+use std::borrow::Cow;
 use std::fmt;
 use std::path::Path;
 
@@ -12,7 +18,7 @@ pub enum Error {
     Input(InputError),
     /// The program failed on valid input (an I/O error writing output, a broken invariant):
     /// exit code 1.
-    #[error("{0}")]
+    #[error("{}", printable(.0))]
     Internal(String),
 }
 
@@ -29,11 +35,16 @@ pub struct InputError {
 
 impl fmt::Display for InputError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match (self.file.is_empty(), self.place.is_empty()) {
-            (false, false) => write!(f, "{}: {}: {}", self.file, self.place, self.message),
-            (false, true) => write!(f, "{}: {}", self.file, self.message),
-            (true, false) => write!(f, "{}: {}", self.place, self.message),
-            (true, true) => write!(f, "{}", self.message),
+        let (file, place, message) = (
+            printable(&self.file),
+            printable(&self.place),
+            printable(&self.message),
+        );
+        match (file.is_empty(), place.is_empty()) {
+            (false, false) => write!(f, "{file}: {place}: {message}"),
+            (false, true) => write!(f, "{file}: {message}"),
+            (true, false) => write!(f, "{place}: {message}"),
+            (true, true) => write!(f, "{message}"),
         }
     }
 }
@@ -69,3 +80,110 @@ impl Error {
 
 /// The crate's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Checks that every number of a result about to be printed is finite. The input ranges
+/// (docs/ROOM_FILE.md "Limits") rule out a NaN or an infinity, so one here is Haiko's bug: an
+/// internal error naming `what` (exit code 1), never a printed `NaN` or `inf`.
+pub fn check_finite(what: &str, values: impl IntoIterator<Item = f64>) -> Result<()> {
+    match values.into_iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(Error::internal(format!(
+            "internal error: {what} (value {}) is not a finite number; nothing was printed \
+             (please report this with the input files)",
+            i + 1
+        ))),
+    }
+}
+
+/// The most characters of a file's content an error message quotes ([`quoted`]).
+pub const MAX_QUOTED_CHARS: usize = 24;
+
+/// `text` with every character that could break a one-line message or drive the terminal
+/// escaped: C0/C1 control characters (newline as `\n`, tab as `\t`, carriage return as `\r`,
+/// the others — ESC included — as `\u{1b}`) and the invisible Unicode format characters that
+/// reorder or hide text (direction marks, embeddings, overrides and isolates, zero-width
+/// characters, the byte-order mark), as `\u{202e}`. Everything else, backslashes included, is
+/// kept, so escaping twice changes nothing. Names (lights, surfaces, files) go through this
+/// wherever they are printed.
+pub fn printable(text: &str) -> Cow<'_, str> {
+    if !text.chars().any(needs_escape) {
+        return Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        match c {
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            c if needs_escape(c) => out.push_str(&format!("\\u{{{:x}}}", u32::from(c))),
+            c => out.push(c),
+        }
+    }
+    Cow::Owned(out)
+}
+
+/// Whether [`printable`] escapes `c`.
+fn needs_escape(c: char) -> bool {
+    c.is_control()
+        || matches!(
+            c,
+            '\u{061c}' | '\u{200b}'..='\u{200f}' | '\u{2028}'..='\u{202e}' | '\u{2060}'..='\u{2069}' | '\u{feff}'
+        )
+}
+
+/// A token from a file, for an error message: at most [`MAX_QUOTED_CHARS`] characters (an
+/// ellipsis marks a cut), escaped with [`printable`], between backticks. Only for files already
+/// recognised as the expected format: Haiko never quotes an arbitrary file.
+pub fn quoted(token: &str) -> String {
+    let mut chars = token.chars();
+    let head: String = chars.by_ref().take(MAX_QUOTED_CHARS).collect();
+    let cut = if chars.next().is_some() { "…" } else { "" };
+    format!("`{}{cut}`", printable(&head))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn printable_escapes_controls_and_direction_overrides_only() {
+        assert_eq!(printable("desk lamp"), "desk lamp");
+        assert!(matches!(printable("plain"), Cow::Borrowed(_)));
+        assert_eq!(printable("a\nb\tc\rd"), "a\\nb\\tc\\rd");
+        assert_eq!(printable("\u{1b}[31mred"), "\\u{1b}[31mred");
+        assert_eq!(printable("x\u{202e}y\u{9b}z"), "x\\u{202e}y\\u{9b}z");
+        assert_eq!(printable("γ ≤ 90° C:\\path"), "γ ≤ 90° C:\\path");
+        let once = printable("a\n\u{7}b").into_owned();
+        assert_eq!(printable(&once), once, "idempotent");
+    }
+
+    #[test]
+    fn quoted_keeps_a_short_escaped_token() {
+        assert_eq!(quoted("12x"), "`12x`");
+        assert_eq!(
+            quoted("root:x:0:0:root:/root:/bin/bash"),
+            "`root:x:0:0:root:/root:/b…`"
+        );
+        assert_eq!(quoted("a\u{1b}b"), "`a\\u{1b}b`");
+    }
+
+    #[test]
+    fn non_finite_results_are_internal_errors() {
+        assert!(check_finite("lux", [0.0, 1e300, -5.0]).is_ok());
+        let e = check_finite("lux", [1.0, f64::NAN]).unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        assert_eq!(
+            e.to_string(),
+            "internal error: lux (value 2) is not a finite number; nothing was printed \
+             (please report this with the input files)"
+        );
+        assert!(check_finite("E_max", [f64::INFINITY]).is_err());
+    }
+
+    #[test]
+    fn displayed_errors_are_one_line() {
+        let e = Error::input("room\n.toml", "line 2", "name `a\nb` is used twice");
+        assert_eq!(e.to_string(), "room\\n.toml: line 2: name `a\\nb` is used twice");
+        assert_eq!(Error::internal("x\ny").to_string(), "x\\ny");
+    }
+}

@@ -13,11 +13,11 @@ use crate::photometry::{
 use crate::scene;
 
 /// Target relative L2 error for the order `haiko lid` chooses (unwindowed, docs/METHOD.md §4.4).
-pub const LID_TARGET_REL_L2: f64 = 0.05;
+pub(crate) const LID_TARGET_REL_L2: f64 = 0.05;
 /// Highest order `haiko lid` chooses automatically.
-pub const LID_MAX_AUTO_ORDER: usize = 60;
+pub(crate) const LID_MAX_AUTO_ORDER: usize = 60;
 /// Sample step of the rectangle rule timed beside the exact fit (degrees).
-pub const RECTANGLE_STEP_DEG: f64 = 1.0;
+pub(crate) const RECTANGLE_STEP_DEG: f64 = 1.0;
 
 /// One row of the per-order table.
 #[derive(Debug, Clone, Serialize)]
@@ -134,7 +134,7 @@ pub fn report(curve: &Curve, asymmetry: f64, max_order: Option<usize>, window: O
 
 /// Loads the curve named by `source`: a photometric file, or `ROOM.toml#LIGHT` (a `#` elsewhere
 /// belongs to the file name).
-pub fn load_curve(source: &str) -> Result<(Curve, f64)> {
+pub(crate) fn load_curve(source: &str) -> Result<(Curve, f64)> {
     if let Some((room, light)) = source
         .rsplit_once('#')
         .filter(|(room, _)| room.ends_with(".toml"))

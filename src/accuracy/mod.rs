@@ -41,9 +41,9 @@ use crate::transport::visibility::Visibility;
 pub mod lid;
 
 /// Highest order of the order table's reference.
-pub const MAX_REFERENCE_ORDER: usize = 40;
+pub(crate) const MAX_REFERENCE_ORDER: usize = 40;
 /// Solver tolerance of the references.
-pub const REFERENCE_TOLERANCE: f64 = 1e-8;
+pub(crate) const REFERENCE_TOLERANCE: f64 = 1e-8;
 /// Points whose reference is below this fraction of the maximum are left out of the median.
 const MEDIAN_FLOOR: f64 = 0.01;
 /// Fractional offsets (of the spacing) of the floor samples, chosen off any regular vertex grid.

@@ -5,13 +5,13 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use crate::cli::open_session;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check_finite, printable};
 use crate::scene;
 use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
 /// Formats a plan with its reasons.
-pub fn format_plan(p: &Plan) -> String {
+pub(crate) fn format_plan(p: &Plan) -> String {
     let on = |b: bool| if b { "on " } else { "off" };
     let mut s = String::new();
     s.push_str(&format!(
@@ -36,7 +36,7 @@ pub fn format_plan(p: &Plan) -> String {
     for l in &p.lights {
         s.push_str(&format!(
             "light {:<10} order {:>2} ({} columns): {}\n    window {}: {}\n    mask: {}\n",
-            l.name,
+            printable(&l.name),
             l.order,
             l.columns,
             l.order_reason,
@@ -64,9 +64,13 @@ pub fn format_plan(p: &Plan) -> String {
 }
 
 /// Runs `haiko plan`.
-pub fn run_plan(room: &Path, json: bool) -> Result<()> {
+pub(crate) fn run_plan(room: &Path, json: bool) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
+    check_finite(
+        "plan: a mounting normal",
+        p.lights.iter().flat_map(|l| l.mask.into_iter().flatten()),
+    )?;
     if json {
         println!(
             "{}",
@@ -79,7 +83,7 @@ pub fn run_plan(room: &Path, json: bool) -> Result<()> {
 }
 
 /// A progress reporter for the command line: a redrawn bar on a terminal, stage lines otherwise.
-pub fn progress_printer() -> impl FnMut(Progress) {
+pub(crate) fn progress_printer() -> impl FnMut(Progress) {
     let tty = std::io::stderr().is_terminal();
     let mut last_stage = "";
     move |p: Progress| {
@@ -107,14 +111,14 @@ pub fn progress_printer() -> impl FnMut(Progress) {
 }
 
 /// Formats what a bake did.
-pub fn format_bake(b: &Bake) -> String {
+pub(crate) fn format_bake(b: &Bake) -> String {
     let mut s = String::new();
     let t = &b.timings;
     for l in &b.lights {
         let bytes = (l.direct.len() + l.indirect.iter().map(Vec::len).sum::<usize>()) * 4;
         s.push_str(&format!(
             "light {:<10} order {:>2}, {:>4} columns, {:>8.2} MB, {}\n",
-            l.plan.name,
+            printable(&l.plan.name),
             l.plan.order,
             l.n_columns,
             bytes as f64 / 1e6,
@@ -167,7 +171,7 @@ pub fn format_bake(b: &Bake) -> String {
 }
 
 /// Runs `haiko bake`.
-pub fn run_bake(room: &Path) -> Result<()> {
+pub(crate) fn run_bake(room: &Path) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     print!("{}", format_plan(&p));

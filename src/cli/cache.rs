@@ -5,7 +5,7 @@ use crate::transport::cache::{BakeCache, MAX_MB_ENV};
 
 /// Prints the cache directory, its cap, and each entry (size, last use), least recently used
 /// first.
-pub fn run_list() -> Result<()> {
+pub(crate) fn run_list() -> Result<()> {
     let cache = BakeCache::user();
     let entries = cache.entries();
     let total: u64 = entries.iter().map(|e| e.bytes).sum();
@@ -30,7 +30,7 @@ pub fn run_list() -> Result<()> {
 }
 
 /// Removes every entry and says how many and how much.
-pub fn run_clear() -> Result<()> {
+pub(crate) fn run_clear() -> Result<()> {
     let cache = BakeCache::user();
     let (files, bytes) = cache.clear();
     println!(

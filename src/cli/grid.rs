@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::cli::open_session;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check_finite, printable};
 use crate::metrics::work_plane::{GridStats, WorkPlane};
 use crate::scene::{self, DirectMode};
 
@@ -47,7 +47,12 @@ pub fn run(
     }
     let mut session = open_session(scene, !direct_only)?;
     let lux = session.illuminance_at(&plane.receivers, direct_only, DirectMode::Exact)?;
+    check_finite("grid: an illuminance", lux.iter().copied())?;
     let stats = GridStats::of(&lux);
+    check_finite(
+        "grid: a statistic",
+        [stats.e_avg, stats.e_min, stats.e_max, stats.u0],
+    )?;
     if json {
         let doc = GridJson {
             room: room.display().to_string(),
@@ -74,7 +79,7 @@ pub fn run(
     } else {
         println!(
             "{}: work plane at {:.2} m, spacing {:.3} m, margin {:.3} m: {} × {} points{}{}",
-            room.display(),
+            printable(&room.display().to_string()),
             height_m,
             spacing_m,
             plane.margin_m,

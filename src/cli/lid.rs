@@ -2,13 +2,14 @@
 //! JSON.
 
 use crate::accuracy::lid::{LID_TARGET_REL_L2, LidReport, load_curve, report};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, check_finite, printable};
 use crate::photometry::Window;
 
 /// Formats the report as text tables.
-pub fn format_text(source: &str, r: &LidReport) -> String {
+pub(crate) fn format_text(source: &str, r: &LidReport) -> String {
     let mut s = format!(
-        "{source}\nflux {:.1} lm   peak {:.1} cd   asymmetry {:.3}   chosen order {} (relative L2 ≤ {:.0} %)\n\n",
+        "{}\nflux {:.1} lm   peak {:.1} cd   asymmetry {:.3}   chosen order {} (relative L2 ≤ {:.0} %)\n\n",
+        printable(source),
         r.flux_lm,
         r.peak_cd,
         r.asymmetry,
@@ -42,6 +43,14 @@ pub fn run(source: &str, order: Option<usize>, window: Option<Window>, json: boo
     }
     let (curve, asymmetry) = load_curve(source)?;
     let r = report(&curve, asymmetry, order, window);
+    check_finite(
+        "lid: a result",
+        [r.flux_lm, r.peak_cd, r.asymmetry].into_iter().chain(
+            r.orders
+                .iter()
+                .flat_map(|row| [row.rel_l2_error, row.max_abs_error_cd, row.min_cd, row.overshoot]),
+        ),
+    )?;
     if json {
         println!(
             "{}",

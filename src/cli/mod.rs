@@ -14,11 +14,14 @@ use crate::tui::Graphics;
 pub mod accuracy;
 pub mod bake;
 pub mod cache;
+pub mod check;
+pub mod glare;
 pub mod grid;
 pub mod lid;
 pub mod pick;
 pub mod probe;
 pub mod render;
+pub mod report;
 
 /// Haiko — a terminal editor for interior lighting design.
 #[derive(Debug, Parser)]
@@ -101,6 +104,42 @@ pub enum Command {
         #[arg(long)]
         direct_only: bool,
     },
+    /// Design check: every calculation surface's maintained Ē, E_min, E_max, U0, g2 against its targets.
+    Check {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON (with every grid point's new illuminance).
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
+    },
+    /// Glare: UGR (CIE 117) at every observer, with each luminaire's luminance, solid angle and position index.
+    Glare {
+        /// The room file.
+        room: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Direct light only (no background luminance: UGR undefined).
+        #[arg(long)]
+        direct_only: bool,
+    },
+    /// Client report: one self-contained HTML file (views, surfaces, glare, schedule, settings) for A4.
+    Report {
+        /// The room file.
+        room: PathBuf,
+        /// Output HTML file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Width of each view, pixels.
+        #[arg(long, default_value_t = 1200)]
+        width: u32,
+        /// Height of each view, pixels.
+        #[arg(long, default_value_t = 800)]
+        height: u32,
+    },
     /// Headless preview: render the room's camera view to a PNG, with per-stage timings.
     Render {
         /// The room file.
@@ -157,6 +196,9 @@ pub enum Command {
         /// Also print the unit aim vector that points this light at the picked point.
         #[arg(long, value_name = "LIGHT")]
         aim: Option<String>,
+        /// The illuminance at the picked point by direct light only (no interreflection).
+        #[arg(long)]
+        direct_only: bool,
     },
     /// What accuracy costs in time: error against time for each knob (docs/ACCURACY.md).
     Accuracy {
@@ -267,6 +309,22 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
             direct_only,
         } => grid::run(&room, height, spacing, margin, json, direct_only),
+        Command::Check {
+            room,
+            json,
+            direct_only,
+        } => check::run(&room, json, direct_only),
+        Command::Glare {
+            room,
+            json,
+            direct_only,
+        } => glare::run(&room, json, direct_only),
+        Command::Report {
+            room,
+            output,
+            width,
+            height,
+        } => report::run(&room, &output, width, height),
         Command::Render {
             room,
             output,
@@ -301,7 +359,8 @@ pub fn run(cli: Cli) -> Result<()> {
             height,
             json,
             aim,
-        } => pick::run(&room, pixel, width, height, json, aim.as_deref()),
+            direct_only,
+        } => pick::run(&room, pixel, width, height, json, aim.as_deref(), direct_only),
         Command::Accuracy { room, json } => accuracy::run(&room, json),
         Command::Cache { action } => match action {
             CacheAction::List => cache::run_list(),
@@ -314,7 +373,7 @@ pub fn run(cli: Cli) -> Result<()> {
 /// standard error, cache notices printed; `indirect` false for direct light only (no bake).
 ///
 /// Errors: the bake failing (internal).
-pub fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
+pub(crate) fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
     let options = SessionOptions {
         indirect,
         ..SessionOptions::with_user_cache()

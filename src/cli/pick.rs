@@ -1,6 +1,7 @@
 //! `haiko pick ROOM --pixel X,Y`: what a pixel of the `render` image shows — patch, surface,
-//! world point and normal — and, with `--aim LIGHT`, the unit aim vector that points that light
-//! at it. Same camera and image size as `haiko render`.
+//! world point and normal, and the illuminance there (the value `haiko probe` gives for that
+//! point and normal) — and, with `--aim LIGHT`, the unit aim vector that points that light at
+//! it. Same camera and image size as `haiko render`.
 
 use std::fmt;
 use std::path::Path;
@@ -9,11 +10,12 @@ use std::str::FromStr;
 use glam::DVec3;
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::cli::open_session;
+use crate::error::{Error, Result, check_finite, printable};
 use crate::render::{DisplayMode, aim_direction};
-use crate::scene;
+use crate::scene::{self, DirectMode, Receiver};
 use crate::session::frame::check_size;
-use crate::session::{FrameSpec, Session, SessionOptions};
+use crate::session::{FrameSpec, Session};
 
 /// A pixel of the image: column `x` from the left, row `y` from the top (docs/METHOD.md §1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,10 +63,14 @@ pub struct PickReport {
     pub normal: DVec3,
     /// With `--aim LIGHT`: the unit vector from the light's position to `point` (world).
     pub aim: Option<DVec3>,
+    /// New illuminance at `point` on the surface facing `normal`, lx: exact direct light plus
+    /// (unless direct only) the gathered indirect light, as `haiko probe` computes it.
+    pub lux: f64,
 }
 
-/// Picks pixel `pixel` of the `width × height` image of the session's camera; with
-/// `aim_light`, also the aim vector of that light towards the picked point.
+/// Picks pixel `pixel` of the `width × height` image of the session's camera, with the
+/// illuminance at the picked point (direct light only with `direct_only`); with `aim_light`,
+/// also the aim vector of that light towards the picked point.
 ///
 /// Errors (bad input): a bad image size, a pixel outside the image, an unknown light (the
 /// message lists the lights), a background pixel, or a light sitting on the picked point.
@@ -74,15 +80,9 @@ pub fn pick_pixel(
     height: u32,
     pixel: Pixel,
     aim_light: Option<&str>,
+    direct_only: bool,
 ) -> Result<PickReport> {
-    check_size(width, height, ["--width", "--height"])?;
-    if pixel.x >= width || pixel.y >= height {
-        return Err(Error::input(
-            "--pixel",
-            "",
-            format!("pixel {pixel} is outside the {width}×{height} image (x < {width}, y < {height})"),
-        ));
-    }
+    check_pixel(pixel, width, height)?;
     let light = aim_light
         .map(|name| session.light_named(name, "--aim"))
         .transpose()?;
@@ -116,13 +116,33 @@ pub fn pick_pixel(
         }
         None => None,
     };
+    let surface = surface.name.clone();
+    let receiver = Receiver {
+        point: hit.point,
+        normal: hit.normal,
+    };
+    let lux = session.illuminance_at(&[receiver], direct_only, DirectMode::Exact)?[0];
     Ok(PickReport {
         patch: hit.patch,
-        surface: surface.name.clone(),
+        surface,
         point: hit.point,
         normal: hit.normal,
         aim,
+        lux,
     })
+}
+
+/// Refuses a bad image size or a pixel outside the image (bad input naming the flag).
+pub(crate) fn check_pixel(pixel: Pixel, width: u32, height: u32) -> Result<()> {
+    check_size(width, height, ["--width", "--height"])?;
+    if pixel.x >= width || pixel.y >= height {
+        return Err(Error::input(
+            "--pixel",
+            "",
+            format!("pixel {pixel} is outside the {width}×{height} image (x < {width}, y < {height})"),
+        ));
+    }
+    Ok(())
 }
 
 #[derive(Serialize)]
@@ -131,19 +151,20 @@ struct PickJson<'a> {
     surface: &'a str,
     point: [f64; 3],
     normal: [f64; 3],
+    lux: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     aim: Option<[f64; 3]>,
 }
 
-/// The report as one line of JSON:
-/// `{"patch": n, "surface": "floor", "point": [x, y, z], "normal": [x, y, z], "aim": [x, y, z]}`
-/// (`aim` only when asked for).
+/// The report as one line of JSON: `{"patch": n, "surface": "floor", "point": [x, y, z],
+/// "normal": [x, y, z], "lux": e, "aim": [x, y, z]}` (`aim` only when asked for).
 pub fn to_json(report: &PickReport) -> Result<String> {
     let doc = PickJson {
         patch: report.patch,
         surface: &report.surface,
         point: report.point.to_array(),
         normal: report.normal.to_array(),
+        lux: report.lux,
         aim: report.aim.map(|a| a.to_array()),
     };
     let mut out = Vec::new();
@@ -179,22 +200,24 @@ impl serde_json::ser::Formatter for SpacedFormatter {
 }
 
 /// The report as text, one item per line.
-pub fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
+pub(crate) fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
     let v = |d: DVec3| format!("[{:.4}, {:.4}, {:.4}]", d.x, d.y, d.z);
     let mut text = format!(
-        "patch   {} (surface {})\npoint   {} m\nnormal  {}\n",
+        "patch   {} (surface {})\npoint   {} m\nnormal  {}\nE       {:.1} lx\n",
         report.patch,
-        report.surface,
+        printable(&report.surface),
         v(report.point),
-        v(report.normal)
+        v(report.normal),
+        report.lux
     );
     if let (Some(aim), Some(name)) = (report.aim, aim_light) {
-        text.push_str(&format!("aim     {} (light {name})\n", v(aim)));
+        text.push_str(&format!("aim     {} (light {})\n", v(aim), printable(name)));
     }
     text
 }
 
-/// Runs the command: prints the report as text or, with `json`, as one JSON line.
+/// Runs the command: prints the report as text or, with `json`, as one JSON line. The session
+/// bakes (or reads the user's bake cache) for the indirect light unless `direct_only`.
 pub fn run(
     room: &Path,
     pixel: Pixel,
@@ -202,15 +225,21 @@ pub fn run(
     height: u32,
     json: bool,
     aim_light: Option<&str>,
+    direct_only: bool,
 ) -> Result<()> {
     let scene = scene::load(room)?;
-    // What a pixel shows does not depend on the light: no bake.
-    let options = SessionOptions {
-        indirect: false,
-        ..SessionOptions::default()
-    };
-    let mut session = Session::new(scene, options, &mut |_| {})?;
-    let report = pick_pixel(&mut session, width, height, pixel, aim_light)?;
+    check_pixel(pixel, width, height)?;
+    let mut session = open_session(scene, !direct_only)?;
+    let report = pick_pixel(&mut session, width, height, pixel, aim_light, direct_only)?;
+    let vectors = [Some(report.point), Some(report.normal), report.aim];
+    check_finite(
+        "pick: a coordinate",
+        vectors
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_array())
+            .chain([report.lux]),
+    )?;
     if json {
         println!("{}", to_json(&report)?);
     } else {

@@ -4,13 +4,13 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::cli::open_session;
-use crate::error::{Error, Result};
-use crate::scene::points::{POINTS_HEADER, parse_points};
+use crate::error::{Result, check_finite};
+use crate::scene::points::POINTS_HEADER;
 use crate::scene::{self, DirectMode};
 use crate::transport::direct::Receiver;
 
 /// Formats receivers and their illuminance as CSV (`x,y,z,nx,ny,nz,lux`), in input order.
-pub fn format_csv(receivers: &[Receiver], lux: &[f64]) -> String {
+pub(crate) fn format_csv(receivers: &[Receiver], lux: &[f64]) -> String {
     let mut out = format!("{POINTS_HEADER},lux\n");
     for (rx, e) in receivers.iter().zip(lux) {
         let (p, n) = (rx.point, rx.normal);
@@ -22,10 +22,10 @@ pub fn format_csv(receivers: &[Receiver], lux: &[f64]) -> String {
 /// Runs the command: prints the CSV on standard output.
 pub fn run(room: &Path, points: &Path, direct_only: bool, mode: DirectMode) -> Result<()> {
     let scene = scene::load(room)?;
-    let text = std::fs::read_to_string(points).map_err(|e| Error::unreadable(points, &e))?;
-    let receivers = parse_points(&text, points)?;
+    let receivers = scene::points::read_points(points)?;
     let mut session = open_session(scene, !direct_only)?;
     let lux = session.illuminance_at(&receivers, direct_only, mode)?;
+    check_finite("probe: an illuminance", lux.iter().copied())?;
     print!("{}", format_csv(&receivers, &lux));
     Ok(())
 }

@@ -8,7 +8,8 @@ use std::time::Instant;
 use clap::ValueEnum;
 
 use crate::cli::open_session;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, printable};
+use crate::fsio;
 use crate::render::{DisplayMode, DisplayShader, LuxScale, write_pfm};
 use crate::scene;
 use crate::session::frame::check_size;
@@ -116,6 +117,11 @@ pub fn run(room: &Path, output: &Path, options: &RenderOptions) -> Result<()> {
     let start = Instant::now();
     let scene = scene::load(room)?;
     check_size(width, height, ["--width", "--height"])?;
+    // Every file the room named has been read: none of them may be the output.
+    fsio::check_not_an_input(output, &[room])?;
+    if let Some(lux) = &options.lux {
+        fsio::check_not_an_input(lux, &[room])?;
+    }
     let load_ms = ms_since(start);
 
     let start = Instant::now();
@@ -142,8 +148,7 @@ pub fn run(room: &Path, output: &Path, options: &RenderOptions) -> Result<()> {
     let raster_ms = ms_since(start);
 
     let start = Instant::now();
-    std::fs::write(output, png)
-        .map_err(|e| Error::input(output, "", format!("cannot write the image: {e}")))?;
+    fsio::write_atomic(output, &png)?;
     if let Some(path) = &options.lux {
         let lux = session
             .lux_image()
@@ -154,12 +159,15 @@ pub fn run(room: &Path, output: &Path, options: &RenderOptions) -> Result<()> {
 
     println!(
         "{}: {width}×{height} {} image written to {}",
-        room.display(),
+        printable(&room.display().to_string()),
         mode_name(mode),
-        output.display()
+        printable(&output.display().to_string())
     );
     if let Some(path) = &options.lux {
-        println!("per-pixel illuminance (lx) written to {}", path.display());
+        println!(
+            "per-pixel illuminance (lx) written to {}",
+            printable(&path.display().to_string())
+        );
     }
     if let Some(shader) = session.fitted_shader(mode) {
         println!("{}", shader_summary(&shader));
@@ -178,7 +186,7 @@ fn mode_name(mode: DisplayMode) -> &'static str {
 }
 
 /// One line on what the shader shows: the exposure, or the lux range of the colour scale.
-pub fn shader_summary(shader: &DisplayShader) -> String {
+pub(crate) fn shader_summary(shader: &DisplayShader) -> String {
     match shader {
         DisplayShader::Photo(photo) => format!(
             "exposure EV100 {:.2}: {:.4} m²/cd (a luminance of {:.2} cd/m² shows as mid-grey)",

@@ -1,20 +1,17 @@
 //! The design numbers of a scene: every calculation surface's statistics against its targets,
-//! and every observer's glare rating. Illuminance comes from [`crate::transport::gather`]: exact
-//! direct light plus the indirect light gathered from the bake, the same numbers `haiko probe`
-//! gives at the same points.
+//! and every observer's glare rating, from the illuminance at the grids' receivers and the
+//! indirect illuminance at the observers' eyes. The illuminance itself comes from the session
+//! (`Session::design_numbers`), through the same path as `haiko probe`, so the numbers agree at
+//! the same points.
 
 use serde::Serialize;
 
 use crate::metrics::glare::{GlareSource, ObserverGlare, observer_glare};
 use crate::metrics::grid::CalcGrid;
 use crate::metrics::stats::{SurfaceCheck, SurfaceStats};
-use crate::photometry::LightState;
+use crate::scene::Scene;
 use crate::scene::design::{Targets, TaskPreset};
-use crate::scene::{DirectMode, Scene};
-use crate::transport::bake::Bake;
 use crate::transport::direct::{Receiver, luminance_weight};
-use crate::transport::gather::{gather_indirect, illuminance_at_receivers, patch_radiosity};
-use crate::transport::occlusion::Occluders;
 use crate::transport::visibility::Visibility;
 
 /// A calculation surface with its illuminance and verdicts.
@@ -57,7 +54,7 @@ pub struct SurfaceSummary<'a> {
 
 impl SurfaceResult {
     /// The summary for reports.
-    pub fn summary(&self) -> SurfaceSummary<'_> {
+    pub(crate) fn summary(&self) -> SurfaceSummary<'_> {
         SurfaceSummary {
             name: &self.grid.name,
             task: self.task.map(|t| t.name),
@@ -106,17 +103,8 @@ pub fn surface_results(scene: &Scene, grids: Vec<CalcGrid>, lux: &[f64]) -> Vec<
         .collect()
 }
 
-/// Every surface's numbers: illuminance by exact direct light plus, with a bake, the gathered
-/// indirect light.
-pub fn check_surfaces(scene: &Scene, bake: Option<&Bake>) -> Vec<SurfaceResult> {
-    let grids = surface_grids(scene);
-    let receivers: Vec<Receiver> = grids.iter().flat_map(|g| g.receivers.iter().copied()).collect();
-    let lux = illuminance_at_receivers(scene, bake, DirectMode::Exact, &receivers);
-    surface_results(scene, grids, &lux)
-}
-
 /// The scene's lights as glare sources (dimmed, weighted by their colour's luminance).
-pub fn glare_sources(scene: &Scene) -> Vec<GlareSource<'_>> {
+pub(crate) fn glare_sources(scene: &Scene) -> Vec<GlareSource<'_>> {
     scene
         .lights
         .iter()
@@ -144,27 +132,15 @@ pub fn eye_receivers(scene: &Scene) -> Vec<Receiver> {
         .collect()
 }
 
-/// Indirect illuminance (lx, photopic) at `receivers` from the bake; 0 without one.
-pub fn indirect_lux(scene: &Scene, bake: Option<&Bake>, receivers: &[Receiver]) -> Vec<f64> {
-    match bake {
-        Some(b) if b.lights.iter().any(|l| l.has_indirect()) => {
-            let states: Vec<LightState> = scene.lights.iter().map(LightState::from).collect();
-            let radiosity = patch_radiosity(scene, b, &states);
-            gather_indirect(scene, &radiosity, receivers)
-                .into_iter()
-                .map(luminance_weight)
-                .collect()
-        }
-        _ => vec![0.0; receivers.len()],
-    }
-}
-
 /// Every observer's glare rating, given the indirect illuminance at each eye (lx, in observer
-/// order, from [`indirect_lux`] of [`eye_receivers`]).
-pub fn glare_with(scene: &Scene, eye_indirect_lux: &[f64]) -> Vec<ObserverGlare> {
+/// order, at the [`eye_receivers`]) and the furniture that may hide a luminaire (`None`: nothing
+/// can).
+pub fn glare_with(
+    scene: &Scene,
+    eye_indirect_lux: &[f64],
+    vis: Option<&dyn Visibility>,
+) -> Vec<ObserverGlare> {
     let sources = glare_sources(scene);
-    let occluders = Occluders::of_scene(scene);
-    let vis = occluders.as_ref().map(|o| o as &dyn Visibility);
     scene
         .design
         .observers
@@ -172,10 +148,4 @@ pub fn glare_with(scene: &Scene, eye_indirect_lux: &[f64]) -> Vec<ObserverGlare>
         .zip(eye_indirect_lux)
         .map(|(o, &e)| observer_glare(o, &sources, e, vis, scene.design.ugr_limit(o)))
         .collect()
-}
-
-/// Every observer's glare rating, with the background from the bake.
-pub fn glare(scene: &Scene, bake: Option<&Bake>) -> Vec<ObserverGlare> {
-    let eyes = eye_receivers(scene);
-    glare_with(scene, &indirect_lux(scene, bake, &eyes))
 }

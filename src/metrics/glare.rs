@@ -28,13 +28,13 @@ use crate::scene::design::Observer;
 use crate::transport::visibility::Visibility;
 
 /// Smallest solid angle (sr) for which CIE 117 gives the formula.
-pub const OMEGA_MIN_SR: f64 = 3e-4;
+pub(crate) const OMEGA_MIN_SR: f64 = 3e-4;
 /// Largest solid angle (sr) for which CIE 117 gives the formula.
-pub const OMEGA_MAX_SR: f64 = 0.1;
+pub(crate) const OMEGA_MAX_SR: f64 = 0.1;
 /// The position-index table's reach above the line of sight, H/R.
-pub const MAX_H_OVER_R: f64 = 1.9;
+pub(crate) const MAX_H_OVER_R: f64 = 1.9;
 /// The position-index table's reach beside the line of sight, T/R.
-pub const MAX_T_OVER_R: f64 = 3.0;
+pub(crate) const MAX_T_OVER_R: f64 = 3.0;
 
 /// The Guth position index of a luminaire in the unit direction `to_source` from the eye, for
 /// a unit line of sight `view` and the unit `up` perpendicular to it; `None` when the
@@ -103,7 +103,7 @@ pub enum SourceStatus {
 
 impl SourceStatus {
     /// Words for tables.
-    pub fn describe(self) -> &'static str {
+    pub(crate) fn describe(self) -> &'static str {
         match self {
             SourceStatus::Counted => "counted",
             SourceStatus::BehindObserver => "behind the observer",

@@ -69,7 +69,7 @@ pub struct CalcGrid {
 impl CalcGrid {
     /// Lays out `surface` in `scene` (the surface was validated by the loader, so every
     /// rectangle has positive edges).
-    pub fn lay_out(scene: &Scene, surface: &CalcSurface) -> Self {
+    pub(crate) fn lay_out(scene: &Scene, surface: &CalcSurface) -> Self {
         let parts = parts(surface, scene.room_size);
         let furniture: Vec<&Aabb> = scene.boxes.iter().chain(&scene.mesh_bounds).collect();
         let mut grid = CalcGrid {
@@ -102,11 +102,6 @@ impl CalcGrid {
             grid.parts.push(part);
         }
         grid
-    }
-
-    /// Total number of grid points before furniture was taken out.
-    pub fn n_cells(&self) -> usize {
-        self.parts.iter().map(|p| p.cells.n_points()).sum()
     }
 }
 

@@ -72,15 +72,6 @@ impl Check {
         }
     }
 
-    /// `value` against "at most `limit`".
-    pub fn at_most(value: f64, limit: Option<f64>) -> Self {
-        Check {
-            value,
-            target: limit,
-            pass: limit.map(|t| value <= t),
-        }
-    }
-
     /// The mark shown next to the value: `✓`, `✗` or empty without a target.
     pub fn mark(&self) -> &'static str {
         match self.pass {
@@ -167,7 +158,5 @@ mod tests {
         };
         assert_eq!(SurfaceCheck::of(&s, &lenient).pass(), Some(true));
         assert_eq!(SurfaceCheck::of(&s, &Targets::default()).pass(), None);
-        assert_eq!(Check::at_most(19.4, Some(19.0)).pass, Some(false));
-        assert_eq!(Check::at_most(18.6, Some(19.0)).pass, Some(true));
     }
 }

@@ -7,9 +7,21 @@ use crate::error::{Error, Result};
 use crate::scene::Scene;
 use crate::transport::direct::Receiver;
 
+/// The most points a work-plane grid may have (4 million).
+pub const MAX_POINTS: usize = 4_000_000;
+
+/// The smallest spacing, m (rounded up to the millimetre), whose grid over a `w × d` m area
+/// has at most [`MAX_POINTS`] points: the positive root of `(w/S + 1)(d/S + 1) = N`.
+fn min_spacing(w: f64, d: f64) -> f64 {
+    let n = MAX_POINTS as f64;
+    // (w/S + 1)(d/S + 1) ≤ N  ⇔  (N − 1)S² − (w + d)S − wd ≥ 0.
+    let s = ((w + d) + ((w + d).powi(2) + 4.0 * (n - 1.0) * w * d).sqrt()) / (2.0 * (n - 1.0));
+    (s * 1e3).ceil() / 1e3
+}
+
 /// A work-plane grid: points facing up at one height, spaced evenly and centred in the room.
 #[derive(Debug, Clone, PartialEq)]
-pub struct WorkPlane {
+pub(crate) struct WorkPlane {
     /// Height above the floor, m.
     pub height_m: f64,
     /// Spacing between points along x and y, m.
@@ -51,15 +63,23 @@ impl WorkPlane {
                 format!("{margin_m} m leaves no room for a grid"),
             ));
         }
-        let count = |len: f64| ((len - 2.0 * margin_m) / spacing_m + 1e-9).floor() as usize + 1;
-        let counts = [count(size.x), count(size.y)];
-        if counts[0] * counts[1] > 4_000_000 {
+        // Counted in f64 (a spacing of 1e-9 m gives 4e9 points per axis; their product would
+        // wrap a usize) and checked before anything is allocated.
+        let count = |len: f64| ((len - 2.0 * margin_m) / spacing_m + 1e-9).floor() + 1.0;
+        let (nx, ny) = (count(size.x), count(size.y));
+        let points = nx * ny;
+        if points.is_nan() || points > MAX_POINTS as f64 {
             return Err(Error::input(
                 "--spacing",
                 "",
-                format!("{spacing_m} m gives more than 4 million points"),
+                format!(
+                    "{spacing_m} m gives {:.3e} points, more than {MAX_POINTS}: choose a spacing of at least {:.3} m",
+                    points,
+                    min_spacing(size.x - 2.0 * margin_m, size.y - 2.0 * margin_m)
+                ),
             ));
         }
+        let counts = [nx as usize, ny as usize];
         let start = |len: f64, n: usize| (len - (n - 1) as f64 * spacing_m) / 2.0;
         let (x0, y0) = (start(size.x, counts[0]), start(size.y, counts[1]));
         let mut receivers = Vec::with_capacity(counts[0] * counts[1]);
@@ -95,7 +115,7 @@ impl WorkPlane {
 
 /// Illuminance statistics over a grid (lx); `u0 = E_min / E_avg` (0 when E_avg is 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct GridStats {
+pub(crate) struct GridStats {
     /// Mean illuminance, lx.
     pub e_avg: f64,
     /// Minimum, lx.

@@ -6,7 +6,7 @@ use crate::photometry::weights::{HatMoments, ZonalWeights, fill_exact_weights};
 use crate::photometry::{Curve, CurveError};
 
 /// Edits between automatic re-synchronisations of the weights from the control points.
-pub const RESYNC_INTERVAL: usize = 1024;
+pub(crate) const RESYNC_INTERVAL: usize = 1024;
 
 /// A curve together with its exact Legendre weights, kept current edit by edit.
 #[derive(Debug, Clone)]

@@ -18,10 +18,12 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, quoted};
 use crate::photometry::lidfile::{
-    CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid,
+    CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid, check_scale,
+    check_scaled_intensity,
 };
+use crate::photometry::luminous::MAX_LUMINOUS_SIZE_M;
 use crate::photometry::{Curve, LuminousShape};
 
 /// One foot in metres (IES units type 1).
@@ -33,8 +35,10 @@ const VERSION_1986: &str = "LM-63-1986";
 /// Two angles closer than this (degrees) count as equal when classifying the C range.
 const ANGLE_TOLERANCE_DEG: f64 = 1e-6;
 
-/// Reads the text of an IES LM-63 file; `path` is only used in error messages.
-pub(crate) fn parse_ies(path: &Path, text: &str) -> Result<LidFile> {
+/// Parses the text of an IES LM-63 file; `path` is only used in error messages. Nothing of the
+/// file is quoted in an error before its `TILT=` line has shown it to be an IES file, and after
+/// that only the offending token ([`crate::error::quoted`]).
+pub fn parse_ies(path: &Path, text: &str) -> Result<LidFile> {
     let lines: Vec<&str> = text.lines().collect();
     if text.trim().is_empty() {
         return Err(Error::input(path, "line 1", "the file is empty"));
@@ -73,8 +77,8 @@ pub(crate) fn parse_ies(path: &Path, text: &str) -> Result<LidFile> {
             path,
             format!("line {tilt_line}"),
             format!(
-                "TILT file {:?} is not supported, use TILT=INCLUDE (copy the tilt table into the IES file)",
-                shorten(tilt_value)
+                "TILT file {} is not supported, use TILT=INCLUDE (copy the tilt table into the IES file)",
+                quoted(tilt_value)
             ),
         ));
     };
@@ -173,7 +177,13 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
     let units = numbers.number(&|| "units type".into(), |v| {
         (v != 1.0 && v != 2.0).then(|| "the units type must be 1 (feet) or 2 (metres)".into())
     })?;
-    let mut dimension = |what: &'static str| numbers.number(&|| what.into(), |_| None);
+    let to_m = if units == 1.0 { FOOT_M } else { 1.0 };
+    let mut dimension = |what: &'static str| {
+        numbers.number(&|| what.into(), |v| {
+            (v.abs() * to_m > MAX_LUMINOUS_SIZE_M)
+                .then(|| format!("a luminous dimension above {MAX_LUMINOUS_SIZE_M} m"))
+        })
+    };
     let (width, length, height) = (
         dimension("luminous width")?,
         dimension("luminous length")?,
@@ -181,7 +191,6 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
     );
     // A sign pattern outside LM-63-2019 Table 1 leaves the luminaire without a luminous area
     // (glare ratings then say so) rather than refusing an otherwise usable file.
-    let to_m = if units == 1.0 { FOOT_M } else { 1.0 };
     let luminous = LuminousShape::from_ies(width, length, height, to_m).unwrap_or(None);
     let ballast_factor = numbers.number(&|| "ballast factor".into(), positive)?;
     // Before LM-63-1995 this field was the ballast-lamp photometric factor, a multiplier; since
@@ -193,6 +202,12 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
         1.0
     };
     numbers.number(&|| "input watts".into(), |_| None)?;
+    let scale = check_scale(
+        numbers.path,
+        &format!("line {}", numbers.tokens[numbers.count_read - 1].line),
+        multiplier * ballast_factor * ballast_lamp_factor,
+        "the candela multiplier and the ballast factors",
+    )?;
 
     let (gamma_deg, gamma_lines) = numbers.list(n_vertical, |k| format!("vertical angle {k}"))?;
     check_gamma_grid(numbers.path, &gamma_deg, |k| {
@@ -203,7 +218,6 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
     check_c_angles(numbers.path, &c_deg, c_place)?;
     let symmetry = classify_c_range(numbers.path, &c_deg, c_place)?;
 
-    let scale = multiplier * ballast_factor * ballast_lamp_factor;
     let candela_start = numbers.count_read;
     let mut planes = Vec::with_capacity(n_horizontal);
     for &c in &c_deg {
@@ -212,7 +226,7 @@ fn read_photometry(numbers: &mut Numbers, pre_1995: bool) -> Result<StoredPlanes
             let index = numbers.count_read - candela_start + 1;
             let value = numbers.number(
                 &|| format!("value {index} (candela for C={c}°, γ={g}°)"),
-                |v| (v < 0.0).then(|| "candela cannot be negative".into()),
+                |v| check_scaled_intensity(v, scale),
             )?;
             values.push(value * scale);
         }
@@ -312,11 +326,11 @@ impl<'a> Numbers<'a> {
         let value = match token.text.parse::<f64>() {
             Ok(v) if v.is_finite() => v,
             Ok(_) => {
-                let message = format!("{:?} is not a finite number", shorten(token.text));
+                let message = format!("{} is not a finite number", quoted(token.text));
                 return Err(Error::input(self.path, place(), message));
             }
             Err(_) => {
-                let message = format!("{:?} is not a number", shorten(token.text));
+                let message = format!("{} is not a number", quoted(token.text));
                 return Err(Error::input(self.path, place(), message));
             }
         };
@@ -354,19 +368,14 @@ impl<'a> Numbers<'a> {
                 self.path,
                 format!("line {}", token.line),
                 format!(
-                    "{} unexpected value(s) after the candela table, starting with {:?} (do the \
+                    "{} unexpected value(s) after the candela table, starting with {} (do the \
                      numbers of vertical and horizontal angles match the data?)",
                     self.tokens.len() - self.count_read,
-                    shorten(token.text)
+                    quoted(token.text)
                 ),
             )),
         }
     }
-}
-
-/// At most 40 characters of `text`, for error messages.
-fn shorten(text: &str) -> String {
-    text.chars().take(40).collect()
 }
 
 /// Writes `curve` as an IES LM-63-2002 file: `TILT=NONE`, absolute photometry (lumens/lamp −1,
@@ -376,6 +385,14 @@ fn shorten(text: &str) -> String {
 /// Numbers are printed in Rust's shortest round-trip form, so reading the file back gives the
 /// same curve exactly. Control characters in `luminaire` become spaces.
 pub fn write_ies(curve: &Curve, luminaire: &str) -> String {
+    write_ies_with_area(curve, luminaire, None)
+}
+
+/// As [`write_ies`], with the luminous dimensions of `luminous` (LM-63 Table 1 signs,
+/// [`LuminousShape::to_ies`]) so that the file gives the same luminous area back; zero (a point
+/// source) when there is none or LM-63 cannot describe it.
+pub fn write_ies_with_area(curve: &Curve, luminaire: &str, luminous: Option<&LuminousShape>) -> String {
+    let [width, length, height] = luminous.and_then(LuminousShape::to_ies).unwrap_or([0.0; 3]);
     let name: String = luminaire
         .chars()
         .map(|c| if c.is_control() { ' ' } else { c })
@@ -386,7 +403,7 @@ pub fn write_ies(curve: &Curve, luminaire: &str) -> String {
         format!("[LUMINAIRE] {}", name.trim()),
         "[MORE] absolute photometry, candela; gamma in degrees from nadir".to_string(),
         "TILT=NONE".to_string(),
-        format!("1 -1 1 {} 1 1 2 0 0 0", curve.len()),
+        format!("1 -1 1 {} 1 1 2 {width} {length} {height}", curve.len()),
         "1 1 0".to_string(),
     ];
     lines.extend(wrapped(curve.gammas_deg()));

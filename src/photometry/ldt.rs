@@ -14,11 +14,13 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, quoted};
 use crate::photometry::LuminousShape;
 use crate::photometry::lidfile::{
-    CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid,
+    CSymmetry, LidFile, LidFormat, MAX_ANGLES, StoredPlanes, check_c_angles, check_gamma_grid, check_scale,
+    check_scaled_intensity,
 };
+use crate::photometry::luminous::MAX_LUMINOUS_SIZE_M;
 
 /// The most lamp sets a file may declare; more is a broken count.
 const MAX_LAMP_SETS: usize = 1_000;
@@ -29,8 +31,12 @@ const ANGLE_TOLERANCE_DEG: f64 = 1e-6;
 /// The line number (1-based) of field 4, Mc, in the fixed layout.
 const MC_LINE: usize = 4;
 
-/// Reads the text of a EULUMDAT file; `path` is only used in error messages.
-pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
+/// Parses the text of a EULUMDAT file; `path` is only used in error messages.
+///
+/// EULUMDAT has no signature: the file counts as recognised once fields 3, 4 and 6 (Isym, Mc,
+/// Ng) are whole numbers in their ranges. Before that an error says which field is wrong without
+/// quoting the line; after it, at most the offending value ([`crate::error::quoted`]).
+pub fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
     if text.trim().is_empty() {
         return Err(Error::input(path, "line 1", "the file is empty"));
     }
@@ -38,6 +44,7 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
         path,
         lines: text.lines().collect(),
         next: 0,
+        recognised: false,
     };
     fields.text("field 1 (company)")?;
     fields.text("field 2 (Ityp)")?;
@@ -45,6 +52,7 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
     let mc = fields.whole("field 4 (Mc)", 1, MAX_ANGLES)?;
     fields.text("field 5 (Dc)")?;
     let ng = fields.whole("field 6 (Ng)", 2, MAX_ANGLES)?;
+    fields.recognised = true;
     fields.text("field 7 (Dg)")?;
     fields.text("field 8 (report number)")?;
     let name = fields.text("field 9 (luminaire name)")?.trim();
@@ -55,7 +63,12 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
     }
     let mut millimetres = |label: &str| {
         fields.number(label, |v| {
-            (v < 0.0).then(|| "a dimension cannot be negative".into())
+            if v < 0.0 {
+                Some("a dimension cannot be negative".into())
+            } else {
+                (v > MAX_LUMINOUS_SIZE_M * 1e3)
+                    .then(|| format!("a luminous dimension above {MAX_LUMINOUS_SIZE_M} m"))
+            }
         })
     };
     let luminous_length = millimetres("field 16 (length or diameter of the luminous area, mm)")?;
@@ -73,7 +86,12 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
     })?;
     fields.text("field 25 (tilt during measurement)")?;
     let lamps = read_lamp_sets(&mut fields)?;
-    let scale = conversion * lamps.klm_factor(path)?;
+    let scale = check_scale(
+        path,
+        "field 24 (conversion factor for intensities)",
+        conversion * lamps.klm_factor(path)?,
+        "the conversion factor and the lamp flux",
+    )?;
     for k in 1..=10 {
         fields.text(&format!("direct ratio {k}"))?;
     }
@@ -94,7 +112,7 @@ pub(crate) fn parse_ldt(path: &Path, text: &str) -> Result<LidFile> {
         let mut values = Vec::with_capacity(ng);
         for &g in &gamma_deg {
             let value = fields.number(&format!("intensity for C={c}°, γ={g}°"), |v| {
-                (v < 0.0).then(|| "an intensity cannot be negative".into())
+                check_scaled_intensity(v, scale)
             })?;
             values.push(value * scale);
         }
@@ -208,6 +226,9 @@ struct Fields<'a> {
     lines: Vec<&'a str>,
     /// Index (0-based) of the next line.
     next: usize,
+    /// Whether the file has shown itself to be EULUMDAT (its counts parsed), so that a bad value
+    /// may be quoted in an error.
+    recognised: bool,
 }
 
 impl<'a> Fields<'a> {
@@ -235,27 +256,32 @@ impl<'a> Fields<'a> {
         let line = self.text(label)?;
         let place = format!("line {}, {label}", self.next);
         let cleaned = line.trim().replace(',', ".");
-        let shown: String = line.trim().chars().take(40).collect();
         let value = match cleaned.parse::<f64>() {
             Ok(v) if v.is_finite() => v,
-            Ok(_) => {
-                return Err(Error::input(
-                    self.path,
-                    place,
-                    format!("{shown:?} is not a finite number"),
-                ));
-            }
-            Err(_) => {
-                return Err(Error::input(
-                    self.path,
-                    place,
-                    format!("{shown:?} is not a number"),
-                ));
+            parsed => {
+                let what = if parsed.is_ok() {
+                    "a finite number"
+                } else {
+                    "a number"
+                };
+                let message = if self.recognised {
+                    format!("{} is not {what}", quoted(line.trim()))
+                } else {
+                    format!("expected {what}: this is not a EULUMDAT file (or a damaged one)")
+                };
+                return Err(Error::input(self.path, place, message));
             }
         };
         match check(value) {
             None => Ok(value),
-            Some(message) => Err(Error::input(self.path, place, format!("{value}: {message}"))),
+            Some(message) if self.recognised => {
+                Err(Error::input(self.path, place, format!("{value}: {message}")))
+            }
+            Some(message) => Err(Error::input(
+                self.path,
+                place,
+                format!("{message}: this is not a EULUMDAT file (or a damaged one)"),
+            )),
         }
     }
 

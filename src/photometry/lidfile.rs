@@ -11,12 +11,13 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
-use crate::photometry::{Curve, LuminousShape, ies, ldt};
+use crate::error::{Error, Result, quoted};
+use crate::fsio::{self, FileKind};
+use crate::photometry::{Curve, LuminousShape, MAX_INTENSITY_CD, ies, ldt};
 
 /// The most angles (γ or C) a file may list. A 0.02° γ grid over 0–180° has 9 001 angles; a
 /// count above this is a broken or hostile file, and is refused before anything is read.
-pub const MAX_ANGLES: usize = 10_000;
+pub(crate) const MAX_ANGLES: usize = 10_000;
 
 /// Above this [`LidFile::asymmetry`] the editor warns that the axial average misrepresents the
 /// luminaire: some C-plane differs from the average by more than 10 % of the average's peak
@@ -72,40 +73,93 @@ impl LidFile {
 
 /// Reads an IES (`.ies`) or EULUMDAT (`.ldt`) file; the extension decides, case-insensitively.
 ///
-/// IES text is read as UTF-8, falling back to Latin-1; EULUMDAT text as Latin-1 (every byte is a
-/// character, so text fields never fail to decode). Bad content is an input error naming the
-/// file and the line or field.
+/// The file is read through [`crate::fsio`] (a regular file of at most 16 MiB), then parsed by
+/// [`parse_lid_bytes`]. Bad content is an input error naming the file and the line or field.
 pub fn read_lid_file(path: &Path) -> Result<LidFile> {
+    let kind = match lid_kind(path)? {
+        LidKind::Ies => FileKind::Ies,
+        LidKind::Ldt => FileKind::Ldt,
+    };
+    let bytes = fsio::read(path, kind)?;
+    parse_lid_bytes(path, &bytes)
+}
+
+/// The two photometric formats, by file extension.
+enum LidKind {
+    Ies,
+    Ldt,
+}
+
+/// The format `path`'s extension names (case-insensitive); anything else is an input error.
+fn lid_kind(path: &Path) -> Result<LidKind> {
     let extension = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
-    let parse: fn(&Path, &str) -> Result<LidFile> = match extension.as_str() {
-        "ies" => ies::parse_ies,
-        "ldt" => ldt::parse_ldt,
-        _ => {
-            return Err(Error::input(
-                path,
-                "file extension",
-                format!(
-                    "unknown photometric file type '.{extension}' (expected .ies for IES LM-63 \
-                     or .ldt for EULUMDAT)"
-                ),
-            ));
-        }
+    match extension.as_str() {
+        "ies" => Ok(LidKind::Ies),
+        "ldt" => Ok(LidKind::Ldt),
+        _ => Err(Error::input(
+            path,
+            "file extension",
+            format!(
+                "unknown photometric file type {} (expected .ies for IES LM-63 or .ldt for EULUMDAT)",
+                quoted(&format!(".{extension}"))
+            ),
+        )),
+    }
+}
+
+/// Parses the bytes of a photometric file; `path`'s extension chooses the format and names the
+/// file in errors (nothing is read from it).
+///
+/// IES text is read as UTF-8, falling back to Latin-1; EULUMDAT text as Latin-1 (every byte is a
+/// character, so text fields never fail to decode). A leading byte-order mark is skipped.
+pub fn parse_lid_bytes(path: &Path, bytes: &[u8]) -> Result<LidFile> {
+    let kind = lid_kind(path)?;
+    let text = match kind {
+        LidKind::Ies => std::str::from_utf8(bytes).map_or_else(|_| latin1(bytes), str::to_string),
+        LidKind::Ldt => latin1(bytes),
     };
-    let bytes = std::fs::read(path).map_err(|e| Error::unreadable(path, &e))?;
-    let text = match extension.as_str() {
-        "ies" => String::from_utf8(bytes).unwrap_or_else(|e| latin1(e.as_bytes())),
-        _ => latin1(&bytes),
-    };
-    parse(path, text.strip_prefix('\u{feff}').unwrap_or(&text))
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    match kind {
+        LidKind::Ies => ies::parse_ies(path, text),
+        LidKind::Ldt => ldt::parse_ldt(path, text),
+    }
 }
 
 /// Decodes bytes as Latin-1: byte `b` is the character `U+00b`.
 fn latin1(bytes: &[u8]) -> String {
     bytes.iter().map(|&b| char::from(b)).collect()
+}
+
+/// The factor from a file's intensity values to candela (multipliers, lamp flux): it must be a
+/// finite number > 0; `what` names its parts for the error message.
+pub(crate) fn check_scale(path: &Path, place: &str, scale: f64, what: &str) -> Result<f64> {
+    if scale.is_finite() && scale > 0.0 {
+        return Ok(scale);
+    }
+    Err(Error::input(
+        path,
+        place,
+        format!("the product of {what} is {scale}, not a finite number > 0"),
+    ))
+}
+
+/// An error message unless the file's intensity `value` times `scale` is a candela value Haiko
+/// accepts: from 0 to [`MAX_INTENSITY_CD`].
+pub(crate) fn check_scaled_intensity(value: f64, scale: f64) -> Option<String> {
+    let cd = value * scale;
+    if value < 0.0 {
+        Some("an intensity cannot be negative".into())
+    } else if cd > MAX_INTENSITY_CD {
+        Some(format!(
+            "{cd:e} cd after scaling by {scale}, above the limit of {MAX_INTENSITY_CD:e} cd"
+        ))
+    } else {
+        None
+    }
 }
 
 /// How the C-planes a file stores generate the full 0–360° range.

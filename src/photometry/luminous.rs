@@ -79,6 +79,11 @@ pub enum LuminousShape {
     },
 }
 
+/// The largest luminous dimension (length, width, height, diameter) Haiko accepts, metres: larger
+/// than any luminaire, and small enough that projected areas and glare terms stay finite
+/// (docs/DECISIONS.md, "Bad input").
+pub(crate) const MAX_LUMINOUS_SIZE_M: f64 = 100.0;
+
 /// C-planes sampled when averaging a projected area over C (midpoints of 0.5° intervals, so the
 /// kinks of `|cos C|` at 90° and 270° fall on interval ends).
 const C_SAMPLES: usize = 720;
@@ -87,7 +92,7 @@ impl LuminousShape {
     /// The shape an IES LM-63 file's `width length height` describe (LM-63-2019 Table 1), in
     /// metres (`to_m` converts the file's unit). `Ok(None)` for a point source (all zero);
     /// `Err` with a description for a sign pattern the table does not have.
-    pub fn from_ies(width: f64, length: f64, height: f64, to_m: f64) -> Result<Option<Self>, String> {
+    pub(crate) fn from_ies(width: f64, length: f64, height: f64, to_m: f64) -> Result<Option<Self>, String> {
         use std::cmp::Ordering::{Equal, Greater, Less};
         let sign = |v: f64| v.partial_cmp(&0.0).unwrap_or(Equal);
         let (w, l, h) = (width.abs() * to_m, length.abs() * to_m, height.abs() * to_m);
@@ -140,11 +145,60 @@ impl LuminousShape {
         Ok(Some(shape))
     }
 
+    /// The IES LM-63 `width length height` (m) that [`Self::from_ies`] reads back as this
+    /// shape; `None` for a rectangle whose sides have different heights (LM-63 has one height).
+    pub fn to_ies(&self) -> Option<[f64; 3]> {
+        Some(match *self {
+            LuminousShape::Rectangle {
+                length_m,
+                width_m,
+                side_heights_m: [h, h1, h2, h3],
+            } => {
+                if [h1, h2, h3] != [h; 3] {
+                    return None;
+                }
+                [width_m, length_m, h]
+            }
+            LuminousShape::Ellipse {
+                length_m,
+                width_m,
+                side_height_m,
+            } => [-width_m, -length_m, side_height_m],
+            LuminousShape::Ellipsoid {
+                length_m,
+                width_m,
+                height_m,
+            } => [-width_m, -length_m, -height_m],
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C0,
+                length_m,
+                across_m,
+                height_m,
+            } => [-across_m, length_m, -height_m],
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C90,
+                length_m,
+                across_m,
+                height_m,
+            } => [length_m, -across_m, -height_m],
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C0,
+                across_m,
+                height_m,
+            } => [-across_m, 0.0, -height_m],
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C90,
+                across_m,
+                height_m,
+            } => [0.0, -across_m, -height_m],
+        })
+    }
+
     /// The shape a EULUMDAT file's luminous area describes (fields 16–21, millimetres): length
     /// (or diameter) and width (0 = circular), and the luminous heights on the C0, C90, C180 and
     /// C270 sides. `None` when the length is 0 (no luminous area given). A circular area with
     /// luminous sides uses the mean of the four heights.
-    pub fn from_eulumdat(length_mm: f64, width_mm: f64, heights_mm: [f64; 4]) -> Option<Self> {
+    pub(crate) fn from_eulumdat(length_mm: f64, width_mm: f64, heights_mm: [f64; 4]) -> Option<Self> {
         let mm = 1e-3;
         if length_mm <= 0.0 {
             return None;
@@ -229,7 +283,7 @@ impl LuminousShape {
     /// The projected area (m²) at γ (radians from the aim axis) averaged over all C-planes.
     /// Haiko's luminaires are axially symmetric (the curve is the C-plane average and no C0
     /// direction is placed in the room), so the luminance `I(γ) / A_p(γ)` uses this average.
-    pub fn mean_projected_area_m2(&self, gamma_rad: f64) -> f64 {
+    pub(crate) fn mean_projected_area_m2(&self, gamma_rad: f64) -> f64 {
         let (sin_g, cos_g) = gamma_rad.sin_cos();
         let step = std::f64::consts::TAU / C_SAMPLES as f64;
         let sum: f64 = (0..C_SAMPLES)
@@ -242,7 +296,7 @@ impl LuminousShape {
     }
 
     /// A short description for tables: `0.60 × 0.60 m`, `Ø 0.66 m`, …
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         match *self {
             LuminousShape::Rectangle {
                 length_m,
@@ -297,6 +351,65 @@ mod tests {
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * b.abs().max(1e-12)
+    }
+
+    /// Every shape LM-63 can describe is written as dimensions that read back as itself; a
+    /// rectangle with unequal side heights has no LM-63 form.
+    #[test]
+    fn ies_dimensions_read_back_as_the_shape() {
+        let shapes = [
+            LuminousShape::Rectangle {
+                length_m: 1.2,
+                width_m: 0.3,
+                side_heights_m: [0.05; 4],
+            },
+            LuminousShape::Ellipse {
+                length_m: 0.662,
+                width_m: 0.662,
+                side_height_m: 0.0,
+            },
+            LuminousShape::Ellipsoid {
+                length_m: 0.3,
+                width_m: 0.2,
+                height_m: 0.1,
+            },
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C0,
+                length_m: 1.5,
+                across_m: 0.05,
+                height_m: 0.06,
+            },
+            LuminousShape::HorizontalCylinder {
+                axis: HorizontalAxis::C90,
+                length_m: 1.5,
+                across_m: 0.05,
+                height_m: 0.06,
+            },
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C0,
+                across_m: 0.4,
+                height_m: 0.3,
+            },
+            LuminousShape::VerticalEllipse {
+                facing: HorizontalAxis::C90,
+                across_m: 0.4,
+                height_m: 0.3,
+            },
+        ];
+        for shape in shapes {
+            let [w, l, h] = shape.to_ies().unwrap();
+            assert_eq!(
+                LuminousShape::from_ies(w, l, h, 1.0),
+                Ok(Some(shape)),
+                "{shape:?}"
+            );
+        }
+        let uneven = LuminousShape::Rectangle {
+            length_m: 1.0,
+            width_m: 0.5,
+            side_heights_m: [0.1, 0.0, 0.1, 0.0],
+        };
+        assert_eq!(uneven.to_ies(), None);
     }
 
     #[test]

@@ -67,7 +67,7 @@ impl HatMoments {
 
     /// Recomputes the columns of hats k−1, k, k+1 after knot k of `curve` moved (its angle
     /// changed); every other column is unaffected by that move.
-    pub fn update_around(&mut self, curve: &Curve, k: usize) {
+    pub(crate) fn update_around(&mut self, curve: &Curve, k: usize) {
         assert_eq!(
             curve.len(),
             self.knots,

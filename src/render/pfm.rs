@@ -30,17 +30,10 @@ pub fn encode_pfm(width: u32, height: u32, values: &[f32]) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// Writes [`encode_pfm`] of the image to `path` (through a temporary file and a rename, so a
-/// failed write leaves no half file). Errors (bad input) name the path when it cannot be written.
+/// Writes [`encode_pfm`] of the image to `path` atomically (a failed write leaves the previous
+/// file, if any; see [`crate::fsio`]). Errors (internal): the file cannot be written.
 pub fn write_pfm(path: &Path, width: u32, height: u32, values: &[f32]) -> Result<()> {
-    let bytes = encode_pfm(width, height, values)?;
-    let fail = |e: std::io::Error| Error::input(path, "", format!("cannot write the float map: {e}"));
-    let tmp = path.with_extension("pfm.tmp");
-    std::fs::write(&tmp, bytes).map_err(fail)?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        fail(e)
-    })
+    crate::fsio::write_atomic(path, &encode_pfm(width, height, values)?)
 }
 
 /// Rec. 709 luma (lx for illuminance) of per-pixel linear RGB values: what a PFM of

@@ -20,7 +20,7 @@ pub fn encode(bytes: &[u8]) -> String {
 }
 
 /// A `data:` URI of a PNG image.
-pub fn png_data_uri(png: &[u8]) -> String {
+pub(crate) fn png_data_uri(png: &[u8]) -> String {
     format!("data:image/png;base64,{}", encode(png))
 }
 

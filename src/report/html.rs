@@ -69,6 +69,8 @@ figcaption { font-size: 8.5pt; color: #333; margin-top: 1mm; }
 .legend .ticks { display: flex; justify-content: space-between; font-size: 8pt; }
 .legend .scale { flex: 1; }
 small { color: #555; }
+table.values { font-size: 7.5pt; width: auto; }
+table.values td, table.values th { padding: 0.6mm 1mm; }
 @media print { body { padding: 0; } }
 ";
 
@@ -96,6 +98,7 @@ pub fn html(input: &ReportInput) -> String {
     );
     views(&mut out, input);
     surfaces(&mut out, input.surfaces);
+    grid_values(&mut out, input.surfaces);
     glare(&mut out, input.observers);
     schedule(&mut out, input.schedule);
     settings(&mut out, input);
@@ -228,6 +231,55 @@ fn surfaces(out: &mut String, results: &[SurfaceResult]) {
         );
     }
     out.push_str("</table>\n");
+}
+
+/// Most columns a grid may have for its values to be printed as a table.
+pub(crate) const MAX_VALUE_COLUMNS: usize = 20;
+/// Most rows a grid may have for its values to be printed as a table.
+pub(crate) const MAX_VALUE_ROWS: usize = 40;
+
+/// The maintained illuminance at every point of each single-rectangle grid small enough to
+/// print, laid out as seen in plan (first edge to the right, second edge up); points under
+/// furniture are shown as `–`.
+fn grid_values(out: &mut String, results: &[SurfaceResult]) {
+    for r in results {
+        let [part] = r.grid.parts.as_slice() else {
+            continue;
+        };
+        let [columns, rows] = part.cells.counts;
+        if columns > MAX_VALUE_COLUMNS || rows > MAX_VALUE_ROWS || r.lux.is_empty() {
+            continue;
+        }
+        let mf = r.stats.map_or(1.0, |s| s.maintenance_factor);
+        let mut values = vec![vec![None; columns]; rows];
+        for (index, &e) in r.grid.indices.iter().zip(&r.lux) {
+            values[index.j][index.i] = Some(mf * e);
+        }
+        let _ = writeln!(
+            out,
+            "<h2>{}: maintained illuminance at the grid points (lx)</h2>\n<table class=\"values\">",
+            escape(&r.grid.name)
+        );
+        for (j, row) in values.iter().enumerate().rev() {
+            let cells: String = row
+                .iter()
+                .map(|v| match v {
+                    Some(e) => format!("<td class=\"n\">{}</td>", lux(*e)),
+                    None => "<td class=\"n none\">–</td>".to_string(),
+                })
+                .collect();
+            let _ = writeln!(out, "<tr><th>{}</th>{cells}</tr>", j + 1);
+        }
+        let numbers: String = (1..=columns).map(|i| format!("<th>{i}</th>")).collect();
+        let _ = writeln!(out, "<tr><th></th>{numbers}</tr>\n</table>");
+        let _ = writeln!(
+            out,
+            "<p class=\"meta\">Rows from the far edge down, columns from the origin corner ({}) to the right; cells of {}×{} m.</p>",
+            triple(part.origin.to_array(), 2),
+            fixed(part.cells.cell_m[0], 2),
+            fixed(part.cells.cell_m[1], 2)
+        );
+    }
 }
 
 fn glare(out: &mut String, observers: &[ObserverGlare]) {

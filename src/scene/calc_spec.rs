@@ -12,16 +12,16 @@ use crate::scene::room_file::Vec3Spec;
 /// surfaces (`on = "floor" | "ceiling" | "walls" | "wall-x0" | …`).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SurfaceSpec {
+pub(crate) struct SurfaceSpec {
     /// Name shown in tables (default `surface[i]`, or the `on` value).
     pub name: Option<Spanned<String>>,
     /// Height of a horizontal surface above the floor, m (default 0.8).
     pub height: Option<Spanned<f64>>,
     /// Corner `[x, y]` with the smaller coordinates, m (with `max`; default: the room without
     /// `margin`).
-    pub min: Option<Spanned<[f64; 2]>>,
+    pub min: Option<Spanned<Vec<f64>>>,
     /// Corner `[x, y]` with the larger coordinates, m.
-    pub max: Option<Spanned<[f64; 2]>>,
+    pub max: Option<Spanned<Vec<f64>>>,
     /// Room surfaces instead of a horizontal rectangle.
     pub on: Option<Spanned<String>>,
     /// Band left out along the walls (work plane covering the room, default 0.5 m) or along
@@ -44,7 +44,7 @@ pub struct SurfaceSpec {
 /// `[[observer]]`: a glare observer.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct ObserverSpec {
+pub(crate) struct ObserverSpec {
     /// Name shown in tables (default `observer[i]`).
     pub name: Option<Spanned<String>>,
     /// Eye position (world, m).
@@ -62,7 +62,7 @@ pub struct ObserverSpec {
     untagged,
     expecting = "expected a luminous size: a diameter in m, [length, width] or [length, width, height]"
 )]
-pub enum LuminousSizeSpec {
+pub(crate) enum LuminousSizeSpec {
     /// Diameter of a disc facing along the aim, m.
     Diameter(f64),
     /// `[length, width]` or `[length, width, height]`, m.

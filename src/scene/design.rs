@@ -9,24 +9,24 @@ use glam::{DVec2, DVec3};
 /// Maintenance factor when the room file gives none: the ratio of maintained to new
 /// illuminance. 0.8 is a clean room with a short cleaning cycle; EN 12464-1 asks the designer
 /// to state the factor used.
-pub const DEFAULT_MAINTENANCE_FACTOR: f64 = 0.8;
+pub(crate) const DEFAULT_MAINTENANCE_FACTOR: f64 = 0.8;
 
 /// Height (m) of the work plane a room without `[[surface]]` tables gets.
-pub const DEFAULT_WORK_PLANE_HEIGHT_M: f64 = 0.8;
+pub(crate) const DEFAULT_WORK_PLANE_HEIGHT_M: f64 = 0.8;
 
 /// Band (m) along the walls left out of a work plane that covers the room (EN 12464-1).
-pub const WALL_BAND_M: f64 = 0.5;
+pub(crate) const WALL_BAND_M: f64 = 0.5;
 
 /// Eye height (m) of a seated observer (CIE 117 and EN 12464-1 use 1.2 m).
-pub const SEATED_EYE_HEIGHT_M: f64 = 1.2;
+pub(crate) const SEATED_EYE_HEIGHT_M: f64 = 1.2;
 
 /// The most grid points one calculation surface may have; more is refused with advice to raise
 /// `spacing`.
-pub const MAX_GRID_POINTS: usize = 1_000_000;
+pub(crate) const MAX_GRID_POINTS: usize = 1_000_000;
 
 /// The largest grid cell EN 12464-1 allows over a calculation area whose relevant dimension is
 /// `d_m` (m): `p = 0.2 · 5^log10(d)`, at most 10 m.
-pub fn en12464_max_cell_m(d_m: f64) -> f64 {
+pub(crate) fn en12464_max_cell_m(d_m: f64) -> f64 {
     (0.2 * 5f64.powf(d_m.log10())).min(10.0)
 }
 
@@ -48,7 +48,7 @@ impl GridCells {
     /// twice as long; `p` is `max_cell_m`, else [`en12464_max_cell_m`]`(d)`; d gets the nearest
     /// whole number of `d / p` cells (at least 1), and the other edge the nearest whole number
     /// of cells of the size that gives (so cells are close to square).
-    pub fn en12464(lengths: [f64; 2], max_cell_m: Option<f64>) -> Self {
+    pub(crate) fn en12464(lengths: [f64; 2], max_cell_m: Option<f64>) -> Self {
         let relevant = {
             let (long, short) = if lengths[0] >= lengths[1] { (0, 1) } else { (1, 0) };
             if lengths[long] >= 2.0 * lengths[short] {
@@ -72,7 +72,7 @@ impl GridCells {
     }
 
     /// Number of points.
-    pub fn n_points(&self) -> usize {
+    pub(crate) fn n_points(&self) -> usize {
         self.counts[0] * self.counts[1]
     }
 }
@@ -139,7 +139,7 @@ pub struct CalcSurface {
 impl CalcSurface {
     /// The work plane of a room without `[[surface]]`: 0.8 m high, the room without the 0.5 m
     /// wall band (the whole room when it is narrower than 1 m), no targets.
-    pub fn default_work_plane(room_size: DVec3) -> Self {
+    pub(crate) fn default_work_plane(room_size: DVec3) -> Self {
         let band = |len: f64| if len > 2.0 * WALL_BAND_M { WALL_BAND_M } else { 0.0 };
         let (bx, by) = (band(room_size.x), band(room_size.y));
         CalcSurface {
@@ -296,7 +296,7 @@ const fn preset(
 /// The task presets: offices (EN 12464-1:2011 Table 5.26), corridors (Table 5.1) and the main
 /// surfaces of an enclosed room (EN 12464-1:2011, walls and ceiling). Values: maintained
 /// illuminance Ē_m (lx), uniformity U0 and UGR_L.
-pub const TASK_PRESETS: [TaskPreset; 10] = [
+pub(crate) const TASK_PRESETS: [TaskPreset; 10] = [
     preset(
         "office-filing",
         "EN 12464-1:2011 Table 5.26, 5.26.1 filing, copying",
@@ -397,7 +397,7 @@ pub struct Observer {
 impl Observer {
     /// Seated observers (eyes 1.2 m, or 40 % of a lower room's height) at the middle of each
     /// wall, looking straight across the room (the CIE 117 observer positions).
-    pub fn wall_middles(room_size: DVec3) -> Vec<Observer> {
+    pub(crate) fn wall_middles(room_size: DVec3) -> Vec<Observer> {
         let z = SEATED_EYE_HEIGHT_M.min(0.4 * room_size.z);
         let (w, d) = (room_size.x, room_size.y);
         [

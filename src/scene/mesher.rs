@@ -71,7 +71,7 @@ impl AxisRect {
 
     /// The in-plane axes `(u, v)` ordered so that `u × v` is the normal (counter-clockwise
     /// seen from the normal side).
-    pub fn in_plane_axes(axis: usize, facing_positive: bool) -> [usize; 2] {
+    pub(crate) fn in_plane_axes(axis: usize, facing_positive: bool) -> [usize; 2] {
         let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
         if facing_positive { [a, b] } else { [b, a] }
     }

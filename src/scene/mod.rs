@@ -2,6 +2,7 @@
 
 pub mod calc_spec;
 pub mod design;
+pub mod light_tables;
 pub mod load;
 pub mod mesher;
 pub mod model;
@@ -9,6 +10,7 @@ pub mod obj;
 pub mod points;
 pub mod remesh;
 pub mod room_file;
+pub mod save;
 
-pub use load::load;
+pub use load::{RoomText, load, read_room};
 pub use model::*;

@@ -173,7 +173,7 @@ impl From<&Light> for crate::photometry::LightState {
 
 impl Light {
     /// True when the light's colour is not white-grey (all channels equal).
-    pub fn is_coloured(&self) -> bool {
+    pub(crate) fn is_coloured(&self) -> bool {
         self.color[0] != self.color[1] || self.color[1] != self.color[2]
     }
 }

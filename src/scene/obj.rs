@@ -1,24 +1,44 @@
-//! OBJ import (tobj): one surface per OBJ model, reflectance from the MTL `Kd`, placed in the
-//! world frame (metres, z up).
+//! OBJ import: one surface per OBJ object/group (split where the material changes), reflectance
+//! from the MTL `Kd`, placed in the world frame (metres, z up).
+//!
+//! Haiko parses the statements it uses itself (docs/DECISIONS.md, "Scene"), so that no input
+//! reaches a panic in a dependency and every error names the file and the line:
+//! * OBJ: `v x y z` (optionally `w`, or an `r g b` vertex colour, which is ignored), `f` with
+//!   `v`, `v/vt`, `v//vn` or `v/vt/vn` corners (1-based, negative = relative to the vertices
+//!   read so far), `o` / `g` (a new surface), `usemtl`, `mtllib` (relative to the OBJ's
+//!   directory). `vt`, `vn`, `l`, `p`, `s` and unknown statements are ignored.
+//! * MTL: `newmtl` and `Kd r g b` (or `Kd r`, grey, as the MTL specification allows); every
+//!   other statement (`Ka`, `Ks`, `Ke`, maps, …) is ignored.
 //!
 //! Placement: the up conversion first (`up = "y"`: (x, y, z) → (x, −z, y); `up = "z"`: kept),
-//! then the uniform scale, then the translation. A model without a material, or whose material
-//! has no `Kd`, gets a grey reflectance of 0.5. Polygons are split into triangle fans; a face
-//! whose area is below 1e-12 m² (after placement) is an error naming its face number (1-based,
-//! counted over the whole file in file order).
+//! then the uniform scale, then the translation. A surface without a material, or whose
+//! material has no `Kd`, gets a grey reflectance of 0.5. Polygons are split into triangle fans;
+//! a face whose area is below 1e-12 m² (after placement) is an error naming its face number
+//! (1-based, counted over the whole file in file order).
 
 use glam::DVec3;
-use std::path::Path;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
+use crate::error::{Error, Result};
+use crate::fsio::{self, FileKind};
 use crate::scene::mesher::TriangleSurface;
 use crate::scene::model::Reflectance;
 use crate::scene::room_file::UpAxis;
 
-/// Reflectance of OBJ models without a material or without `Kd`.
-pub const DEFAULT_REFLECTANCE: f64 = 0.5;
+/// Reflectance of OBJ surfaces without a material or without `Kd`.
+pub(crate) const DEFAULT_REFLECTANCE: f64 = 0.5;
 
 /// Faces smaller than this (m², after placement) are rejected as degenerate.
-pub const MIN_FACE_AREA: f64 = 1e-12;
+pub(crate) const MIN_FACE_AREA: f64 = 1e-12;
+
+/// The most triangles (after splitting polygons into fans) one OBJ may have. The fine mesh
+/// needs up to three vertices per OBJ triangle at any patch size, so this keeps an OBJ within the
+/// room's 2 000 000-vertex limit (`crate::scene::load::MAX_VERTICES`) with room to spare.
+pub(crate) const MAX_TRIANGLES: usize = 600_000;
+
+/// The most vertices (`v` lines) one OBJ may have.
+pub(crate) const MAX_VERTICES: usize = 2_000_000;
 
 /// Where an OBJ goes in the room.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,34 +71,33 @@ pub struct ObjSurface {
     pub reflectance: Reflectance,
 }
 
-/// Reads the OBJ at `path` (which must exist) for `[[mesh]]` number `mesh_index`. The error is
-/// a one-line message (without the file name, which the caller adds).
-pub fn read_obj(path: &Path, mesh_index: usize, placement: &Placement) -> Result<Vec<ObjSurface>, String> {
-    let options = tobj::LoadOptions {
-        triangulate: false,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let (models, materials) =
-        tobj::load_obj(path, &options).map_err(|e| format!("cannot read the OBJ: {e}"))?;
-    let materials = materials.map_err(|e| format!("cannot read its material library (mtllib): {e}"))?;
-    let mut surfaces = Vec::with_capacity(models.len());
-    let mut faces_before = 0;
+/// Reads the OBJ at `path` for `[[mesh]]` number `mesh_index`, and its material libraries,
+/// through [`crate::fsio`]. Errors name the OBJ or MTL file and the line.
+pub fn read_obj(path: &Path, mesh_index: usize, placement: &Placement) -> Result<Vec<ObjSurface>> {
+    let bytes = fsio::read(path, FileKind::Obj)?;
+    parse_obj(path, &bytes, mesh_index, placement, &|mtl| {
+        fsio::read(mtl, FileKind::Mtl)
+    })
+}
+
+/// Parses OBJ bytes (UTF-8; invalid bytes only matter inside names) as read from `path` (used
+/// for errors and to resolve `mtllib`); `read_mtl` reads a material library at its resolved path.
+pub fn parse_obj(
+    path: &Path,
+    bytes: &[u8],
+    mesh_index: usize,
+    placement: &Placement,
+    read_mtl: &dyn Fn(&Path) -> Result<Vec<u8>>,
+) -> Result<Vec<ObjSurface>> {
+    let text = String::from_utf8_lossy(bytes);
+    let parsed = Statements::parse(path, &text, read_mtl)?;
+    let mut surfaces = Vec::with_capacity(parsed.groups.len());
     let mut names: Vec<String> = Vec::new();
-    for model in &models {
-        let material = model.mesh.material_id.and_then(|id| materials.get(id));
-        let reflectance = material_reflectance(material)?;
-        let (triangles, n_faces) = triangulate(&model.mesh, faces_before)?;
-        let positions = model
-            .mesh
-            .positions
-            .chunks_exact(3)
-            .map(|p| placement.apply(DVec3::new(widen(p[0]), widen(p[1]), widen(p[2]))))
-            .collect::<Vec<_>>();
-        let triangles = reject_degenerate(&positions, triangles, &model.name)?;
-        faces_before += n_faces;
-        let mut name = format!("mesh{mesh_index}:{}", model.name);
+    for group in &parsed.groups {
+        let material = group.material.map(|m| &parsed.materials[m]);
+        let reflectance = material_reflectance(path, material)?;
+        let (positions, triangles) = parsed.place(path, group, placement)?;
+        let mut name = format!("mesh{mesh_index}:{}", group.name);
         if names.contains(&name) {
             name = format!("{name}#{}", surfaces.len());
         }
@@ -96,89 +115,444 @@ pub fn read_obj(path: &Path, mesh_index: usize, placement: &Placement) -> Result
     Ok(surfaces)
 }
 
-/// tobj reads f32: recover the decimal as written (`0.3` → 0.3, not 0.30000001192…) through
-/// the shortest decimal that rounds to the same f32.
-fn widen(x: f32) -> f64 {
-    x.to_string().parse().unwrap_or(f64::from(x))
+/// A material of an MTL file.
+#[derive(Debug, Clone)]
+struct Material {
+    name: String,
+    /// `Kd` and the MTL file and line it was on.
+    diffuse: Option<([f64; 3], PathBuf, usize)>,
+}
+
+/// One polygon of the OBJ: 0-based vertex indices and its 1-based face number and line.
+#[derive(Debug, Clone)]
+struct Face {
+    vertices: Vec<usize>,
+    number: usize,
+    line: usize,
+}
+
+/// The faces of one object/group with one material.
+#[derive(Debug, Clone)]
+struct Group {
+    name: String,
+    material: Option<usize>,
+    faces: Vec<Face>,
+}
+
+/// The statements of an OBJ file Haiko uses.
+#[derive(Debug, Default)]
+struct Statements {
+    /// `v` positions as written (OBJ frame).
+    positions: Vec<DVec3>,
+    /// Groups with at least one face, in file order.
+    groups: Vec<Group>,
+    /// Materials of all `mtllib`s, in order; a later one of the same name wins in `by_name`.
+    materials: Vec<Material>,
+    by_name: HashMap<String, usize>,
+    /// Triangles the faces will make (for the limit).
+    triangles: usize,
+    /// Faces read so far.
+    n_faces: usize,
+}
+
+/// An error at `line` of `file`.
+fn at(file: &Path, line: usize, message: impl Into<String>) -> Error {
+    Error::input(file, format!("line {line}"), message)
+}
+
+/// A finite number, or `None`.
+fn finite(token: &str) -> Option<f64> {
+    token.parse::<f64>().ok().filter(|x| x.is_finite())
+}
+
+/// The rest of a statement line after its keyword, trimmed (names may contain spaces).
+fn rest_of<'a>(line: &'a str, keyword: &str) -> &'a str {
+    line.trim_start()[keyword.len()..].trim()
+}
+
+impl Statements {
+    fn parse(path: &Path, text: &str, read_mtl: &dyn Fn(&Path) -> Result<Vec<u8>>) -> Result<Self> {
+        let mut s = Statements::default();
+        let mut current = Group {
+            name: "unnamed_object".into(),
+            material: None,
+            faces: Vec::new(),
+        };
+        for (index, line) in text.lines().enumerate() {
+            let n = index + 1;
+            let mut words = line.split_whitespace();
+            let Some(keyword) = words.next() else { continue };
+            match keyword {
+                "v" => s.vertex(path, n, words)?,
+                "f" => {
+                    let face = s.face(path, n, words)?;
+                    current.faces.push(face);
+                }
+                "o" | "g" => {
+                    let name = rest_of(line, keyword);
+                    let name = if name.is_empty() { "unnamed_object" } else { name };
+                    let material = current.material;
+                    s.close(&mut current, name.to_string(), material);
+                }
+                "usemtl" => {
+                    let name = rest_of(line, keyword);
+                    if name.is_empty() {
+                        return Err(at(path, n, "`usemtl` needs a material name"));
+                    }
+                    let material = s.by_name.get(name).copied();
+                    if material != current.material {
+                        let name = current.name.clone();
+                        s.close(&mut current, name, material);
+                    }
+                }
+                "mtllib" => {
+                    let name = rest_of(line, keyword);
+                    if name.is_empty() {
+                        return Err(at(path, n, "`mtllib` needs a file name"));
+                    }
+                    let mtl = path.parent().unwrap_or(Path::new("")).join(name);
+                    let bytes = read_mtl(&mtl)?;
+                    s.materials(&mtl, &String::from_utf8_lossy(&bytes))?;
+                }
+                _ => {}
+            }
+        }
+        s.close(&mut current, String::new(), None);
+        for group in &s.groups {
+            for face in &group.faces {
+                if let Some(&v) = face.vertices.iter().find(|&&v| v >= s.positions.len()) {
+                    return Err(at(
+                        path,
+                        face.line,
+                        format!(
+                            "face {} refers to vertex {}, but the file has {} vertices",
+                            face.number,
+                            v + 1,
+                            s.positions.len()
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    /// Ends the current group (kept when it has faces) and starts `name` with `material`.
+    fn close(&mut self, current: &mut Group, name: String, material: Option<usize>) {
+        let next = Group {
+            name,
+            material,
+            faces: Vec::new(),
+        };
+        let done = std::mem::replace(current, next);
+        if !done.faces.is_empty() {
+            self.groups.push(done);
+        }
+    }
+
+    /// `v x y z [w | r g b]`.
+    fn vertex<'a>(&mut self, path: &Path, n: usize, words: impl Iterator<Item = &'a str>) -> Result<()> {
+        let values: Vec<Option<f64>> = words.map(finite).collect();
+        let usage = "`v` needs three finite numbers x y z (optionally w, or r g b)";
+        let Some(values) = values.into_iter().collect::<Option<Vec<f64>>>() else {
+            return Err(at(path, n, usage));
+        };
+        let p = match values.as_slice() {
+            [x, y, z] | [x, y, z, _, _, _] => DVec3::new(*x, *y, *z),
+            [x, y, z, w] if *w != 0.0 => DVec3::new(*x, *y, *z) / *w,
+            [_, _, _, _] => return Err(at(path, n, "`v` has w = 0 (a point at infinity)")),
+            _ => return Err(at(path, n, usage)),
+        };
+        if !p.is_finite() {
+            return Err(at(path, n, "the vertex is not finite after dividing by w"));
+        }
+        if self.positions.len() == MAX_VERTICES {
+            return Err(at(
+                path,
+                n,
+                format!("more than {MAX_VERTICES} vertices: simplify the OBJ"),
+            ));
+        }
+        self.positions.push(p);
+        Ok(())
+    }
+
+    /// `f v1 v2 v3 …`, each corner `v`, `v/vt`, `v//vn` or `v/vt/vn`.
+    fn face<'a>(&mut self, path: &Path, n: usize, words: impl Iterator<Item = &'a str>) -> Result<Face> {
+        self.n_faces += 1;
+        let number = self.n_faces;
+        let mut vertices = Vec::new();
+        for corner in words {
+            let mut parts = corner.split('/');
+            let v = parts.next().unwrap_or_default();
+            let others_ok =
+                parts.clone().count() <= 2 && parts.all(|p| p.is_empty() || p.parse::<i64>().is_ok());
+            let index = v.parse::<i64>().ok().filter(|_| others_ok).ok_or_else(|| {
+                at(
+                    path,
+                    n,
+                    format!("face {number}: a corner must be v, v/vt, v//vn or v/vt/vn with whole numbers"),
+                )
+            })?;
+            let resolved = match index {
+                0 => {
+                    return Err(at(
+                        path,
+                        n,
+                        format!("face {number}: vertex index 0 (OBJ counts from 1)"),
+                    ));
+                }
+                i if i > 0 => usize::try_from(i - 1).ok(),
+                i => usize::try_from(i.unsigned_abs())
+                    .ok()
+                    .and_then(|back| self.positions.len().checked_sub(back)),
+            };
+            let Some(resolved) = resolved else {
+                return Err(at(
+                    path,
+                    n,
+                    format!(
+                        "face {number}: relative index {index} goes before the first vertex ({} read so far)",
+                        self.positions.len()
+                    ),
+                ));
+            };
+            vertices.push(resolved);
+        }
+        if vertices.len() < 3 {
+            return Err(at(
+                path,
+                n,
+                format!(
+                    "face {number} has {} corners; a face needs at least 3",
+                    vertices.len()
+                ),
+            ));
+        }
+        self.triangles += vertices.len() - 2;
+        if self.triangles > MAX_TRIANGLES {
+            return Err(at(
+                path,
+                n,
+                format!(
+                    "the OBJ has more than {MAX_TRIANGLES} triangles (polygons split into fans); the \
+                     room's mesh needs up to 3 vertices per triangle at any patch size: simplify the OBJ"
+                ),
+            ));
+        }
+        Ok(Face {
+            vertices,
+            number,
+            line: n,
+        })
+    }
+
+    /// Reads the materials of the MTL text at `path`.
+    fn materials(&mut self, path: &Path, text: &str) -> Result<()> {
+        let mut current: Option<Material> = None;
+        for (index, line) in text.lines().enumerate() {
+            let n = index + 1;
+            let mut words = line.split_whitespace();
+            match words.next() {
+                Some("newmtl") => {
+                    let name = rest_of(line, "newmtl");
+                    if name.is_empty() {
+                        return Err(at(path, n, "`newmtl` needs a material name"));
+                    }
+                    self.add_material(current.take());
+                    current = Some(Material {
+                        name: name.to_string(),
+                        diffuse: None,
+                    });
+                }
+                Some("Kd") => {
+                    let values: Option<Vec<f64>> = words.map(finite).collect();
+                    let rgb = match values.as_deref() {
+                        Some(&[grey]) => [grey; 3],
+                        Some(&[r, g, b]) => [r, g, b],
+                        _ => {
+                            return Err(at(
+                                path,
+                                n,
+                                "`Kd` needs three finite numbers r g b (or one, for grey)",
+                            ));
+                        }
+                    };
+                    if let Some(material) = current.as_mut() {
+                        material.diffuse = Some((rgb, path.to_path_buf(), n));
+                    }
+                }
+                _ => {}
+            }
+        }
+        self.add_material(current);
+        Ok(())
+    }
+
+    fn add_material(&mut self, material: Option<Material>) {
+        if let Some(material) = material {
+            self.by_name.insert(material.name.clone(), self.materials.len());
+            self.materials.push(material);
+        }
+    }
+
+    /// The group's vertices placed in the world (only those its faces use) and its triangles,
+    /// zero-area fan triangles dropped; a face whose total area is below [`MIN_FACE_AREA`] or
+    /// not finite is an error.
+    fn place(
+        &self,
+        path: &Path,
+        group: &Group,
+        placement: &Placement,
+    ) -> Result<(Vec<DVec3>, Vec<[u32; 3]>)> {
+        let mut local: HashMap<usize, u32> = HashMap::new();
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for face in &group.faces {
+            let ids: Vec<u32> = face
+                .vertices
+                .iter()
+                .map(|&v| {
+                    *local.entry(v).or_insert_with(|| {
+                        positions.push(placement.apply(self.positions[v]));
+                        positions.len() as u32 - 1
+                    })
+                })
+                .collect();
+            let fan: Vec<[u32; 3]> = (2..ids.len()).map(|c| [ids[0], ids[c - 1], ids[c]]).collect();
+            let area = |t: &[u32; 3]| {
+                let [a, b, c] = t.map(|i| positions[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            };
+            let face_area: f64 = fan.iter().map(area).sum();
+            if !face_area.is_finite() || face_area < MIN_FACE_AREA {
+                return Err(at(
+                    path,
+                    face.line,
+                    format!(
+                        "face {} (object `{}`) is degenerate: area {face_area:.3e} m² after placement \
+                         (it must be finite and at least {MIN_FACE_AREA:e} m²)",
+                        face.number, group.name
+                    ),
+                ));
+            }
+            triangles.extend(fan.into_iter().filter(|t| area(t) >= MIN_FACE_AREA));
+        }
+        Ok((positions, triangles))
+    }
 }
 
 /// `Kd` as a reflectance; 0.5 grey without a material or `Kd`.
-fn material_reflectance(material: Option<&tobj::Material>) -> Result<Reflectance, String> {
-    let Some(material) = material else {
+fn material_reflectance(obj: &Path, material: Option<&Material>) -> Result<Reflectance> {
+    let Some((kd, mtl, line)) = material.and_then(|m| m.diffuse.as_ref()) else {
         return Ok(Reflectance::grey(DEFAULT_REFLECTANCE));
     };
-    let Some(kd) = material.diffuse else {
-        return Ok(Reflectance::grey(DEFAULT_REFLECTANCE));
-    };
-    let kd = kd.map(widen);
     if kd.iter().any(|k| !(0.0..0.98).contains(k)) {
-        return Err(format!(
-            "material `{}`: Kd {kd:?} must be ≥ 0 and below 0.98 (the interreflection becomes \
-             singular as reflectance approaches 1)",
-            material.name
+        let name = material.map_or("", |m| m.name.as_str());
+        return Err(Error::input(
+            mtl,
+            format!("line {line}"),
+            format!(
+                "material `{name}` (used by {}): Kd {kd:?} must be ≥ 0 and below 0.98 (the \
+                 interreflection becomes singular as reflectance approaches 1)",
+                obj.file_name().map(|n| n.to_string_lossy()).unwrap_or_default()
+            ),
         ));
     }
-    Ok(Reflectance(kd))
+    Ok(Reflectance(*kd))
 }
 
-/// A triangle of a face's fan.
-struct FanTriangle {
-    /// Vertex indices into the model's positions.
-    vertices: [u32; 3],
-    /// The face's 1-based number in the file.
-    face: usize,
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// Fan-triangulates the faces of `mesh` (numbered from `faces_before + 1`); returns the
-/// triangles and the number of faces.
-fn triangulate(mesh: &tobj::Mesh, faces_before: usize) -> Result<(Vec<FanTriangle>, usize), String> {
-    let arities: Vec<usize> = if mesh.face_arities.is_empty() {
-        vec![3; mesh.indices.len() / 3]
-    } else {
-        mesh.face_arities.iter().map(|&a| a as usize).collect()
+    const KEEP: Placement = Placement {
+        up: UpAxis::Z,
+        scale: 1.0,
+        translate: DVec3::ZERO,
     };
-    let mut triangles = Vec::new();
-    let mut start = 0;
-    for (k, &arity) in arities.iter().enumerate() {
-        let face = faces_before + k + 1;
-        let Some(ids) = mesh.indices.get(start..start + arity) else {
-            return Err(format!("face {face}: refers to missing vertices"));
-        };
-        triangles.extend((2..arity).map(|c| FanTriangle {
-            vertices: [ids[0], ids[c - 1], ids[c]],
-            face,
-        }));
-        start += arity;
+
+    fn parse(obj: &str, mtl: &str) -> Result<Vec<ObjSurface>> {
+        let mtl = mtl.as_bytes().to_vec();
+        parse_obj(Path::new("d/m.obj"), obj.as_bytes(), 0, &KEEP, &move |p| {
+            assert_eq!(p, Path::new("d/m.mtl"));
+            Ok(mtl.clone())
+        })
     }
-    Ok((triangles, arities.len()))
-}
 
-/// Drops zero-area triangles of a polygon fan, but rejects a face whose total area is not a
-/// finite number of at least [`MIN_FACE_AREA`].
-fn reject_degenerate(
-    positions: &[DVec3],
-    triangles: Vec<FanTriangle>,
-    object: &str,
-) -> Result<Vec<[u32; 3]>, String> {
-    let area = |t: &FanTriangle| {
-        let [a, b, c] = t.vertices.map(|i| positions[i as usize]);
-        0.5 * (b - a).cross(c - a).length()
-    };
-    let mut kept = Vec::with_capacity(triangles.len());
-    for face in triangles.chunk_by(|a, b| a.face == b.face) {
-        let face_area: f64 = face.iter().map(area).sum();
-        if !face_area.is_finite() || face_area < MIN_FACE_AREA {
-            return Err(format!(
-                "face {} (object `{object}`) is degenerate: area {face_area:.3e} m² after placement \
-                 (it must be finite and at least {MIN_FACE_AREA:e} m²)",
-                face[0].face
-            ));
+    const SQUARE: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+
+    #[test]
+    fn polygons_become_fans_and_relative_indices_count_back() {
+        let s = parse(&format!("{SQUARE}f -4/1 -3//2 -2/3/4 -1\n"), "").unwrap();
+        assert_eq!(s.len(), 1);
+        assert_eq!(s[0].geometry.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(s[0].geometry.name, "mesh0:unnamed_object");
+    }
+
+    #[test]
+    fn short_colour_lines_are_errors_or_grey_never_panics() {
+        let obj = format!("mtllib m.mtl\n{SQUARE}usemtl a\nf 1 2 3\n");
+        let grey = parse(&obj, "newmtl a\nKd 0.4\n").unwrap();
+        assert_eq!(grey[0].reflectance, Reflectance::grey(0.4));
+        for bad in ["Kd", "Kd 0.5 0.5", "Kd 0.5 x 0.5", "Kd 1 2 3 4", "Kd nan"] {
+            let e = parse(&obj, &format!("newmtl a\n{bad}\n"))
+                .unwrap_err()
+                .to_string();
+            assert_eq!(
+                e,
+                "d/m.mtl: line 2: `Kd` needs three finite numbers r g b (or one, for grey)"
+            );
         }
-        kept.extend(
-            face.iter()
-                .filter(|t| area(t) >= MIN_FACE_AREA)
-                .map(|t| t.vertices),
+        for ignored in ["Ka", "Ks 0.5", "Ke 0.5 0.5", "Ka spectral x.rfl"] {
+            let s = parse(&obj, &format!("newmtl a\n{ignored}\nKd 0.2 0.3 0.4\n")).unwrap();
+            assert_eq!(s[0].reflectance, Reflectance([0.2, 0.3, 0.4]));
+        }
+    }
+
+    #[test]
+    fn bad_statements_name_the_line() {
+        for (obj, line, words) in [
+            ("v 1 2\n", 1, "`v` needs three finite numbers"),
+            ("v 0 0 0\nv 1 e 0\n", 2, "`v` needs three"),
+            ("v 0 0 0 0\n", 1, "w = 0"),
+            ("v 1e308 0 0 1e-10\n", 1, "not finite"),
+            ("v 0 0 0\nf 1 1/2/3/4 1\n", 2, "a corner must be"),
+            ("v 0 0 0\nf 1 0 1\n", 2, "vertex index 0"),
+            ("v 0 0 0\nf 1 -2 1\n", 2, "before the first vertex"),
+            (
+                "v 0 0 0\nf 1 -9223372036854775808 1\n",
+                2,
+                "before the first vertex",
+            ),
+            ("v 0 0 0\nf 1 99999999999999999999 1\n", 2, "a corner must be"),
+            ("v 0 0 0\nf 1 1\n", 2, "has 2 corners"),
+            (
+                "v 0 0 0\nv 1 0 0\nf 1 2 3\n",
+                3,
+                "refers to vertex 3, but the file has 2",
+            ),
+            ("usemtl\n", 1, "`usemtl` needs"),
+        ] {
+            let e = parse(obj, "").unwrap_err().to_string();
+            assert!(
+                e.starts_with(&format!("d/m.obj: line {line}: ")) && e.contains(words),
+                "{obj:?}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_material_change_splits_a_group_and_names_stay_unique() {
+        let obj = format!("mtllib m.mtl\n{SQUARE}o a\nf 1 2 3\nusemtl red\nf 1 3 4\no a\nf 1 2 4\n");
+        let s = parse(&obj, "newmtl red\nKd 0.5 0.1 0.1\n").unwrap();
+        let names: Vec<&str> = s.iter().map(|s| s.geometry.name.as_str()).collect();
+        assert_eq!(names, ["mesh0:a", "mesh0:a#1", "mesh0:a#2"]);
+        assert_eq!(s[1].reflectance, Reflectance([0.5, 0.1, 0.1]));
+        assert_eq!(
+            s[2].reflectance,
+            Reflectance([0.5, 0.1, 0.1]),
+            "a material stays across `o`"
         );
     }
-    Ok(kept)
 }

@@ -1,8 +1,10 @@
 //! The room file schema (docs/ROOM_FILE.md, version 1) as serde types, and byte-span → place conversion.
 //!
 //! Every value a later check may reject is wrapped in [`Spanned`] so that the error names the
-//! line, the column and the field. Unknown fields are rejected. Lengths are metres in the world
-//! frame (z up), angles degrees, intensities candela.
+//! line, the column and the field. Unknown fields are rejected. Arrays are read with any length
+//! and their length is checked on load ([`crate::scene::load`]), so that an extra or missing
+//! element is an error naming the field. Lengths are metres in the world frame (z up), angles
+//! degrees, intensities candela.
 
 use serde::Deserialize;
 use std::ops::Range;
@@ -10,13 +12,14 @@ use toml::Spanned;
 
 use crate::scene::calc_spec::{LuminousSizeSpec, ObserverSpec, SurfaceSpec};
 
-/// A three-component vector as written in the file (`[x, y, z]`, metres or a direction).
-pub type Vec3Spec = [f64; 3];
+/// A three-component vector as written in the file (`[x, y, z]`, metres or a direction); its
+/// length is checked on load.
+pub(crate) type Vec3Spec = Vec<f64>;
 
 /// The whole room file.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct RoomFile {
+pub(crate) struct RoomFile {
     /// Schema version; only 1 is understood.
     pub version: Spanned<i64>,
     /// Display name (default: the file stem).
@@ -48,7 +51,7 @@ pub struct RoomFile {
 /// `[room]`: the room interior spans (0, 0, 0) to `size` (metres).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct RoomSpec {
+pub(crate) struct RoomSpec {
     /// Width (x), depth (y), height (z) in metres.
     pub size: Spanned<Vec3Spec>,
     /// Reflectances of floor, walls and ceiling.
@@ -58,7 +61,7 @@ pub struct RoomSpec {
 /// `[room.reflectance]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct RoomReflectanceSpec {
+pub(crate) struct RoomReflectanceSpec {
     /// Floor (z = 0).
     pub floor: Spanned<ReflectanceSpec>,
     /// All four walls.
@@ -68,32 +71,22 @@ pub struct RoomReflectanceSpec {
 }
 
 /// A reflectance: a number (grey) or `[r, g, b]`, each in 0..0.98.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(
     untagged,
     expecting = "expected a reflectance: a number or [r, g, b], each in 0..0.98"
 )]
-pub enum ReflectanceSpec {
+pub(crate) enum ReflectanceSpec {
     /// One value for all channels.
     Grey(f64),
-    /// Per channel.
-    Rgb([f64; 3]),
-}
-
-impl ReflectanceSpec {
-    /// The three channels.
-    pub fn channels(self) -> [f64; 3] {
-        match self {
-            ReflectanceSpec::Grey(rho) => [rho; 3],
-            ReflectanceSpec::Rgb(rgb) => rgb,
-        }
-    }
+    /// Per channel (three numbers; checked on load).
+    Rgb(Vec<f64>),
 }
 
 /// `[[box]]`: an axis-aligned box, world metres.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct BoxSpec {
+pub(crate) struct BoxSpec {
     /// Minimum corner.
     pub min: Spanned<Vec3Spec>,
     /// Maximum corner.
@@ -116,7 +109,7 @@ pub enum UpAxis {
 /// `[[mesh]]`: an OBJ file placed in the room.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct MeshSpec {
+pub(crate) struct MeshSpec {
     /// Path of the OBJ, relative to the room file.
     pub file: Spanned<String>,
     /// Translation (metres, world) applied after the up conversion and the scale.
@@ -133,7 +126,7 @@ pub struct MeshSpec {
 /// `[[light]]`: a luminaire.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct LightSpec {
+pub(crate) struct LightSpec {
     /// Unique name.
     pub name: Spanned<String>,
     /// Position (world, metres).
@@ -142,8 +135,8 @@ pub struct LightSpec {
     pub aim: Option<Spanned<Vec3Spec>>,
     /// Aim direction (world; normalised on load). Default `[0, 0, -1]`.
     pub aim_dir: Option<Spanned<Vec3Spec>>,
-    /// Inline curve: `[γ_deg, candela]` points.
-    pub lid: Option<Spanned<Vec<[f64; 2]>>>,
+    /// Inline curve: `[γ_deg, candela]` points (each checked on load to have two numbers).
+    pub lid: Option<Spanned<Vec<Spanned<Vec<f64>>>>>,
     /// Photometric file (IES / EULUMDAT), relative to the room file.
     pub lid_file: Option<Spanned<String>>,
     /// Fixed SH order (≤ 150).
@@ -161,7 +154,7 @@ pub struct LightSpec {
 /// How direct light is computed, as written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum DirectSpec {
+pub(crate) enum DirectSpec {
     /// Hybrid: exact direct light.
     Exact,
     /// Paper mode: direct light from the SH basis.
@@ -171,7 +164,7 @@ pub enum DirectSpec {
 /// `[settings]`, all optional.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SettingsSpec {
+pub(crate) struct SettingsSpec {
     /// Fine patch edge, metres.
     pub patch_size: Option<Spanned<f64>>,
     /// Coarse patch edge, metres.
@@ -187,7 +180,7 @@ pub struct SettingsSpec {
 /// `[camera]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct CameraSpec {
+pub(crate) struct CameraSpec {
     /// Eye position (world, metres).
     pub eye: Spanned<Vec3Spec>,
     /// Point looked at (world, metres).
@@ -197,7 +190,7 @@ pub struct CameraSpec {
 }
 
 /// `line L, column C` (both 1-based; the column counts characters) of byte `offset` in `text`.
-pub fn line_column(text: &str, offset: usize) -> String {
+pub(crate) fn line_column(text: &str, offset: usize) -> String {
     let mut offset = offset.min(text.len());
     while !text.is_char_boundary(offset) {
         offset -= 1;

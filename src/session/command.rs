@@ -6,8 +6,8 @@
 
 use glam::DVec3;
 
-use crate::photometry::{Curve, CurveError};
-use crate::scene::{Aabb, AimSpec, Camera, Scene};
+use crate::photometry::{Curve, CurveError, LuminousShape};
+use crate::scene::{Aabb, AimSpec, Camera, LidSource, Scene};
 use crate::session::light::{LightEdit, MAX_ORDER, WindowChoice};
 
 /// Where lights may stand: the room's interior and the furniture they must stay out of.
@@ -68,6 +68,18 @@ pub enum Command {
         light: usize,
         /// The new curve (cd).
         curve: Curve,
+    },
+    /// Replaces light `light`'s photometry: its curve, where the curve comes from (a new
+    /// photometric file) and the luminous area that file gives.
+    SetPhotometry {
+        /// Index of the light.
+        light: usize,
+        /// The new curve (cd).
+        curve: Curve,
+        /// Where it comes from.
+        source: LidSource,
+        /// The luminous area (for glare ratings), if known.
+        luminous: Option<LuminousShape>,
     },
     /// Aims light `light` at a target point or along a direction.
     Aim {
@@ -176,6 +188,22 @@ pub enum Change {
     Camera,
 }
 
+impl Change {
+    /// The light whose state changed (`None` for an inserted or removed light and the camera).
+    pub fn light(self) -> Option<usize> {
+        match self {
+            Change::Point { light, .. }
+            | Change::Curve { light }
+            | Change::Aim { light }
+            | Change::Dimmer { light }
+            | Change::Order { light }
+            | Change::Window { light }
+            | Change::Moved { light } => Some(light),
+            Change::Inserted { .. } | Change::Removed { .. } | Change::Camera => None,
+        }
+    }
+}
+
 /// A command that was applied: what it changed and the command that undoes it exactly.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Applied {
@@ -266,6 +294,7 @@ impl Command {
             Command::SetIntensity { light, .. }
             | Command::SetGamma { light, .. }
             | Command::SetCurve { light, .. }
+            | Command::SetPhotometry { light, .. }
             | Command::Aim { light, .. }
             | Command::SetDimmer { light, .. }
             | Command::SetOrder { light, .. }
@@ -367,6 +396,20 @@ impl Command {
                         curve: old,
                     },
                 )
+            }
+            Command::SetPhotometry {
+                ref curve,
+                ref source,
+                luminous,
+                ..
+            } => {
+                let old = Command::SetPhotometry {
+                    light: index,
+                    curve: std::mem::replace(&mut light.curve, curve.clone()),
+                    source: std::mem::replace(&mut light.lid_source, source.clone()),
+                    luminous: std::mem::replace(&mut light.luminous, luminous),
+                };
+                (Change::Curve { light: index }, old)
             }
             Command::Aim { spec, .. } => {
                 let (axis, spec) =
@@ -556,6 +599,19 @@ mod tests {
             Command::SetCurve {
                 light: 0,
                 curve: Curve::isotropic(50.0),
+            },
+            Command::SetPhotometry {
+                light: 1,
+                curve: Curve::isotropic(75.0),
+                source: LidSource::File {
+                    path: "spot.ies".into(),
+                    asymmetry: 0.44,
+                },
+                luminous: Some(LuminousShape::Ellipse {
+                    length_m: 0.1,
+                    width_m: 0.1,
+                    side_height_m: 0.0,
+                }),
             },
             Command::Aim {
                 light: 1,

@@ -27,6 +27,8 @@
 pub mod command;
 pub mod frame;
 pub mod light;
+pub mod numbers;
+pub mod receivers;
 pub mod series;
 
 use std::path::Path;
@@ -35,6 +37,8 @@ use std::sync::Arc;
 pub use command::{Applied, Change, Command, CommandError, RoomBounds};
 pub use frame::{ExposureChoice, FrameSpec, MAX_SIDE_PX, PixelHit, ViewChoice};
 pub use light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
+pub use numbers::DesignNumbers;
+pub use receivers::{LightInput, ReceiverSet};
 pub use series::Series;
 
 use crate::error::{Error, Result};
@@ -45,7 +49,7 @@ use crate::scene::{Camera, DirectMode, Scene};
 use crate::transport::bake::{Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake};
 use crate::transport::cache::BakeCache;
 use crate::transport::direct::Receiver;
-use crate::transport::gather::illuminance_at_receivers;
+use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{Plan, plan_light};
 use frame::FrameBuffers;
 
@@ -114,6 +118,9 @@ struct LightSlot {
     installed: u64,
     /// Cache key of the installed bake.
     key: Option<u64>,
+    /// Bumped whenever anything the light's illuminance depends on changes (its state, its
+    /// position, its installed bake): receiver sets recompute a light whose version moved.
+    version: u64,
 }
 
 /// Re-bakes one light: runs on any thread, then goes back to [`Session::finish_bake`].
@@ -185,6 +192,42 @@ pub struct Session {
     illuminance_version: u64,
     jobs: Vec<BakeJob>,
     buffers: FrameBuffers,
+    /// The furniture that casts shadows (the bake's, else built on first need); `None` inside
+    /// when nothing occludes.
+    occluders: Option<Option<Arc<Occluders>>>,
+    /// Receiver sets kept lit edit by edit ([`Session::watch`]).
+    watches: Vec<(WatchId, ReceiverSet)>,
+    next_watch: u64,
+    /// The calculation grids and observers' eyes behind [`Session::design_numbers`].
+    design: Option<numbers::DesignWatch>,
+}
+
+/// A receiver set the session keeps lit ([`Session::watch`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct WatchId(u64);
+
+/// Receivers per set when [`Session::illuminance_at`] evaluates many points at once (bounds the
+/// memory of the gather factors).
+const RECEIVERS_PER_CHUNK: usize = 4096;
+
+/// What a receiver set needs of each light, in order (a free function so that it borrows only
+/// these fields).
+fn light_inputs<'a>(
+    lights: &'a [LightEdit],
+    slots: &'a [LightSlot],
+    bake: Option<&'a Bake>,
+) -> Vec<LightInput<'a>> {
+    lights
+        .iter()
+        .zip(slots)
+        .enumerate()
+        .map(|(i, (light, slot))| LightInput {
+            light,
+            weights: slot.weights.weights(),
+            baked: bake.map(|b| &b.lights[i]),
+            version: slot.version,
+        })
+        .collect()
 }
 
 /// The lights of `scene` as a session starts them: the room file's values, each light's order
@@ -231,6 +274,7 @@ impl Session {
                 dirty: Dirty::default(),
                 generation: 0,
                 installed: 0,
+                version: 1,
                 key: bake.as_ref().map(|b| {
                     b.transport
                         .light_key(&LightBakeSpec::new(&scene.lights[i], &b.plan.lights[i]))
@@ -251,6 +295,10 @@ impl Session {
             illuminance_version: 0,
             jobs: Vec::new(),
             buffers: FrameBuffers::default(),
+            occluders: None,
+            watches: Vec::new(),
+            next_watch: 0,
+            design: None,
         })
     }
 
@@ -300,6 +348,9 @@ impl Session {
     /// ([`Session::take_bake_jobs`]).
     pub fn apply(&mut self, command: Command) -> std::result::Result<Applied, CommandError> {
         let applied = command.apply(&mut self.lights, &mut self.camera, &self.bounds)?;
+        if let Some(slot) = applied.change.light().and_then(|i| self.slots.get_mut(i)) {
+            slot.version += 1;
+        }
         match applied.change {
             Change::Point { light, point } => {
                 let slot = &mut self.slots[light];
@@ -367,6 +418,7 @@ impl Session {
     }
 
     fn insert_slot(&mut self, at: usize) {
+        self.each_receiver_set(|set| set.insert_light(at));
         let light = &self.lights[at];
         let id = LightId(self.next_id);
         self.next_id += 1;
@@ -379,6 +431,7 @@ impl Session {
                 generation: 0,
                 installed: 0,
                 key: None,
+                version: 1,
             },
         );
         let scene_light = light.to_light();
@@ -398,6 +451,7 @@ impl Session {
 
     fn remove_slot(&mut self, at: usize) {
         let slot = self.slots.remove(at);
+        self.each_receiver_set(|set| set.remove_light(at));
         self.jobs.retain(|j| j.light != slot.id);
         if let Some(bake) = &mut self.bake {
             bake.lights.remove(at);
@@ -443,6 +497,7 @@ impl Session {
         let baked = outcome.result?;
         let slot = &mut self.slots[i];
         slot.installed = outcome.generation;
+        slot.version += 1;
         if let Some(old) = slot.key.replace(outcome.key)
             && old != outcome.key
         {
@@ -468,6 +523,12 @@ impl Session {
             self.finish_bake(outcome)?;
         }
         Ok(())
+    }
+
+    /// The scene with its lights as the commands left them (for schedules and reports; the
+    /// geometry and settings are the room file's).
+    pub fn current_scene(&mut self) -> &Scene {
+        self.synced_scene()
     }
 
     /// The scene with its lights brought up to date (for building the relighter and gathers).
@@ -596,7 +657,9 @@ impl Session {
 
     /// Illuminance (lx, photopic) at `receivers` for the current lights: exact direct light plus,
     /// unless `direct_only`, the indirect light gathered from the bake. `mode` chooses how direct
-    /// light is evaluated (exact, or from the SH series as in paper mode).
+    /// light is evaluated (exact, or from the SH series as in paper mode). The same path as
+    /// [`Session::watch`] and [`Session::design_numbers`] ([`ReceiverSet`]), so the numbers agree
+    /// at the same points.
     ///
     /// Errors (bad input): paper mode asked for with `direct_only` or without a bake.
     pub fn illuminance_at(
@@ -605,19 +668,96 @@ impl Session {
         direct_only: bool,
         mode: DirectMode,
     ) -> Result<Vec<f64>> {
-        let bake = if direct_only { None } else { self.bake.as_ref() };
-        if mode == DirectMode::Basis && bake.is_none() {
+        let indirect = !direct_only && self.has_indirect();
+        if mode == DirectMode::Basis && (direct_only || self.bake.is_none()) {
             return Err(Error::input(
                 "--mode",
                 "",
                 "basis mode needs the bake: drop --direct-only",
             ));
         }
-        if self.scene_lights_stale {
-            self.scene.lights = self.lights.iter().map(LightEdit::to_light).collect();
-            self.scene_lights_stale = false;
+        let occluders = self.occluders();
+        let mut lux = Vec::with_capacity(receivers.len());
+        for chunk in receivers.chunks(RECEIVERS_PER_CHUNK) {
+            let mut set = ReceiverSet::new(
+                &self.scene,
+                chunk.to_vec(),
+                self.lights.len(),
+                indirect,
+                mode,
+                occluders.as_deref(),
+            );
+            set.update(&self.light_inputs(), occluders.as_deref());
+            lux.extend_from_slice(set.lux());
         }
-        Ok(illuminance_at_receivers(&self.scene, bake, mode, receivers))
+        Ok(lux)
+    }
+
+    /// Starts keeping the illuminance at `receivers` current (exact direct light plus, with a
+    /// bake, the gathered indirect light): the geometry is cached now, and each
+    /// [`Session::watched`] recomputes only the lights changed since. Returns its handle.
+    pub fn watch(&mut self, receivers: Vec<Receiver>) -> WatchId {
+        let occluders = self.occluders();
+        let set = ReceiverSet::new(
+            &self.scene,
+            receivers,
+            self.lights.len(),
+            self.has_indirect(),
+            DirectMode::Exact,
+            occluders.as_deref(),
+        );
+        let id = WatchId(self.next_watch);
+        self.next_watch += 1;
+        self.watches.push((id, set));
+        id
+    }
+
+    /// The watched set `id` brought up to date for the current lights (`None` once
+    /// [`Session::unwatch`]ed).
+    pub fn watched(&mut self, id: WatchId) -> Option<&ReceiverSet> {
+        let k = self.watches.iter().position(|(w, _)| *w == id)?;
+        let occluders = self.occluders();
+        let mut set = self.watches.swap_remove(k).1;
+        set.update(&self.light_inputs(), occluders.as_deref());
+        self.watches.push((id, set));
+        self.watches.last().map(|(_, set)| set)
+    }
+
+    /// Stops keeping set `id` lit.
+    pub fn unwatch(&mut self, id: WatchId) {
+        self.watches.retain(|(w, _)| *w != id);
+    }
+
+    /// Runs `f` on every receiver set the session keeps (watches and the design numbers').
+    fn each_receiver_set(&mut self, mut f: impl FnMut(&mut ReceiverSet)) {
+        self.watches.iter_mut().for_each(|(_, set)| f(set));
+        if let Some(design) = &mut self.design {
+            f(&mut design.set);
+        }
+    }
+
+    /// True when the session has indirect light to gather (a bake with an indirect basis).
+    fn has_indirect(&self) -> bool {
+        self.bake
+            .as_ref()
+            .is_some_and(|b| b.lights.iter().any(|l| l.has_indirect()))
+    }
+
+    /// The furniture that casts shadows: the bake's, else the scene's built once.
+    fn occluders(&mut self) -> Option<Arc<Occluders>> {
+        if self.occluders.is_none() {
+            let occluders = match &self.bake {
+                Some(bake) => bake.transport.occluders().cloned(),
+                None => Occluders::of_scene(&self.scene).map(Arc::new),
+            };
+            self.occluders = Some(occluders);
+        }
+        self.occluders.clone().flatten()
+    }
+
+    /// What a receiver set needs of each light, in order.
+    fn light_inputs(&self) -> Vec<LightInput<'_>> {
+        light_inputs(&self.lights, &self.slots, self.bake.as_ref())
     }
 
     /// Light `i`'s series as the polar diagram shows it: its order-N series windowed as the

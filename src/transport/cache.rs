@@ -21,42 +21,8 @@ const MAGIC: &[u8; 8] = b"HAIKOBAK";
 pub const FORMAT_VERSION: u32 = 1;
 const HEADER_LEN: usize = 8 + 4 + 4 + 8 + 8 + 8;
 
-/// FNV-1a 64-bit: a stable hash (unlike `std`'s `DefaultHasher`) for cache keys and checksums.
-#[derive(Debug, Clone, Copy)]
-pub struct Fnv64(u64);
-
-impl Default for Fnv64 {
-    fn default() -> Self {
-        Fnv64(0xcbf2_9ce4_8422_2325)
-    }
-}
-
-impl Fnv64 {
-    /// Hashes raw bytes.
-    pub fn bytes(&mut self, data: &[u8]) -> &mut Self {
-        for &b in data {
-            self.0 ^= u64::from(b);
-            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        self
-    }
-    /// Hashes an f64 by its bit pattern (so −0.0 ≠ 0.0; inputs come from files, not arithmetic).
-    pub fn f64(&mut self, v: f64) -> &mut Self {
-        self.bytes(&v.to_le_bytes())
-    }
-    /// Hashes a u64.
-    pub fn u64(&mut self, v: u64) -> &mut Self {
-        self.bytes(&v.to_le_bytes())
-    }
-    /// Hashes a string with its length (so concatenations differ).
-    pub fn str(&mut self, s: &str) -> &mut Self {
-        self.u64(s.len() as u64).bytes(s.as_bytes())
-    }
-    /// The hash value.
-    pub fn finish(&self) -> u64 {
-        self.0
-    }
-}
+pub use crate::fsio::Fnv64;
+use crate::fsio::{self, FileKind, ReadError};
 
 /// Where cache files live: `$HAIKO_CACHE_DIR`, else `$XDG_CACHE_HOME/haiko`, else
 /// `$HOME/.cache/haiko`, else `haiko-cache` in the system temporary directory.
@@ -209,12 +175,14 @@ pub enum CacheLoad {
     Invalid(String),
 }
 
-/// Reads and checks a cache file against `key`.
+/// Reads and checks a cache file against `key`. The file is read through
+/// [`crate::fsio::read_bytes`]: a FIFO or a device with a cache file's name is never opened
+/// (docs/DECISIONS.md "Bad input") and is reported invalid, so the bake is redone.
 pub fn read(path: &Path, key: u64) -> CacheLoad {
-    let data = match fs::read(path) {
+    let data = match fsio::read_bytes(path, FileKind::BakeCache) {
         Ok(d) => d,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return CacheLoad::Missing,
-        Err(e) => return CacheLoad::Invalid(format!("cannot read {}: {e}", path.display())),
+        Err(ReadError::NotFound) => return CacheLoad::Missing,
+        Err(e) => return CacheLoad::Invalid(e.into_error(path, FileKind::BakeCache).to_string()),
     };
     match check(&data, key) {
         Ok(()) => CacheLoad::Hit(data[HEADER_LEN..].to_vec()),
@@ -270,7 +238,9 @@ pub fn write_atomic(path: &Path, key: u64, payload: &[u8]) -> std::io::Result<()
         std::process::id()
     ));
     let result = (|| {
-        let mut f = fs::File::create(&tmp)?;
+        // A fresh file, never an existing one (a FIFO under this name would block the open).
+        let _ = fs::remove_file(&tmp);
+        let mut f = fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
         f.write_all(MAGIC)?;
         f.write_all(&FORMAT_VERSION.to_le_bytes())?;
         f.write_all(&0u32.to_le_bytes())?;
@@ -367,13 +337,6 @@ impl<'a> PayloadReader<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn fnv_matches_the_reference_vectors() {
-        assert_eq!(Fnv64::default().finish(), 0xcbf29ce484222325);
-        assert_eq!(Fnv64::default().bytes(b"a").finish(), 0xaf63dc4c8601ec8c);
-        assert_eq!(Fnv64::default().bytes(b"foobar").finish(), 0x85944171f73967e8);
-    }
 
     #[test]
     fn round_trip_and_every_kind_of_damage_is_caught() {

@@ -145,10 +145,10 @@ pub fn triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
 
 /// Solid-angle quadrature over a planar convex polygon (world, m) seen from a source at
 /// `position`: the polygon is fanned into triangles, each split recursively until its longest
-/// edge is below a quarter of its distance to the source; `visit(dir, weight, point)` is called
-/// three times per piece, at its edge midpoints, with the unit direction to the point, a third of
-/// the piece's exact solid angle (sr) times the near-field softening `r²/(r² + a²)`, and the point
-/// (world). Only the side the
+/// edge is below a sixteenth of its distance to the source; `visit(dir, weight, point)` is called
+/// three times per piece, at its edge midpoints, with the unit direction to the point, the piece's
+/// exact solid angle (sr) shared in proportion to the solid-angle density `1/|q|³` at the three
+/// points times the near-field softening `r²/(r² + a²)`, and the point (world). Only the side the
 /// polygon's `normal` faces is visited. `Σ weight · I(dir)` is the flux (lm) onto the polygon.
 pub fn polygon_quadrature(
     position: DVec3,

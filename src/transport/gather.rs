@@ -3,13 +3,17 @@
 //! (docs/METHOD.md §5), with `B_j = ρ_j H_j` blended from the baked basis for the lights' current
 //! curves and aims. Gathering (rather than interpolating vertex values) stays accurate beside
 //! furniture, where interpolation across an occluder's shadow fails (docs/METHOD.md §5.8).
+//!
+//! The gather is split so that fixed receivers can be re-evaluated per edit without casting rays:
+//! [`GatherOperator`] holds `F_{p→j} V` for every receiver and patch (built once), and
+//! [`light_patch_irradiance`] one light's `H_j` for its current coefficients.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::photometry::{LightState, ShBasis, light_coefficients};
 use crate::scene::{DirectMode, Scene};
-use crate::transport::bake::{Bake, patch_reflectance};
+use crate::transport::bake::{Bake, BakedLight, patch_reflectance};
 use crate::transport::direct::{Receiver, illuminance_at, luminance_weight};
 use crate::transport::formfactor::TargetPatch;
 use crate::transport::occlusion::Occluders;
@@ -22,35 +26,48 @@ const GATHER_SAMPLES_PER_EDGE: usize = 2;
 /// Receivers are lifted this far along their normal so they do not sit exactly on a surface.
 const RECEIVER_LIFT_M: f64 = 1e-6;
 
+/// One light's irradiance `H = E + (H − E)` on every coarse patch (lx, linear RGB, `color`
+/// applied) for its SH coefficients `coeffs` (cd, dimmer included), from its baked columns.
+/// All zero when the light has no indirect basis. `out` is resized to the patch count.
+pub fn light_patch_irradiance(light: &BakedLight, coeffs: &[f64], color: [f64; 3], out: &mut Vec<[f64; 3]>) {
+    let k = light.n_columns;
+    let n = light.direct.len().checked_div(k).unwrap_or(0);
+    out.clear();
+    out.resize(n, [0.0; 3]);
+    if !light.has_indirect() {
+        return;
+    }
+    let dot = |column: &[f32]| -> f64 { column.iter().zip(coeffs).map(|(&e, &c)| f64::from(e) * c).sum() };
+    for (p, h) in out.iter_mut().enumerate() {
+        let direct = dot(&light.direct[p * k..(p + 1) * k]);
+        for (ch, hc) in h.iter_mut().enumerate() {
+            let channel = &light.indirect[ch.min(light.indirect.len() - 1)];
+            *hc = color[ch] * (direct + dot(&channel[p * k..(p + 1) * k]));
+        }
+    }
+}
+
 /// Radiosity `B = ρ H` (lm/m², linear RGB) of every coarse patch for the lights' current states.
 pub fn patch_radiosity(scene: &Scene, bake: &Bake, states: &[LightState]) -> Vec<[f64; 3]> {
     let n = scene.coarse.patches.len();
     let mut h = vec![[0.0; 3]; n];
+    let mut light_h = Vec::new();
     for (i, (light, state)) in bake.lights.iter().zip(states).enumerate() {
         if !light.has_indirect() {
             continue;
         }
         let basis = ShBasis::new(light.plan.order);
         let (coeffs, _) = light_coefficients(state, light.plan.order, None, &basis);
-        let k = light.n_columns;
-        let color = scene.lights[i].color;
-        for p in 0..n {
-            let direct: f64 = light.direct[p * k..(p + 1) * k]
-                .iter()
-                .zip(&coeffs)
-                .map(|(&e, &c)| f64::from(e) * c)
-                .sum();
-            for ch in 0..3 {
-                let channel = &light.indirect[ch.min(light.indirect.len() - 1)];
-                let indirect: f64 = channel[p * k..(p + 1) * k]
-                    .iter()
-                    .zip(&coeffs)
-                    .map(|(&e, &c)| f64::from(e) * c)
-                    .sum();
-                h[p][ch] += color[ch] * (direct + indirect);
-            }
+        light_patch_irradiance(light, &coeffs, scene.lights[i].color, &mut light_h);
+        for (sum, add) in h.iter_mut().zip(&light_h) {
+            (0..3).for_each(|ch| sum[ch] += add[ch]);
         }
     }
+    radiosity_of(scene, &h)
+}
+
+/// `B = ρ H` per coarse patch and channel, from the summed irradiance `h` (lx, linear RGB).
+pub fn radiosity_of(scene: &Scene, h: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let rho: Vec<Vec<f64>> = (0..3)
         .map(|ch| patch_reflectance(scene, &scene.coarse, ch))
         .collect();
@@ -60,43 +77,107 @@ pub fn patch_radiosity(scene: &Scene, bake: &Bake, states: &[LightState]) -> Vec
         .collect()
 }
 
+/// The gather from coarse patches to fixed receivers: `F_{p→j} V` for every receiver `p` and
+/// every patch `j` it sees (sparse rows), so that the indirect illuminance for any radiosity is
+/// one pass over the stored factors, without rays.
+#[derive(Debug, Clone)]
+pub struct GatherOperator {
+    /// Row `r` is `entries[offsets[r]..offsets[r + 1]]`.
+    offsets: Vec<usize>,
+    /// Patch index of each entry.
+    patches: Vec<u32>,
+    /// `F · V` of each entry (form factor times the fraction of visibility samples seen).
+    factors: Vec<f64>,
+}
+
+impl GatherOperator {
+    /// Builds the factors from `scene`'s coarse patches to `receivers`, testing visibility
+    /// against `occluders` when given (four rays per receiver and patch).
+    pub fn build(scene: &Scene, occluders: Option<&Occluders>, receivers: &[Receiver]) -> Self {
+        let targets: Vec<TargetPatch> = scene
+            .coarse
+            .patches
+            .iter()
+            .map(|p| TargetPatch::new(&scene.coarse, p))
+            .collect();
+        let samples: Vec<Vec<DVec3>> = targets
+            .iter()
+            .map(|t| t.sample_points(GATHER_SAMPLES_PER_EDGE))
+            .collect();
+        let rows: Vec<Vec<(u32, f64)>> = receivers
+            .par_iter()
+            .map(|rx| {
+                let p = rx.point + rx.normal * RECEIVER_LIFT_M;
+                let mut row = Vec::new();
+                for (j, (target, points)) in targets.iter().zip(&samples).enumerate() {
+                    let mut f = target.form_factor_from(p, rx.normal, NEAR_FIELD_RATIO);
+                    if f == 0.0 {
+                        continue;
+                    }
+                    if let Some(occ) = occluders {
+                        let seen = points.iter().filter(|&&q| occ.visible(p, q)).count();
+                        f *= seen as f64 / points.len() as f64;
+                    }
+                    if f != 0.0 {
+                        row.push((j as u32, f));
+                    }
+                }
+                row
+            })
+            .collect();
+        let mut offsets = Vec::with_capacity(rows.len() + 1);
+        offsets.push(0);
+        let total: usize = rows.iter().map(Vec::len).sum();
+        let (mut patches, mut factors) = (Vec::with_capacity(total), Vec::with_capacity(total));
+        for row in rows {
+            for (j, f) in row {
+                patches.push(j);
+                factors.push(f);
+            }
+            offsets.push(patches.len());
+        }
+        GatherOperator {
+            offsets,
+            patches,
+            factors,
+        }
+    }
+
+    /// Number of receivers.
+    pub fn n_receivers(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// Indirect illuminance (lx, linear RGB) at each receiver for patch radiosity `radiosity`
+    /// (lm/m², linear RGB, one per coarse patch), into `out` (one per receiver).
+    pub fn apply_into(&self, radiosity: &[[f64; 3]], out: &mut [[f64; 3]]) {
+        assert_eq!(
+            out.len(),
+            self.n_receivers(),
+            "output length must match the receivers"
+        );
+        out.par_iter_mut().enumerate().for_each(|(r, e)| {
+            *e = [0.0; 3];
+            let span = self.offsets[r]..self.offsets[r + 1];
+            for (&j, &f) in self.patches[span.clone()].iter().zip(&self.factors[span]) {
+                let b = radiosity[j as usize];
+                (0..3).for_each(|ch| e[ch] += b[ch] * f);
+            }
+        });
+    }
+
+    /// As [`Self::apply_into`], into a new vector.
+    pub fn apply(&self, radiosity: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut out = vec![[0.0; 3]; self.n_receivers()];
+        self.apply_into(radiosity, &mut out);
+        out
+    }
+}
+
 /// Indirect illuminance (lx, linear RGB) at each receiver, gathered from patch radiosity.
 pub fn gather_indirect(scene: &Scene, radiosity: &[[f64; 3]], receivers: &[Receiver]) -> Vec<[f64; 3]> {
-    let targets: Vec<TargetPatch> = scene
-        .coarse
-        .patches
-        .iter()
-        .map(|p| TargetPatch::new(&scene.coarse, p))
-        .collect();
-    let samples: Vec<Vec<DVec3>> = targets
-        .iter()
-        .map(|t| t.sample_points(GATHER_SAMPLES_PER_EDGE))
-        .collect();
     let occluders = Occluders::of_scene(scene);
-    receivers
-        .par_iter()
-        .map(|rx| {
-            let p = rx.point + rx.normal * RECEIVER_LIFT_M;
-            let mut e = [0.0; 3];
-            for ((target, b), points) in targets.iter().zip(radiosity).zip(&samples) {
-                if b.iter().all(|&x| x == 0.0) {
-                    continue;
-                }
-                let mut f = target.form_factor_from(p, rx.normal, NEAR_FIELD_RATIO);
-                if f == 0.0 {
-                    continue;
-                }
-                if let Some(occ) = &occluders {
-                    let seen = points.iter().filter(|&&q| occ.visible(p, q)).count();
-                    f *= seen as f64 / points.len() as f64;
-                }
-                for ch in 0..3 {
-                    e[ch] += b[ch] * f;
-                }
-            }
-            e
-        })
-        .collect()
+    GatherOperator::build(scene, occluders.as_ref(), receivers).apply(radiosity)
 }
 
 /// A light's truncated series in paper mode: its basis, coefficients and mask normal.

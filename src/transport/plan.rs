@@ -5,6 +5,7 @@
 use glam::DVec3;
 use serde::Serialize;
 
+use crate::error::printable;
 use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
 use crate::scene::{DirectMode, Scene};
 use crate::transport::formfactor::FormFactorOptions;
@@ -18,7 +19,7 @@ pub const HYBRID_MAX_ORDER: usize = 16;
 pub const BASIS_TARGET_REL_L2: f64 = 0.02;
 /// Highest automatic order in paper mode.
 pub const BASIS_MAX_ORDER: usize = 30;
-/// A light this close to a room surface (m) counts as mounted on it.
+/// A light this close to a surface (m; room surface, box face or OBJ face) counts as mounted on it.
 pub const MOUNT_DISTANCE_M: f64 = 0.15;
 
 /// One yes/no decision and why.
@@ -281,28 +282,42 @@ fn emission_reach_deg(curve: &Curve) -> f64 {
     }
 }
 
-/// The inward normal of the room surface a light is mounted on, when its curve emits nothing
-/// behind that surface for its aim: emitters are then masked to the half-space in front of it.
+/// The inward normal of the surface a light is mounted on, when its curve emits nothing behind
+/// that surface for its aim: emitters are then masked to the half-space in front of it.
+///
+/// Any surface counts — room surfaces, box faces, OBJ faces: the light is mounted on the nearest
+/// solver patch it stands in front of (or on) within [`MOUNT_DISTANCE_M`], whose polygon its
+/// foot on the patch's plane lies in.
 fn mounting_mask(scene: &Scene, light: &crate::scene::Light) -> (Option<DVec3>, String) {
     let p = light.position;
-    let s = scene.room_size;
-    let candidates = [
-        (p.z, DVec3::Z, "floor"),
-        (s.z - p.z, DVec3::NEG_Z, "ceiling"),
-        (p.x, DVec3::X, "wall x = 0"),
-        (s.x - p.x, DVec3::NEG_X, "wall x = max"),
-        (p.y, DVec3::Y, "wall y = 0"),
-        (s.y - p.y, DVec3::NEG_Y, "wall y = max"),
-    ];
-    let Some(&(d, n, name)) = candidates.iter().min_by(|a, b| a.0.total_cmp(&b.0)) else {
-        return (None, String::new());
+    let tolerance = 1e-9 * (1.0 + scene.room_size.max_element());
+    let mesh = &scene.coarse;
+    let nearest = mesh
+        .patches
+        .iter()
+        .filter_map(|patch| {
+            let corners: Vec<DVec3> = patch
+                .vertex_ids()
+                .iter()
+                .map(|&v| mesh.positions[v as usize])
+                .collect();
+            let d = (p - corners[0]).dot(patch.normal);
+            let in_front = (-tolerance..=MOUNT_DISTANCE_M).contains(&d);
+            let on_patch = in_front && foot_inside(p, &corners, patch.normal, tolerance);
+            on_patch.then_some((d.max(0.0), patch.normal, patch.surface))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0));
+    let Some((d, n, surface)) = nearest else {
+        return (
+            None,
+            format!("free-standing (more than {MOUNT_DISTANCE_M} m from every surface)"),
+        );
     };
-    if d > MOUNT_DISTANCE_M {
-        return (None, format!("free-standing ({d:.2} m from the nearest surface)"));
-    }
+    let name = printable(&scene.surfaces[surface as usize].name).into_owned();
     // Largest γ at which the curve is non-zero; the mask is exact when that cone stays in front.
     let reach_deg = emission_reach_deg(&light.curve);
-    let tilt_deg = light.aim.dot(n).clamp(-1.0, 1.0).acos().to_degrees();
+    // atan2 keeps the angle exact near 0 (acos loses half the digits there).
+    let tilt_deg = light.aim.cross(n).length().atan2(light.aim.dot(n)).to_degrees();
     if reach_deg + tilt_deg <= 90.0 + 1e-9 {
         (
             Some(n),
@@ -316,4 +331,13 @@ fn mounting_mask(scene: &Scene, light: &crate::scene::Light) -> (Option<DVec3>, 
             ),
         )
     }
+}
+
+/// Whether the foot of `p` on the plane of the convex polygon `corners` (unit `normal`,
+/// counter-clockwise seen from the normal's side) lies inside it, within `tolerance` metres.
+fn foot_inside(p: DVec3, corners: &[DVec3], normal: DVec3, tolerance: f64) -> bool {
+    (0..corners.len()).all(|k| {
+        let (a, b) = (corners[k], corners[(k + 1) % corners.len()]);
+        (b - a).cross(p - a).dot(normal) >= -tolerance * (b - a).length()
+    })
 }

@@ -5,7 +5,6 @@
 //! written, quitting.
 
 use std::collections::VecDeque;
-use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, Sender};
 
@@ -17,16 +16,19 @@ use ratatui::widgets::{Gauge, Paragraph};
 use ratatui_image::protocol::Protocol;
 
 use crate::error::{Error, Result};
+use crate::photometry::read_lid_file;
 use crate::render::DisplayMode;
 use crate::scene;
 use crate::session::{FrameSpec, SessionOptions, ViewChoice, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
-use crate::tui::msg::{Effect, Msg};
+use crate::tui::luminaires::{self, LidInfo};
+use crate::tui::msg::{CurveSave, Effect, Msg};
+use crate::tui::save::save_with_curves;
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
 use crate::tui::workers::{
     AppEvent, EncodeJob, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
 };
-use crate::tui::{Mode, Model, PreviewArea, preview, save_room, update, view};
+use crate::tui::{Mode, Model, PreviewArea, preview, update, view};
 
 /// Runs the editor on the room file `room` with the `graphics` protocol choice. A bad room
 /// fails before the terminal is touched; the terminal is restored however the editor ends.
@@ -63,6 +65,7 @@ impl App {
         for (i, light) in planned.iter().enumerate() {
             model.set_planned_order(i, light.order);
         }
+        model.lid_files = luminaires::read_lid_infos(&model.lights);
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
         let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
@@ -152,7 +155,9 @@ impl App {
                         preview_px: self.model.preview_px,
                         aim,
                     }),
-                    Effect::Save => queue.push_back(self.save()),
+                    Effect::Save(curves) => queue.push_back(self.save(curves)),
+                    Effect::LoadLid(typed) => queue.push_back(self.load_lid(&typed)),
+                    Effect::Report => self.outbox.push(EngineRequest::Report(report_path(&self.room))),
                     Effect::Quit => self.quit = true,
                 }
             }
@@ -160,15 +165,25 @@ impl App {
         Ok(())
     }
 
-    fn save(&self) -> Msg {
-        let saved = fs::read_to_string(&self.room)
-            .map_err(|e| Error::unreadable(&self.room, &e))
-            .and_then(|text| save_room(&self.room, &text, &self.model));
-        match saved {
-            Ok(message) => Msg::Saved { message },
+    /// Saves the room file ([`save_with_curves`]).
+    fn save(&self, curves: CurveSave) -> Msg {
+        match save_with_curves(&self.room, &self.model, curves) {
+            Ok((message, sources)) => Msg::Saved { message, sources },
             Err(e) => Msg::Failed {
                 message: e.to_string(),
             },
+        }
+    }
+
+    /// Reads the photometric file the user typed.
+    fn load_lid(&self, typed: &str) -> Msg {
+        let home = std::env::var_os("HOME").map(PathBuf::from);
+        let path = luminaires::resolve_typed_path(&self.room, typed, home.as_deref());
+        Msg::LidLoaded {
+            result: read_lid_file(&path)
+                .map(|lid| std::sync::Arc::new(LidInfo::of(lid)))
+                .map_err(|e| e.to_string()),
+            path,
         }
     }
 
@@ -222,6 +237,14 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
             _ => None,
         },
     })
+}
+
+/// Where the editor writes the report: `ROOM-report.html` next to the room file.
+pub fn report_path(room: &Path) -> PathBuf {
+    let stem = room
+        .file_stem()
+        .map_or_else(|| "room".into(), |s| s.to_string_lossy().into_owned());
+    room.with_file_name(format!("{stem}-report.html"))
 }
 
 fn worker_stopped() -> Error {

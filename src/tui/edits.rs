@@ -34,6 +34,9 @@ pub enum EditError {
     /// A typed value that is not an intensity.
     #[error("'{0}' is not an intensity in cd (a number ≥ 0)")]
     NotAnIntensity(String),
+    /// A typed dimmer that is not a percentage.
+    #[error("'{0}' is not a dimmer in percent (a number ≥ 0, e.g. 24 for 24 %)")]
+    NotADimmer(String),
     /// The light cannot aim at its own position.
     #[error("cannot aim {0} at its own position")]
     AimAtItself(String),

@@ -1,6 +1,7 @@
-//! Undo and redo as commands: each record keeps the command that was applied and the one that
-//! undoes it exactly ([`crate::session::Command::apply`] returns it), so undo restores the
-//! light bit for bit without snapshots.
+//! Undo and redo as commands: each record keeps the commands that were applied and those that
+//! undo them exactly ([`crate::session::Command::apply`] returns each inverse), so undo restores
+//! the lights bit for bit without snapshots. A group edit (several lights at once) is one record
+//! of several commands.
 
 use std::collections::VecDeque;
 
@@ -9,15 +10,26 @@ use crate::session::Command;
 /// Most edits kept for undo; older ones are forgotten.
 pub const UNDO_LIMIT: usize = 1000;
 
-/// One edit of one light.
+/// One edit: of one light, or of a group of lights at once.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Change {
-    /// Index of the edited light (selected again on undo and redo).
+    /// Index of the light that was selected (selected again on undo and redo).
     pub light: usize,
-    /// The command that made the edit.
-    pub forward: Command,
-    /// The command that undoes it.
-    pub inverse: Command,
+    /// The commands that made the edit, in the order they were applied.
+    pub forward: Vec<Command>,
+    /// The commands that undo it, in the order to apply them (the inverses, last first).
+    pub inverse: Vec<Command>,
+}
+
+impl Change {
+    /// The record of one command and its inverse.
+    pub fn single(light: usize, forward: Command, inverse: Command) -> Self {
+        Change {
+            light,
+            forward: vec![forward],
+            inverse: vec![inverse],
+        }
+    }
 }
 
 /// The undo and redo stacks.

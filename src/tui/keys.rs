@@ -18,18 +18,24 @@ pub enum ModeKind {
     Help,
     /// Typing an exact value.
     ValueEntry,
+    /// Typing a file path.
+    PathEntry,
+    /// The prompt about edited file curves before a save.
+    ConfirmSave,
     /// The unsaved-changes quit prompt.
     ConfirmQuit,
 }
 
 impl ModeKind {
     /// Every mode, in the order the help overlay lists them.
-    pub const ALL: [ModeKind; 6] = [
+    pub const ALL: [ModeKind; 8] = [
         ModeKind::Normal,
         ModeKind::Aim,
         ModeKind::Move,
         ModeKind::ValueEntry,
+        ModeKind::PathEntry,
         ModeKind::Help,
+        ModeKind::ConfirmSave,
         ModeKind::ConfirmQuit,
     ];
 
@@ -39,7 +45,9 @@ impl ModeKind {
             ModeKind::Normal => "Editing",
             ModeKind::Aim => "Aim mode (a)",
             ModeKind::Move => "Move mode (m)",
-            ModeKind::ValueEntry => "Typing a value (=)",
+            ModeKind::ValueEntry => "Typing a value (=, %)",
+            ModeKind::PathEntry => "Typing a file path (F)",
+            ModeKind::ConfirmSave => "Save prompt (edited file curves)",
             ModeKind::Help => "Help",
             ModeKind::ConfirmQuit => "Quit prompt",
         }
@@ -61,6 +69,8 @@ pub enum Key {
     CtrlCode(KeyCode),
     /// Any digit or `.` (typing a number).
     Digit,
+    /// Any printable character (typing text).
+    AnyChar,
 }
 
 impl Key {
@@ -78,6 +88,7 @@ impl Key {
             Key::Digit => {
                 matches!(event.code, KeyCode::Char(c) if c.is_ascii_digit() || c == '.') && plain_or_shift
             }
+            Key::AnyChar => matches!(event.code, KeyCode::Char(c) if !c.is_control()) && plain_or_shift,
         }
     }
 }
@@ -98,12 +109,14 @@ fn code_label(code: KeyCode) -> String {
 impl fmt::Display for Key {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
+            Key::Char(' ') => write!(f, "Space"),
             Key::Char(c) => write!(f, "{c}"),
             Key::Code(code) => write!(f, "{}", code_label(code)),
             Key::Shift(code) => write!(f, "Shift-{}", code_label(code)),
             Key::Ctrl(c) => write!(f, "Ctrl-{c}"),
             Key::CtrlCode(code) => write!(f, "Ctrl-{}", code_label(code)),
             Key::Digit => write!(f, "0-9 ."),
+            Key::AnyChar => write!(f, "text"),
         }
     }
 }
@@ -206,6 +219,26 @@ pub enum Action {
     Apply,
     /// Quit without saving.
     ConfirmQuit,
+    /// Insert a copy of the selected light next to it.
+    DuplicateLight,
+    /// Delete the selected light.
+    DeleteLight,
+    /// Start typing a dimmer in percent (selected and marked lights).
+    EnterDimmer,
+    /// Start typing the path of a photometric file (selected and marked lights).
+    EnterPath,
+    /// Mark or unmark the selected light (edits apply to all marked lights).
+    ToggleMark,
+    /// Mark every light with the selected light's photometry (same file or equal curve).
+    MarkSamePhotometry,
+    /// Unmark every light.
+    ClearMarks,
+    /// Write the report (HTML) next to the room file.
+    Report,
+    /// Save, writing each edited file curve as a new IES file the light then points at.
+    SaveCurveFiles,
+    /// Save, writing each edited file curve inline.
+    SaveInline,
 }
 
 /// One row of the table.
@@ -258,7 +291,7 @@ const fn bind(
 
 use Action as A;
 use Key::{Char as C, Code, Ctrl, CtrlCode, Shift};
-use ModeKind::{Aim, ConfirmQuit, Help, Move, Normal, ValueEntry};
+use ModeKind::{Aim, ConfirmQuit, ConfirmSave, Help, Move, Normal, PathEntry, ValueEntry};
 
 /// Every key binding of the editor.
 #[rustfmt::skip]
@@ -308,6 +341,14 @@ pub const BINDINGS: &[Binding] = &[
     bind(Normal, &[Code(KeyCode::PageUp)], A::Dolly(0.9), "camera closer 10 %", None),
     bind(Normal, &[Code(KeyCode::PageDown)], A::Dolly(1.0 / 0.9), "camera farther 10 %", None),
     bind(Normal, &[C('c')], A::ResetCamera, "reset the camera", None),
+    bind(Normal, &[C('%')], A::EnterDimmer, "type the dimmer (%)", Some("dimmer")),
+    bind(Normal, &[C('y')], A::DuplicateLight, "duplicate the light", None),
+    bind(Normal, &[C('X')], A::DeleteLight, "delete the light", None),
+    bind(Normal, &[C('F')], A::EnterPath, "load an IES/LDT file", None),
+    bind(Normal, &[C(' ')], A::ToggleMark, "mark for group edits", None),
+    bind(Normal, &[C('*')], A::MarkSamePhotometry, "mark same-file lights", None),
+    bind(Normal, &[Code(KeyCode::Esc)], A::ClearMarks, "unmark all lights", None),
+    bind(Normal, &[C('R')], A::Report, "write the report (HTML)", None),
     bind(Aim, &[Code(KeyCode::Left)], A::Cursor { dx: -1, dy: 0, big: false }, "cursor left 1/40", None),
     bind(Aim, &[Code(KeyCode::Right)], A::Cursor { dx: 1, dy: 0, big: false }, "cursor right 1/40", None),
     bind(Aim, &[Code(KeyCode::Up)], A::Cursor { dx: 0, dy: -1, big: false }, "cursor up 1/40", None),
@@ -326,10 +367,17 @@ pub const BINDINGS: &[Binding] = &[
     bind(Move, &[Code(KeyCode::PageUp)], A::MoveBy([0.0, 0.0, MOVE_STEP_M]), "z +0.1 m", None),
     bind(Move, &[Code(KeyCode::Enter), C('m')], A::Finish, "done (re-bakes the light)", Some("done")),
     bind(Move, &[Code(KeyCode::Esc)], A::Cancel, "cancel", Some("cancel")),
-    bind(ValueEntry, &[Key::Digit], A::Type, "type the value (cd)", None),
+    bind(ValueEntry, &[Key::Digit, C('%')], A::Type, "type the number", None),
     bind(ValueEntry, &[Code(KeyCode::Backspace)], A::Backspace, "delete a character", None),
     bind(ValueEntry, &[Code(KeyCode::Enter)], A::Apply, "apply", Some("apply")),
     bind(ValueEntry, &[Code(KeyCode::Esc)], A::Cancel, "cancel", Some("cancel")),
+    bind(PathEntry, &[Key::AnyChar], A::Type, "type the path", None),
+    bind(PathEntry, &[Code(KeyCode::Backspace)], A::Backspace, "delete a character", None),
+    bind(PathEntry, &[Code(KeyCode::Enter)], A::Apply, "load the file", Some("load")),
+    bind(PathEntry, &[Code(KeyCode::Esc)], A::Cancel, "cancel", Some("cancel")),
+    bind(ConfirmSave, &[Code(KeyCode::Enter), C('w')], A::SaveCurveFiles, "new IES files (default)", Some("new files")),
+    bind(ConfirmSave, &[C('i')], A::SaveInline, "inline curves", Some("inline")),
+    bind(ConfirmSave, &[Code(KeyCode::Esc)], A::Cancel, "do not save", Some("cancel")),
     bind(Help, &[C('?'), Code(KeyCode::Esc), C('q')], A::ToggleHelp, "close the help", Some("close")),
     bind(ConfirmQuit, &[C('y')], A::ConfirmQuit, "quit without saving", Some("quit")),
     bind(ConfirmQuit, &[C('n'), Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),

@@ -4,6 +4,8 @@
 //! Plain data; changed only by [`crate::tui::update::update`] (and by the app for the fields it
 //! documents as its own, such as [`Model::protocol`]). World frame: metres, z up (docs/METHOD.md §1).
 
+use std::collections::BTreeSet;
+
 use glam::DVec3;
 
 use crate::scene::{Camera, Scene};
@@ -11,6 +13,8 @@ pub use crate::session::light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoic
 use crate::session::{ExposureChoice, LightStatus, RoomBounds, Series};
 use crate::tui::history::History;
 use crate::tui::keys::ModeKind;
+use crate::tui::luminaires::LidInfos;
+use crate::tui::panel::PanelNumbers;
 use crate::tui::view::preview_rect;
 
 /// What the editor is doing; decides which key table applies.
@@ -36,6 +40,18 @@ pub enum Mode {
         /// What was typed so far.
         buffer: String,
     },
+    /// Typing a dimmer in percent for the selected (or marked) lights.
+    DimmerEntry {
+        /// What was typed so far.
+        buffer: String,
+    },
+    /// Typing the path of a photometric file for the selected (or marked) lights.
+    PathEntry {
+        /// What was typed so far.
+        buffer: String,
+    },
+    /// "Edited file curves: write new files or save inline?" prompt before a save.
+    ConfirmSave,
     /// "Unsaved changes: quit?" prompt.
     ConfirmQuit,
 }
@@ -48,7 +64,9 @@ impl Mode {
             Mode::Aim { .. } => ModeKind::Aim,
             Mode::Move { .. } => ModeKind::Move,
             Mode::Help => ModeKind::Help,
-            Mode::ValueEntry { .. } => ModeKind::ValueEntry,
+            Mode::ValueEntry { .. } | Mode::DimmerEntry { .. } => ModeKind::ValueEntry,
+            Mode::PathEntry { .. } => ModeKind::PathEntry,
+            Mode::ConfirmSave => ModeKind::ConfirmSave,
             Mode::ConfirmQuit => ModeKind::ConfirmQuit,
         }
     }
@@ -61,6 +79,9 @@ impl Mode {
             Mode::Move { .. } => "MOVE",
             Mode::Help => "HELP",
             Mode::ValueEntry { .. } => "VALUE",
+            Mode::DimmerEntry { .. } => "DIMMER",
+            Mode::PathEntry { .. } => "FILE",
+            Mode::ConfirmSave => "SAVE?",
             Mode::ConfirmQuit => "QUIT?",
         }
     }
@@ -143,6 +164,12 @@ pub struct Model {
     pub series: Vec<Option<Series>>,
     /// Undo and redo stacks.
     pub history: History,
+    /// Names of the marked lights: edits apply to them and the selected light together.
+    pub marked: BTreeSet<String>,
+    /// The photometric files the lights come from (set by the app, which reads them).
+    pub lid_files: LidInfos,
+    /// The latest numbers from the engine (None until the first are computed).
+    pub numbers: Option<PanelNumbers>,
 }
 
 impl Model {
@@ -178,6 +205,9 @@ impl Model {
             dirty: false,
             message: None,
             history: History::default(),
+            marked: BTreeSet::new(),
+            lid_files: LidInfos::new(),
+            numbers: None,
         };
         model.preview_px = model.compute_preview_px();
         model
@@ -207,12 +237,12 @@ impl Model {
         )
     }
 
-    /// Recomputes [`Model::dirty`]: whether any light's saved values differ from the file's.
+    /// Recomputes [`Model::dirty`]: whether a light was added or removed, or any light's saved
+    /// values or photometric file differ from the file's.
     pub fn refresh_dirty(&mut self) {
-        self.dirty = self
-            .lights
-            .iter()
-            .zip(&self.saved)
-            .any(|(now, saved)| !now.same_saved_values(saved));
+        self.dirty = self.lights.len() != self.saved.len()
+            || self.lights.iter().zip(&self.saved).any(|(now, saved)| {
+                now.name != saved.name || now.lid_source != saved.lid_source || !now.same_saved_values(saved)
+            });
     }
 }

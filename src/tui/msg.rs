@@ -1,10 +1,16 @@
 //! What reaches the editor (`Msg`: input events and engine results) and what it asks the app to
 //! do (`Effect`).
 
+use std::path::PathBuf;
+use std::sync::Arc;
+
 use glam::DVec3;
 use ratatui::crossterm::event::KeyEvent;
 
+use crate::scene::LidSource;
 use crate::session::{Command, LightStatus, Series};
+use crate::tui::luminaires::LidInfo;
+use crate::tui::panel::PanelNumbers;
 
 /// An input event or an engine's result.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,6 +72,23 @@ pub enum Msg {
     Saved {
         /// Status message from [`crate::tui::save::save_room`].
         message: String,
+        /// Every light's photometric source as now written (a light whose edited curve went
+        /// to a new file points at it; one written inline is inline).
+        sources: Vec<LidSource>,
+    },
+    /// The answer to [`Effect::LoadLid`]: the file at `path`, or why it could not be read.
+    LidLoaded {
+        /// The file, as resolved.
+        path: PathBuf,
+        /// What the editor keeps of it, or the error in one line.
+        result: Result<Arc<LidInfo>, String>,
+    },
+    /// The engine's numbers after its latest batch of edits.
+    Numbers(Box<PanelNumbers>),
+    /// The report was written; `message` says where.
+    Reported {
+        /// Status message.
+        message: String,
     },
     /// The engine or the save failed; `message` is one line for the user.
     Failed {
@@ -89,9 +112,23 @@ pub enum Effect {
         /// True to aim the selected light at it.
         aim: bool,
     },
-    /// Save the room file ([`crate::tui::save::save_room`]); answer with [`Msg::Saved`] or
-    /// [`Msg::Failed`].
-    Save,
+    /// Save the room file ([`crate::tui::save::save_room`]), edited file curves as `curves`
+    /// says; answer with [`Msg::Saved`] or [`Msg::Failed`].
+    Save(CurveSave),
+    /// Read the photometric file the user typed (relative to the room file); answer with
+    /// [`Msg::LidLoaded`].
+    LoadLid(String),
+    /// Write the report next to the room file; answer with [`Msg::Reported`] or [`Msg::Failed`].
+    Report,
     /// Leave the editor.
     Quit,
+}
+
+/// How a save writes a curve that came from a photometric file and was edited.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CurveSave {
+    /// As a new IES file next to the room file, which the light's `lid_file` then names.
+    NewFiles,
+    /// Inline (`lid = […]` in place of `lid_file`).
+    Inline,
 }

@@ -21,6 +21,8 @@ pub const SERIES_COLOR: Color = Color::Yellow;
 pub const GRID_COLOR: Color = Color::DarkGray;
 /// Colour of the selected control point.
 pub const SELECTED_COLOR: Color = Color::LightRed;
+/// Colour of the C-plane spread (lowest and highest plane) of an asymmetric file.
+pub const SPREAD_COLOR: Color = Color::Magenta;
 
 /// Largest γ step (degrees) between two drawn samples of the control-point curve.
 const SAMPLE_STEP_DEG: f64 = 1.0;
@@ -32,6 +34,9 @@ pub struct PolarDiagram<'a> {
     pub curve: &'a Curve,
     /// The truncated series as samples `(γ rad, cd)` over 0..=π, if known.
     pub series: Option<&'a [(f64, f64)]>,
+    /// The spread of an asymmetric file's C-planes around their average, as
+    /// `(γ rad, lowest cd, highest cd)`: drawn as two thin curves.
+    pub spread: Option<&'a [(f64, f64, f64)]>,
     /// Index of the selected control point.
     pub selected: usize,
     /// The surrounding block.
@@ -107,7 +112,16 @@ impl PolarDiagram<'_> {
                     .fold(0.0, f64::max)
             })
             .unwrap_or(0.0);
-        self.curve.peak_cd().max(series_max)
+        let spread_max = self
+            .spread
+            .map(|s| {
+                s.iter()
+                    .map(|p| p.2)
+                    .filter(|cd| cd.is_finite())
+                    .fold(0.0, f64::max)
+            })
+            .unwrap_or(0.0);
+        self.curve.peak_cd().max(series_max).max(spread_max)
     }
 }
 
@@ -138,6 +152,12 @@ impl Widget for PolarDiagram<'_> {
                 ctx.draw(&Line::new(0.0, -radius, 0.0, radius, GRID_COLOR));
                 ctx.draw(&Line::new(-radius, 0.0, radius, 0.0, GRID_COLOR));
                 ctx.layer();
+                if let Some(spread) = self.spread {
+                    for bound in [spread_bound(spread, false), spread_bound(spread, true)] {
+                        draw_polyline(ctx, &bound, SPREAD_COLOR);
+                    }
+                    ctx.layer();
+                }
                 if let Some(series) = self.series {
                     draw_polyline(ctx, series, SERIES_COLOR);
                     ctx.layer();
@@ -159,6 +179,15 @@ impl Widget for PolarDiagram<'_> {
             })
             .render(area, buf);
     }
+}
+
+/// One side of a C-plane spread as `(γ rad, cd)` samples: the lowest (`high` false) or highest
+/// plane at each point.
+pub fn spread_bound(spread: &[(f64, f64, f64)], high: bool) -> Vec<(f64, f64)> {
+    spread
+        .iter()
+        .map(|&(gamma, lo, hi)| (gamma, if high { hi } else { lo }))
+        .collect()
 }
 
 /// The legend line: which colour is which curve.

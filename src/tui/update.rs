@@ -10,18 +10,21 @@ use glam::DVec3;
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
 use ratatui::layout::{Position, Rect};
 
-use crate::scene::{Camera, LidSource};
+use crate::scene::Camera;
 use crate::session::{Change as Changed, Command, ExposureChoice, LightStatus};
 use crate::tui::camera_nav;
 use crate::tui::edits::{self, EditError};
 use crate::tui::history::Change;
 use crate::tui::keys::{self, Action};
+use crate::tui::luminaires::{self, group};
 use crate::tui::model::{LightEdit, Mode, Model, Picked, Timings};
-use crate::tui::msg::{Effect, Msg};
+use crate::tui::msg::{CurveSave, Effect, Msg};
 use crate::tui::view::{cell_to_pixel, preview_rect};
 
 /// Longest typed value, characters.
 const MAX_TYPED_LEN: usize = 16;
+/// Longest typed path, characters.
+const MAX_TYPED_PATH_LEN: usize = 4096;
 
 /// Applies one message to the model and returns the work the app must do.
 pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
@@ -72,15 +75,16 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             }
             Vec::new()
         }
-        Msg::Saved { message } => {
-            // A save writes every edited curve inline (docs/ROOM_FILE.md): it no longer comes from a file.
-            for (light, saved) in model.lights.iter_mut().zip(&model.saved) {
-                if light.curve != saved.curve {
-                    light.lid_source = LidSource::Inline;
-                }
+        Msg::Saved { message, sources } => luminaires::on_saved(model, message, sources),
+        Msg::LidLoaded { path, result } => luminaires::on_lid_loaded(model, path, result),
+        Msg::Numbers(numbers) => {
+            if let Some((point, lux)) = numbers.cursor {
+                model.picked = Some(Picked { point, lux });
             }
-            model.saved = model.lights.clone();
-            model.refresh_dirty();
+            model.numbers = Some(*numbers);
+            Vec::new()
+        }
+        Msg::Reported { message } => {
             model.message = Some(message);
             Vec::new()
         }
@@ -118,7 +122,23 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             Vec::new()
         }
         Action::Quit | Action::ConfirmQuit => vec![Effect::Quit],
-        Action::Save => vec![Effect::Save],
+        Action::Save => luminaires::save(model),
+        Action::SaveCurveFiles => {
+            model.mode = Mode::Normal;
+            vec![Effect::Save(CurveSave::NewFiles)]
+        }
+        Action::SaveInline => {
+            model.mode = Mode::Normal;
+            vec![Effect::Save(CurveSave::Inline)]
+        }
+        Action::DuplicateLight
+        | Action::DeleteLight
+        | Action::EnterDimmer
+        | Action::EnterPath
+        | Action::ToggleMark
+        | Action::MarkSamePhotometry
+        | Action::ClearMarks
+        | Action::Report => luminaires::on_action(model, action),
         Action::NextLight => select_light(model, 1),
         Action::PreviousLight => select_light(model, -1),
         Action::NextPoint => select_point(model, 1),
@@ -127,9 +147,12 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         Action::Angle(delta_deg) => edit(model, |l, i| edits::move_angle(l, i, k, delta_deg)),
         Action::InsertPoint => {
             let mut inserted = k;
+            let selected = model.selected_light;
             let effects = edit(model, |l, i| {
                 edits::insert_after(l, i, k).map(|(command, index)| {
-                    inserted = index;
+                    if i == selected {
+                        inserted = index;
+                    }
                     command
                 })
             });
@@ -152,20 +175,38 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             Vec::new()
         }
         Action::Type => {
-            if let (Mode::ValueEntry { buffer }, KeyCode::Char(c)) = (&mut model.mode, event.code)
-                && buffer.chars().count() < MAX_TYPED_LEN
+            let limit = match model.mode {
+                Mode::PathEntry { .. } => MAX_TYPED_PATH_LEN,
+                _ => MAX_TYPED_LEN,
+            };
+            if let (Some(buffer), KeyCode::Char(c)) = (typed_buffer(&mut model.mode), event.code)
+                && buffer.chars().count() < limit
             {
                 buffer.push(c);
             }
             Vec::new()
         }
         Action::Backspace => {
-            if let Mode::ValueEntry { buffer } = &mut model.mode {
+            if let Some(buffer) = typed_buffer(&mut model.mode) {
                 buffer.pop();
             }
             Vec::new()
         }
-        Action::Apply => apply_typed_value(model),
+        Action::Apply => match std::mem::replace(&mut model.mode, Mode::Normal) {
+            Mode::ValueEntry { buffer } => apply_typed_value(model, &buffer),
+            Mode::DimmerEntry { buffer } => match luminaires::parse_dimmer_percent(&buffer) {
+                Ok(dimmer) => edit(model, |_, i| Ok(Command::SetDimmer { light: i, dimmer })),
+                Err(reason) => {
+                    model.message = Some(reason.to_string());
+                    Vec::new()
+                }
+            },
+            Mode::PathEntry { buffer } if !buffer.trim().is_empty() => {
+                model.message = Some(format!("reading {}…", buffer.trim()));
+                vec![Effect::LoadLid(buffer)]
+            }
+            _ => Vec::new(),
+        },
         Action::Order(delta) => edit(model, |l, i| Ok(edits::change_order(l, i, delta))),
         Action::CycleWindow => edit(model, |l, i| {
             Ok(Command::SetWindow {
@@ -268,31 +309,49 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
     }
 }
 
-/// Builds a command for the selected light with `build` (given the light and its index) and
-/// runs it, recorded for undo; shows the reason when there is nothing to do.
-fn edit(
-    model: &mut Model,
-    build: impl FnOnce(&LightEdit, usize) -> Result<Command, EditError>,
-) -> Vec<Effect> {
-    let i = model.selected_light;
-    let Some(light) = model.lights.get(i) else {
-        return Vec::new();
-    };
-    match build(light, i) {
-        Ok(command) => run(model, command, true),
-        Err(reason) => {
-            model.message = Some(reason.to_string());
-            Vec::new()
+/// The text being typed in an entry mode.
+fn typed_buffer(mode: &mut Mode) -> Option<&mut String> {
+    match mode {
+        Mode::ValueEntry { buffer } | Mode::DimmerEntry { buffer } | Mode::PathEntry { buffer } => {
+            Some(buffer)
         }
+        _ => None,
     }
 }
 
-/// Applies `command` to the model and, when it changed something, returns it for the engine;
-/// with `record`, also pushes it and its inverse on the undo stack. A refused command changes
-/// nothing and says why.
-fn run(model: &mut Model, command: Command, record: bool) -> Vec<Effect> {
+/// Builds a command with `build` (given a light and its index) for each light of the group —
+/// the selected light, and the marked ones ([`group`]) — and runs them as one undo step. When
+/// the selected light's command cannot be built nothing is done and the reason shown; other
+/// lights whose command cannot be built are skipped and named.
+pub(crate) fn edit(
+    model: &mut Model,
+    mut build: impl FnMut(&LightEdit, usize) -> Result<Command, EditError>,
+) -> Vec<Effect> {
+    let selected = model.selected_light;
+    let mut commands = Vec::new();
+    let mut skipped = Vec::new();
+    for i in group(model) {
+        match build(&model.lights[i], i) {
+            Ok(command) => commands.push(command),
+            Err(reason) if i == selected => {
+                model.message = Some(reason.to_string());
+                return Vec::new();
+            }
+            Err(reason) => skipped.push(format!("{}: {reason}", model.lights[i].name)),
+        }
+    }
+    let effects = run_group(model, commands);
+    if !skipped.is_empty() {
+        model.message = Some(format!("skipped {}", skipped.join("; ")));
+    }
+    effects
+}
+
+/// Applies `command` to the model; returns its inverse when it changed something. A refused
+/// command changes nothing and says why.
+fn apply_command(model: &mut Model, command: &Command) -> Option<Command> {
     match command.apply(&mut model.lights, &mut model.camera, &model.bounds) {
-        Ok(applied) if applied.inverse == command => Vec::new(),
+        Ok(applied) if applied.inverse == *command => None,
         Ok(applied) => {
             match applied.change {
                 Changed::Inserted { at } => {
@@ -305,21 +364,53 @@ fn run(model: &mut Model, command: Command, record: bool) -> Vec<Effect> {
                 }
                 _ => {}
             }
-            if record && let Some(light) = command.light() {
-                model.history.record(Change {
-                    light,
-                    forward: command.clone(),
-                    inverse: applied.inverse,
-                });
-            }
-            model.refresh_dirty();
-            vec![Effect::Engine(command)]
+            Some(applied.inverse)
         }
         Err(reason) => {
             model.message = Some(reason.to_string());
-            Vec::new()
+            None
         }
     }
+}
+
+/// Applies `command` to the model and, when it changed something, returns it for the engine;
+/// with `record`, also pushes it and its inverse on the undo stack.
+pub(crate) fn run(model: &mut Model, command: Command, record: bool) -> Vec<Effect> {
+    if record {
+        return run_group(model, vec![command]);
+    }
+    let changed = apply_command(model, &command).is_some();
+    model.refresh_dirty();
+    if changed {
+        vec![Effect::Engine(command)]
+    } else {
+        Vec::new()
+    }
+}
+
+/// Applies `commands` in order and records those that changed something as one undo step (for
+/// the selected light); returns them for the engine.
+pub(crate) fn run_group(model: &mut Model, commands: Vec<Command>) -> Vec<Effect> {
+    let mut forward = Vec::new();
+    let mut inverse = Vec::new();
+    for command in commands {
+        if let Some(undo) = apply_command(model, &command) {
+            inverse.push(undo);
+            forward.push(command);
+        }
+    }
+    if forward.is_empty() {
+        return Vec::new();
+    }
+    inverse.reverse();
+    let effects = forward.iter().cloned().map(Effect::Engine).collect();
+    model.history.record(Change {
+        light: model.selected_light,
+        forward,
+        inverse,
+    });
+    model.refresh_dirty();
+    effects
 }
 
 fn undo_or_redo(model: &mut Model, undo: bool) -> Vec<Effect> {
@@ -339,7 +430,7 @@ fn undo_or_redo(model: &mut Model, undo: bool) -> Vec<Effect> {
         );
         return Vec::new();
     };
-    let (light, command) = (
+    let (light, commands) = (
         change.light,
         if undo {
             change.inverse.clone()
@@ -347,7 +438,10 @@ fn undo_or_redo(model: &mut Model, undo: bool) -> Vec<Effect> {
             change.forward.clone()
         },
     );
-    let mut effects = run(model, command, false);
+    let mut effects: Vec<Effect> = commands
+        .into_iter()
+        .flat_map(|command| run(model, command, false))
+        .collect();
     let selected = light.min(model.lights.len().saturating_sub(1));
     if selected != model.selected_light {
         model.selected_light = selected;
@@ -382,13 +476,10 @@ fn clamp_selected_point(model: &mut Model) {
     }
 }
 
-fn apply_typed_value(model: &mut Model) -> Vec<Effect> {
-    let Mode::ValueEntry { buffer } = std::mem::replace(&mut model.mode, Mode::Normal) else {
-        return Vec::new();
-    };
+fn apply_typed_value(model: &mut Model, buffer: &str) -> Vec<Effect> {
     let k = model.selected_point;
     edit(model, |l, i| {
-        let candela = edits::parse_intensity(&buffer)?;
+        let candela = edits::parse_intensity(buffer)?;
         edits::set_intensity(l, i, k, candela)
     })
 }
@@ -452,7 +543,7 @@ fn on_picked(model: &mut Model, hit: Option<(DVec3, f64)>, aim: bool) -> Vec<Eff
         return Vec::new();
     }
     match hit {
-        Some((point, _)) => edit(model, |l, i| edits::aim_at(l, i, point)),
+        Some((point, _)) => luminaires::aim_group_at(model, point),
         None => {
             model.message = Some("nothing under the cursor to aim at".into());
             Vec::new()
@@ -469,17 +560,17 @@ fn finish_move(model: &mut Model) -> Vec<Effect> {
     if let Some(light) = model.lights.get(i)
         && light.position != start
     {
-        model.history.record(Change {
-            light: i,
-            forward: Command::Move {
+        model.history.record(Change::single(
+            i,
+            Command::Move {
                 light: i,
                 position: light.position,
             },
-            inverse: Command::Move {
+            Command::Move {
                 light: i,
                 position: start,
             },
-        });
+        ));
     }
     Vec::new()
 }

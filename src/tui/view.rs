@@ -8,9 +8,12 @@ use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
 
+use crate::error::printable;
 use crate::session::{ExposureChoice, LightStatus};
 use crate::tui::keys::{self, ModeKind};
+use crate::tui::luminaires::{self, lid_info};
 use crate::tui::model::{LightEdit, Mode, Model};
+use crate::tui::panel::{self, draw_panel};
 use crate::tui::polar::{self, PolarDiagram};
 
 /// Smallest terminal (columns, rows) the layout needs.
@@ -31,6 +34,7 @@ struct Areas {
     table: Rect,
     numbers: Rect,
     preview: Rect,
+    panel: Rect,
     status: Rect,
     hints: Rect,
 }
@@ -44,8 +48,13 @@ fn areas(area: Rect) -> Areas {
     let [main, status, hints] =
         Layout::vertical([Constraint::Min(0), Constraint::Length(1), Constraint::Length(1)]).areas(area);
     let editor_width = (area.width * 2 / 5).clamp(40, 64);
-    let [editor, preview] =
+    let [editor, right] =
         Layout::horizontal([Constraint::Length(editor_width), Constraint::Min(0)]).areas(main);
+    let [preview, panel] = Layout::vertical([
+        Constraint::Min(0),
+        Constraint::Length(panel::panel_rows(area.height)),
+    ])
+    .areas(right);
     // A square diagram: Braille cells are about twice as tall as wide.
     let polar_height = (editor.width / 2 + 2).min(main.height.saturating_sub(8));
     let [polar, below] =
@@ -56,6 +65,7 @@ fn areas(area: Rect) -> Areas {
         table,
         numbers,
         preview,
+        panel,
         status,
         hints,
     }
@@ -123,25 +133,44 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
         );
     }
     draw_preview(model, frame, areas.preview, preview);
+    draw_panel(model.numbers.as_ref(), frame, areas.panel);
     frame.render_widget(Paragraph::new(status_line(model)).reversed(), areas.status);
     frame.render_widget(Paragraph::new(hint_line(model)), areas.hints);
     match model.mode {
         Mode::Help => draw_help(frame, area),
         Mode::ConfirmQuit => draw_quit_prompt(frame, area),
+        Mode::ConfirmSave => draw_save_prompt(model, frame, area),
         _ => {}
     }
 }
 
 fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &Areas) {
     let series = model.series.get(model.selected_light).and_then(Option::as_ref);
-    let title = format!(" {} · I(γ) cd · C0–C180 ", light.name);
+    let info = lid_info(model, light);
+    let title = match info {
+        Some(info) if info.n_planes > 1 => format!(
+            " {} · I(γ) cd · C-plane average, asym {:.2} ",
+            printable(&light.name),
+            info.asymmetry
+        ),
+        _ => format!(" {} · I(γ) cd · C0–C180 ", printable(&light.name)),
+    };
+    // The C-planes' spread is drawn while the curve is still the file's.
+    let spread = info
+        .filter(|i| i.n_planes > 1 && i.curve == light.curve)
+        .map(|i| i.spread_samples());
+    let mut legend = polar::legend(light.order);
+    if spread.is_some() {
+        legend
+            .spans
+            .push(Span::styled(" ━ C-planes", Style::new().fg(polar::SPREAD_COLOR)));
+    }
     let diagram = PolarDiagram {
         curve: &light.curve,
         series: series.map(|s| s.samples.as_slice()),
+        spread: spread.as_deref(),
         selected: model.selected_point,
-        block: Block::bordered()
-            .title(title)
-            .title_bottom(polar::legend(light.order)),
+        block: Block::bordered().title(title).title_bottom(legend),
     };
     frame.render_widget(diagram, areas.polar);
 
@@ -162,24 +191,51 @@ fn draw_editor(model: &Model, light: &LightEdit, frame: &mut Frame<'_>, areas: &
     let error = series.map_or("—".to_string(), |s| {
         format!("{:.2} %", 100.0 * s.relative_error)
     });
+    let mut lines: Vec<Line> = Vec::new();
+    if let Some(info) = info.filter(|i| i.warns()) {
+        lines.push(
+            Line::from(format!(
+                "⚠ asymmetry {:.2} > {}",
+                info.asymmetry,
+                crate::photometry::ASYMMETRY_WARNING
+            ))
+            .style(Style::new().fg(Color::Yellow).bold()),
+        );
+    }
+    let group = luminaires::group(model);
+    if group.len() > 1 {
+        lines
+            .push(Line::from(format!("group of {} lights", group.len())).style(Style::new().fg(Color::Cyan)));
+    }
     let numbers = [
         ("order", light.order.to_string()),
         ("window", light.window.label().to_string()),
         ("error", error),
         ("flux", format!("{:.0} lm", light.curve.flux_lm())),
         ("peak", format!("{:.0} cd", light.curve.peak_cd())),
-        ("dimmer", format!("{:.0} %", 100.0 * light.dimmer)),
+        ("dimmer", dimmer_label(light.dimmer)),
         ("pos m", format_vec(light.position.to_array())),
         ("aim", format_vec(light.aim.to_array())),
     ];
-    let lines: Vec<Line> = numbers
-        .into_iter()
-        .map(|(name, value)| Line::from(vec![Span::from(format!("{name:<8}")).dim(), Span::from(value)]))
-        .collect();
+    lines.extend(
+        numbers
+            .into_iter()
+            .map(|(name, value)| Line::from(vec![Span::from(format!("{name:<8}")).dim(), Span::from(value)])),
+    );
     frame.render_widget(
         Paragraph::new(lines).block(Block::bordered().title(" light ")),
         areas.numbers,
     );
+}
+
+/// The dimmer in percent, with a decimal only when it is not a whole percent (24 %, 24.5 %).
+pub fn dimmer_label(dimmer: f64) -> String {
+    let percent = 100.0 * dimmer;
+    if (percent - percent.round()).abs() < 1e-9 {
+        format!("{percent:.0} %")
+    } else {
+        format!("{percent:.1} %")
+    }
 }
 
 fn format_vec(v: [f64; 3]) -> String {
@@ -243,10 +299,13 @@ fn status_line(model: &Model) -> Line<'static> {
     if let Some(light) = model.light() {
         parts.push(format!(
             " {} ({}/{})",
-            light.name,
+            printable(&light.name),
             model.selected_light + 1,
             model.lights.len()
         ));
+    }
+    if !model.marked.is_empty() {
+        parts.push(format!("{} marked", model.marked.len()));
     }
     parts.push(model.mode.label().to_string());
     if let Some(t) = model.timings {
@@ -261,12 +320,12 @@ fn status_line(model: &Model) -> Line<'static> {
     if let Some((done, total)) = model.bake {
         parts.push(format!("baking {done}/{total}"));
     }
-    let updating: Vec<&str> = model
+    let updating: Vec<_> = model
         .lights
         .iter()
         .zip(&model.light_status)
         .filter(|(_, status)| **status == LightStatus::Updating)
-        .map(|(light, _)| light.name.as_str())
+        .map(|(light, _)| printable(&light.name))
         .collect();
     if !updating.is_empty() {
         parts.push(format!("updating {}", updating.join(", ")));
@@ -288,6 +347,16 @@ fn hint_line(model: &Model) -> Line<'static> {
     match &model.mode {
         Mode::ValueEntry { buffer } => Line::from(vec![
             Span::from(" intensity (cd): "),
+            Span::from(format!("{buffer}▏")).bold(),
+            Span::from(format!("   {hints}")).dim(),
+        ]),
+        Mode::DimmerEntry { buffer } => Line::from(vec![
+            Span::from(" dimmer (%): "),
+            Span::from(format!("{buffer}▏")).bold(),
+            Span::from(format!("   {hints}")).dim(),
+        ]),
+        Mode::PathEntry { buffer } => Line::from(vec![
+            Span::from(" IES/LDT file: "),
             Span::from(format!("{buffer}▏")).bold(),
             Span::from(format!("   {hints}")).dim(),
         ]),
@@ -348,6 +417,22 @@ fn draw_help(frame: &mut Frame<'_>, area: Rect) {
     for (chunk, column) in lines.chunks(per_column).zip(column_areas.iter()) {
         frame.render_widget(Paragraph::new(chunk.to_vec()), *column);
     }
+}
+
+fn draw_save_prompt(model: &Model, frame: &mut Frame<'_>, area: Rect) {
+    let names = luminaires::edited_names(model).join(", ");
+    let text = vec![
+        Line::from(format!("Edited curves from photometric files: {names}")),
+        Line::from("Enter/w: write each as a new IES file next to the room (lid_file)"),
+        Line::from("i: write them inline (lid = …) · Esc: do not save"),
+    ];
+    let width = text.iter().map(Line::width).max().unwrap_or(40) as u16 + 4;
+    let popup = centred(area, width, 5);
+    frame.render_widget(Clear, popup);
+    frame.render_widget(
+        Paragraph::new(text).block(Block::bordered().title(" save ")),
+        popup,
+    );
 }
 
 fn draw_quit_prompt(frame: &mut Frame<'_>, area: Rect) {

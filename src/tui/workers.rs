@@ -17,12 +17,16 @@ use ratatui_image::picker::Picker;
 use ratatui_image::protocol::Protocol;
 use tiny_skia::Pixmap;
 
-use crate::scene::Scene;
+use glam::DVec3;
+
+use crate::report::{ReportOptions, report_html};
+use crate::scene::{Receiver as Point, Scene};
 use crate::session::{
-    BakeJob, BakeOutcome, Change, Command, FrameSpec, LightStatus, Session, SessionOptions,
+    BakeJob, BakeOutcome, Change, Command, FrameSpec, LightStatus, Session, SessionOptions, WatchId,
 };
 use crate::transport::bake::Progress;
 use crate::tui::msg::Msg;
+use crate::tui::panel::PanelNumbers;
 use crate::tui::preview;
 
 /// Everything that reaches the app loop.
@@ -88,6 +92,9 @@ pub enum EngineRequest {
     },
     /// A bake the bake worker finished.
     Baked(Box<BakeOutcome>),
+    /// Write the report of the current state to this HTML file (answered with
+    /// [`Msg::Reported`] or [`Msg::Failed`]).
+    Report(std::path::PathBuf),
 }
 
 /// Milliseconds since `start`.
@@ -138,6 +145,7 @@ pub fn spawn_engine(
             pixmap: None,
             events,
             bakes,
+            cursor: None,
         };
         if engine.start().is_some() {
             while let Ok(first) = queue.recv() {
@@ -160,6 +168,8 @@ struct Engine {
     pixmap: Option<Arc<Pixmap>>,
     events: Sender<AppEvent>,
     bakes: Sender<BakeJob>,
+    /// The point under the cursor, kept lit for the numbers panel.
+    cursor: Option<(WatchId, DVec3)>,
 }
 
 impl Engine {
@@ -177,7 +187,53 @@ impl Engine {
             })?;
         }
         self.send(Msg::LightStatus(self.statuses()))?;
-        self.send(Msg::BakeDone)
+        self.send(Msg::BakeDone)?;
+        self.send_numbers()
+    }
+
+    /// Computes the design numbers and the cursor's illuminance for the current lights (only
+    /// the lights changed since the last time are recomputed) and sends them.
+    fn send_numbers(&mut self) -> Option<()> {
+        let start = Instant::now();
+        let numbers = self.session.design_numbers();
+        let cursor = self.cursor_lux();
+        let maintenance_factor = self.session.scene().design.maintenance_factor;
+        let panel = PanelNumbers::of(&numbers, maintenance_factor, cursor, ms_since(start));
+        self.send(Msg::Numbers(Box::new(panel)))
+    }
+
+    /// The cursor point and its illuminance now, lx.
+    fn cursor_lux(&mut self) -> Option<(DVec3, f64)> {
+        let (id, point) = self.cursor?;
+        let lux = self.session.watched(id)?.lux().first().copied()?;
+        Some((point, lux))
+    }
+
+    /// Makes `receiver` the cursor point the numbers follow; returns its illuminance, lx.
+    fn set_cursor(&mut self, receiver: Point) -> Option<f64> {
+        if let Some((old, _)) = self.cursor.take() {
+            self.session.unwatch(old);
+        }
+        let id = self.session.watch(vec![receiver]);
+        self.cursor = Some((id, receiver.point));
+        self.cursor_lux().map(|(_, lux)| lux)
+    }
+
+    /// Writes the report of the current state to `path`.
+    fn report(&mut self, path: &std::path::Path) -> Msg {
+        let room = self.session.scene().path.display().to_string();
+        let written = report_html(&mut self.session, &room, &ReportOptions::default()).and_then(|html| {
+            std::fs::write(path, html)
+                .map_err(|e| crate::error::Error::input(path, "", format!("cannot write the report: {e}")))
+        });
+        match written {
+            Ok(()) => Msg::Reported {
+                message: format!("report written to {}", path.display()),
+            },
+            Err(e) => Msg::Failed {
+                message: format!("report: {e}"),
+            },
+        }
     }
 
     fn statuses(&self) -> Vec<LightStatus> {
@@ -190,9 +246,11 @@ impl Engine {
     /// render, then the picks. `None` once the app is gone.
     fn serve(&mut self, batch: Vec<EngineRequest>) -> Option<()> {
         let mut redraw = false;
+        let mut relit = false;
         let mut status_changed = false;
         let mut series: BTreeSet<usize> = BTreeSet::new();
         let mut picks = Vec::new();
+        let mut reports = Vec::new();
         for request in batch {
             match request {
                 EngineRequest::Commands(commands) => {
@@ -200,6 +258,7 @@ impl Engine {
                         match self.session.apply(command) {
                             Ok(applied) => {
                                 redraw = true;
+                                relit |= applied.change != Change::Camera;
                                 match applied.change {
                                     Change::Point { light, .. }
                                     | Change::Curve { light }
@@ -232,10 +291,14 @@ impl Engine {
                     preview_px,
                     aim,
                 } => picks.push((pixel, preview_px, aim)),
+                EngineRequest::Report(path) => reports.push(path),
                 EngineRequest::Baked(outcome) => {
                     status_changed = true;
                     match self.session.finish_bake(*outcome) {
-                        Ok(installed) => redraw |= installed.is_some(),
+                        Ok(installed) => {
+                            redraw |= installed.is_some();
+                            relit |= installed.is_some();
+                        }
                         Err(e) => self.send(Msg::Failed {
                             message: format!("bake: {e}"),
                         })?,
@@ -250,6 +313,12 @@ impl Engine {
         if status_changed {
             self.send(Msg::LightStatus(self.statuses()))?;
         }
+        for path in &reports {
+            let answer = self.report(path);
+            self.send(answer)?;
+            // The report drew its own views: the preview must be drawn again.
+            redraw = true;
+        }
         if redraw && let Some(spec) = self.spec {
             self.render(&spec)?;
         }
@@ -259,9 +328,13 @@ impl Engine {
                 series: self.session.series(light),
             })?;
         }
+        let picked = !picks.is_empty();
         for (pixel, preview_px, aim) in picks {
             let hit = self.pick(pixel, preview_px);
             self.send(Msg::Picked { pixel, hit, aim })?;
+        }
+        if relit || picked {
+            self.send_numbers()?;
         }
         Some(())
     }
@@ -299,9 +372,10 @@ impl Engine {
         self.events.send(AppEvent::Rendered(rendered)).ok()
     }
 
-    /// The point and illuminance under preview `pixel` (scaled from `preview_px` to the latest
-    /// frame's size).
-    fn pick(&self, pixel: (u32, u32), (w, h): (u32, u32)) -> Option<(glam::DVec3, f64)> {
+    /// The point under preview `pixel` (scaled from `preview_px` to the latest frame's size)
+    /// and its illuminance as `haiko probe` gives it; the point becomes the cursor the numbers
+    /// follow.
+    fn pick(&mut self, pixel: (u32, u32), (w, h): (u32, u32)) -> Option<(DVec3, f64)> {
         let (frame, _) = self.session.latest_frame()?;
         let scale = |p: u32, from: u32, to: u32| {
             u32::try_from(u64::from(p) * u64::from(to) / u64::from(from.max(1))).unwrap_or(u32::MAX)
@@ -310,7 +384,12 @@ impl Engine {
             scale(pixel.0, w, frame.pixmap.width()),
             scale(pixel.1, h, frame.pixmap.height()),
         );
-        self.session.pick(at).map(|hit| (hit.point, hit.lux))
+        let hit = self.session.pick(at)?;
+        let lux = self.set_cursor(Point {
+            point: hit.point,
+            normal: hit.normal,
+        })?;
+        Some((hit.point, lux))
     }
 }
 

@@ -7,13 +7,17 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3};
-use haiko::metrics::evaluate::{check_surfaces, eye_receivers, glare_with};
+use haiko::metrics::SurfaceResult;
+use haiko::metrics::evaluate::{eye_receivers, glare_with};
 use haiko::metrics::{SourceStatus, UgrStatus, luminaire_schedule};
 use haiko::photometry::{LuminousShape, read_lid_file};
 use haiko::render::shade::{FalseColor, LuxScale};
 use haiko::report::{ReportImage, ReportInput, base64, html};
 use haiko::scene::design::{Placement, RoomSurface, TaskPreset};
-use haiko::scene::load;
+use haiko::scene::{Scene, load};
+use haiko::session::{Session, SessionOptions};
+use haiko::transport::occlusion::Occluders;
+use haiko::transport::visibility::Visibility;
 
 fn data(relative: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -43,6 +47,18 @@ name = \"a\"
 position = [4.0, 3.0, 2.8]
 lid = [[0, 1000], [90, 0]]
 ";
+
+/// The surfaces' numbers by direct light only (no bake), through the session.
+fn direct_surfaces(scene: Scene) -> Vec<SurfaceResult> {
+    let options = SessionOptions {
+        indirect: false,
+        ..SessionOptions::default()
+    };
+    Session::new(scene, options, &mut |_| {})
+        .unwrap()
+        .design_numbers()
+        .surfaces
+}
 
 fn write_room(dir: &Path, text: &str) -> PathBuf {
     let path = dir.join("design.toml");
@@ -258,14 +274,14 @@ fn room_surface_names_and_their_exclusions_are_checked() {
 fn targets_out_of_range_are_rejected() {
     let m = design_error("[[surface]]\ntarget_u0 = 1.5\n");
     assert!(
-        m.contains("line 19, column 13 (surface[0].target_u0)") && m.contains("(0, 1]"),
+        m.contains("line 19, column 13 (surface[0].target_u0)") && m.contains("> 0 and ≤ 1"),
         "{m}"
     );
     let m = design_error("[[surface]]\ntarget_lux = -5\n");
     assert!(m.contains("(surface[0].target_lux)"), "{m}");
     let m = design_error("[[surface]]\ntarget_ugr = 45\n");
     assert!(
-        m.contains("(surface[0].target_ugr)") && m.contains("(0, 40]"),
+        m.contains("(surface[0].target_ugr)") && m.contains("> 0 and ≤ 40"),
         "{m}"
     );
     let m = design_error("[settings]\nmaintenance_factor = 1.2\n");
@@ -387,7 +403,7 @@ target_lux = 150
 target_u0 = 0.5
 ";
     let scene = load(&write_room(dir.path(), text)).unwrap();
-    let results = check_surfaces(&scene, None);
+    let results = direct_surfaces(scene);
     let r = &results[0];
     // E = I h / (d² + h²)^1.5: d = 0 → 2000/8 = 250; d = 1 → 2000/5^1.5 = 178.885;
     // d = 2 → 2000/8^1.5 = 88.388 lx.
@@ -415,7 +431,12 @@ fn office_glare_components_reproduce_each_ugr() {
     // give back each observer's UGR through the CIE 117 formula.
     let scene = load(&rooms_dir().join("office.toml")).unwrap();
     let eyes = eye_receivers(&scene);
-    let glare = glare_with(&scene, &vec![100.0; eyes.len()]);
+    let occluders = Occluders::of_scene(&scene);
+    let glare = glare_with(
+        &scene,
+        &vec![100.0; eyes.len()],
+        occluders.as_ref().map(|o| o as &dyn Visibility),
+    );
     assert_eq!(glare.len(), 3);
     for g in &glare {
         assert_eq!(g.status, UgrStatus::Rated, "{}", g.name);
@@ -479,10 +500,10 @@ fn report_embeds_images_and_tables_for_a4() {
     let mut scene = load(&rooms_dir().join("office.toml")).unwrap();
     scene.design.surfaces[0].name = "work <plane> & desks".into();
     scene.design.surfaces[0].targets.maintained_lux = Some(500.0);
-    let surfaces = check_surfaces(&scene, None);
     let eyes = eye_receivers(&scene);
-    let observers = glare_with(&scene, &vec![100.0; eyes.len()]);
+    let observers = glare_with(&scene, &vec![100.0; eyes.len()], None);
     let schedule = luminaire_schedule(&scene);
+    let surfaces = direct_surfaces(scene.clone());
     let png = tiny_png();
     let images = [
         ReportImage {

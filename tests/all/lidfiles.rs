@@ -411,7 +411,7 @@ fn unknown_extension_is_refused() {
         "lamp.txt",
         IES.as_bytes(),
         "extension",
-        "unknown photometric file type '.txt'",
+        "unknown photometric file type `.txt`",
     );
 }
 
@@ -469,7 +469,7 @@ fn ies_non_numeric_token() {
         "word.ies",
         ies_with_line(8, "100 abc 100").as_bytes(),
         "line 8, value 2 (candela for C=0°, γ=90°)",
-        "\"abc\" is not a number",
+        "`abc` is not a number",
     );
 }
 
@@ -491,7 +491,7 @@ fn ies_negative_candela() {
         "neg.ies",
         ies_with_line(8, "100 -5 100").as_bytes(),
         "value 2 (candela for C=0°, γ=90°)",
-        "candela cannot be negative",
+        "an intensity cannot be negative",
     );
 }
 
@@ -572,7 +572,7 @@ fn ies_unknown_tilt_file() {
         "tilt.ies",
         ies_with_line(3, "TILT=lamp.tlt").as_bytes(),
         "line 3",
-        "TILT file \"lamp.tlt\" is not supported, use TILT=INCLUDE",
+        "TILT file `lamp.tlt` is not supported, use TILT=INCLUDE",
     );
 }
 
@@ -675,7 +675,7 @@ fn ldt_bad_counts() {
         "ng.ldt",
         ldt_with_line("ldt-synthetic/isym0.ldt", 6, "many").as_bytes(),
         "line 6, field 6 (Ng)",
-        "\"many\" is not a number",
+        "expected a number: this is not a EULUMDAT file",
     );
 }
 

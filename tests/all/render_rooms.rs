@@ -45,7 +45,7 @@ fn spec(size: (u32, u32), mode: DisplayMode) -> FrameSpec {
     FrameSpec::new(size, mode)
 }
 
-/// `haiko pick` on `scene` (through a direct-light session, as the command does).
+/// `haiko pick --direct-only` on `scene` (through a direct-light session, as the command does).
 fn pick(
     scene: &Scene,
     width: u32,
@@ -53,7 +53,14 @@ fn pick(
     pixel: Pixel,
     aim: Option<&str>,
 ) -> haiko::Result<PickReport> {
-    pick_pixel(&mut session(scene.clone(), false), width, height, pixel, aim)
+    pick_pixel(
+        &mut session(scene.clone(), false),
+        width,
+        height,
+        pixel,
+        aim,
+        true,
+    )
 }
 
 fn golden() -> Golden {

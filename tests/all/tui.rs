@@ -10,6 +10,7 @@ use haiko::scene::{AimSpec, Camera, LidSource, Light, PatchMesh, Scene, Settings
 use haiko::session::{Command, Series};
 use haiko::tui::keys::{self, BINDINGS, ModeKind};
 use haiko::tui::model::{MAX_ORDER, WindowChoice};
+use haiko::tui::msg::CurveSave;
 use haiko::tui::save::{edit_room_text, round_significant, save_room};
 use haiko::tui::view::{cell_to_pixel, preview_rect};
 use haiko::tui::{Effect, Mode, Model, Msg, PreviewArea, update, view};
@@ -798,7 +799,11 @@ fn quit_asks_only_with_unsaved_changes() {
 fn saved_clears_dirty_only_when_the_app_reports_success() {
     let mut m = model();
     send(&mut m, [key(KeyCode::Tab), key(KeyCode::Up)]);
-    assert_eq!(update(&mut m, ch('s')), vec![Effect::Save]);
+    // The spot's curve came from a file: the save asks how to write it.
+    assert_eq!(update(&mut m, ch('s')), vec![]);
+    assert_eq!(m.mode, Mode::ConfirmSave);
+    assert_eq!(update(&mut m, ch('i')), vec![Effect::Save(CurveSave::Inline)]);
+    assert_eq!(m.mode, Mode::Normal);
     assert!(m.dirty);
     update(
         &mut m,
@@ -811,23 +816,26 @@ fn saved_clears_dirty_only_when_the_app_reports_success() {
         &mut m,
         Msg::Saved {
             message: "saved room.toml".into(),
+            sources: vec![LidSource::Inline, LidSource::Inline],
         },
     );
     assert!(!m.dirty);
     assert_eq!(m.message.as_deref(), Some("saved room.toml"));
-    // The edited file-backed curve is now inline; the untouched one keeps its source.
+    // The edited file-backed curve is now inline, as the app reported; the other kept its source.
     assert_eq!(m.lights[1].lid_source, LidSource::Inline);
     assert_eq!(m.lights[0].lid_source, LidSource::Inline);
     update(&mut m, ch('u'));
     assert!(m.dirty);
     // Quitting after a save does not ask.
     let mut m = model();
+    let spot_source = m.lights[1].lid_source.clone();
     send(
         &mut m,
         [
             key(KeyCode::Up),
             Msg::Saved {
                 message: String::new(),
+                sources: vec![LidSource::Inline, spot_source],
             },
         ],
     );
@@ -969,6 +977,10 @@ fn example_events(k: keys::Key) -> Vec<KeyEvent> {
             .chars()
             .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
             .collect(),
+        Key::AnyChar => "a/Z.~ 9"
+            .chars()
+            .map(|c| KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
+            .collect(),
     }
 }
 
@@ -1090,7 +1102,8 @@ fn save_converts_an_edited_lid_file_light_to_inline_and_writes_atomically() {
     assert!(spot.get("lid_file").is_none());
     assert_eq!(spot["lid"].as_array().unwrap().len(), 3);
     // After the app reports the save, nothing is left to write.
-    update(&mut m, Msg::Saved { message });
+    let sources = vec![LidSource::Inline, LidSource::Inline];
+    update(&mut m, Msg::Saved { message, sources });
     assert_eq!(edit_room_text(&path, &text, &m).unwrap().text, text);
 }
 
@@ -1265,6 +1278,7 @@ fn polar_diagram_marks_the_selected_point_once_and_labels_rings() {
     PolarDiagram {
         curve: &curve,
         series: None,
+        spread: None,
         selected: 1,
         block: Block::bordered(),
     }
@@ -1280,6 +1294,7 @@ fn polar_diagram_marks_the_selected_point_once_and_labels_rings() {
     PolarDiagram {
         curve: &curve,
         series: None,
+        spread: None,
         selected: 0,
         block: Block::bordered(),
     }
@@ -1337,4 +1352,22 @@ fn every_key_in_every_mode_is_safe_in_a_room_without_lights() {
             assert!(m.mode == Mode::Help || screen.contains("no lights"), "{screen}");
         }
     }
+}
+
+#[test]
+fn light_names_are_escaped_in_the_panels() {
+    let mut s = scene();
+    s.lights[0].name = "red\u{1b}[31m\nx\u{202e}".into();
+    let m = Model::new(&s, (120, 40), (8, 16));
+    let terminal = draw(&m, 120, 40);
+    let text: String = terminal
+        .backend()
+        .buffer()
+        .content()
+        .iter()
+        .map(|c| c.symbol())
+        .collect();
+    // The curve panel's title and the status line both show the escaped name.
+    assert_eq!(text.matches("red\\u{1b}[31m\\nx\\u{202e}").count(), 2, "{text}");
+    assert!(!text.contains('\u{1b}') && !text.contains('\u{202e}'));
 }

@@ -7,16 +7,16 @@ use std::process::Command;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// How long any one step may take (a debug build's first frame included).
-const STEP_TIMEOUT: Duration = Duration::from_secs(60);
+pub(crate) const STEP_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// A tmux session that is killed when the test ends, passed or failed.
-struct TmuxSession {
+pub(crate) struct TmuxSession {
     name: String,
 }
 
 impl TmuxSession {
     /// Starts `command` in a new detached session of `width × height` cells.
-    fn start(command: &str, width: u16, height: u16) -> TmuxSession {
+    pub(crate) fn start(command: &str, width: u16, height: u16) -> TmuxSession {
         let nanos = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0, |d| d.subsec_nanos());
@@ -29,16 +29,16 @@ impl TmuxSession {
         session
     }
 
-    fn capture(&self) -> String {
+    pub(crate) fn capture(&self) -> String {
         tmux(&["capture-pane", "-p", "-t", &self.name])
     }
 
-    fn send(&self, key: &str) {
+    pub(crate) fn send(&self, key: &str) {
         tmux(&["send-keys", "-t", &self.name, key]);
     }
 
     /// Waits until the pane satisfies `done`; panics with the last screen after the timeout.
-    fn wait_for(&self, what: &str, done: impl Fn(&str) -> bool) -> String {
+    pub(crate) fn wait_for(&self, what: &str, done: impl Fn(&str) -> bool) -> String {
         let start = Instant::now();
         loop {
             let screen = self.capture();
@@ -76,7 +76,7 @@ fn tmux(args: &[&str]) -> String {
 }
 
 /// The status line (second-to-last row of the screen).
-fn status_line(screen: &str) -> &str {
+pub(crate) fn status_line(screen: &str) -> &str {
     let lines: Vec<&str> = screen.lines().collect();
     lines.len().checked_sub(2).map_or("", |i| lines[i])
 }
@@ -90,14 +90,14 @@ fn aim_title(screen: &str) -> Option<String> {
 
 /// True once the save has finished: the status reports "saved PATH" and the room is no longer
 /// marked "● unsaved" (a plain `contains("saved ")` also matches that marker).
-fn shows_saved(screen: &str) -> bool {
+pub(crate) fn shows_saved(screen: &str) -> bool {
     !screen.contains("unsaved")
         && screen
             .match_indices("saved ")
             .any(|(i, _)| !screen[..i].ends_with("un"))
 }
 
-fn wait_for_file(path: &Path) -> String {
+pub(crate) fn wait_for_file(path: &Path) -> String {
     let start = Instant::now();
     while start.elapsed() < STEP_TIMEOUT {
         if let Ok(text) = std::fs::read_to_string(path)
@@ -110,7 +110,7 @@ fn wait_for_file(path: &Path) -> String {
     panic!("{} was not written: the editor did not exit", path.display());
 }
 
-fn number(value: &toml::Value) -> f64 {
+pub(crate) fn number(value: &toml::Value) -> f64 {
     value
         .as_float()
         .or_else(|| value.as_integer().map(|i| i as f64))

@@ -5,9 +5,10 @@
 use glam::{DVec2, DVec3};
 use toml::Spanned;
 
-use super::Loader;
+use super::{Bounds, Loader, MAX_ROOM_SIZE_M, MIN_GRID_SPACING_M, unit};
 use crate::error::Result;
 use crate::photometry::LuminousShape;
+use crate::photometry::luminous::MAX_LUMINOUS_SIZE_M;
 use crate::scene::calc_spec::{LuminousSizeSpec, ObserverSpec, SurfaceSpec};
 use crate::scene::design::{
     CalcSurface, DEFAULT_WORK_PLANE_HEIGHT_M, Design, GridCells, MAX_GRID_POINTS, Observer, Placement,
@@ -17,6 +18,9 @@ use crate::scene::model::Aabb;
 
 /// The highest UGR a target or limit may name (CIE 117 tables stop at 30; 40 leaves room).
 const MAX_UGR: f64 = 40.0;
+
+/// The highest target illuminance, lux (ten times full sunlight).
+const MAX_TARGET_LUX: f64 = 1e6;
 
 /// What the design tables need to know about the room.
 pub(super) struct RoomBounds<'a> {
@@ -53,12 +57,8 @@ impl Loader<'_> {
     ) -> Result<Design> {
         let mut design = Design::default_for(room.size);
         if let Some(mf) = maintenance_factor {
-            let value = self.number(mf, "settings.maintenance_factor", 0.0, true)?;
-            if value > 1.0 {
-                let message = format!("the maintenance factor {value} must be in (0, 1]");
-                return Err(self.error(&mf.span(), "settings.maintenance_factor", message));
-            }
-            design.maintenance_factor = value;
+            design.maintenance_factor =
+                self.number(mf, "settings.maintenance_factor", Bounds::above(0.0, 1.0))?;
         }
         if !surfaces.is_empty() {
             design.surfaces = surfaces
@@ -105,7 +105,11 @@ impl Loader<'_> {
         let field = format!("surface[{index}]");
         let at = |name: &str| format!("{field}.{name}");
         let max_cell_m = match &spec.spacing {
-            Some(s) => Some(self.number(s, &at("spacing"), 0.0, true)?),
+            Some(s) => Some(self.number(
+                s,
+                &at("spacing"),
+                Bounds::closed(MIN_GRID_SPACING_M, MAX_ROOM_SIZE_M),
+            )?),
             None => None,
         };
         let placement = match &spec.on {
@@ -140,7 +144,8 @@ impl Loader<'_> {
             None => (None, Targets::default()),
         };
         if let Some(t) = &spec.target_lux {
-            targets.maintained_lux = Some(self.number(t, &at("target_lux"), 0.0, true)?);
+            targets.maintained_lux =
+                Some(self.number(t, &at("target_lux"), Bounds::above(0.0, MAX_TARGET_LUX))?);
         }
         for (value, slot, name) in [
             (&spec.target_u0, &mut targets.u0, "target_u0"),
@@ -194,7 +199,11 @@ impl Loader<'_> {
             self.error(&on.span(), &format!("{field}.on"), message)
         })?;
         let margin_m = match &spec.margin {
-            Some(m) => self.number(m, &format!("{field}.margin"), 0.0, false)?,
+            Some(m) => self.number(
+                m,
+                &format!("{field}.margin"),
+                Bounds::closed(0.0, MAX_ROOM_SIZE_M),
+            )?,
             None => 0.0,
         };
         let smallest_edge = surfaces
@@ -260,7 +269,7 @@ impl Loader<'_> {
             }
             (None, None, margin) => {
                 let margin_m = match margin {
-                    Some(m) => self.number(m, &at("margin"), 0.0, false)?,
+                    Some(m) => self.number(m, &at("margin"), Bounds::closed(0.0, MAX_ROOM_SIZE_M))?,
                     None => WALL_BAND_M,
                 };
                 if 2.0 * margin_m >= size.x.min(size.y) {
@@ -296,11 +305,11 @@ impl Loader<'_> {
             return Err(self.error(&spec.eye.span(), &at("eye"), message));
         }
         let view = self.vector(&spec.view_dir, &at("view_dir"))?;
-        if view.z != 0.0 || view.length_squared() == 0.0 {
+        let Some(view) = unit(view).filter(|v| v.z == 0.0) else {
             let message = "the line of sight must be horizontal and non-zero ([x, y, 0]): UGR (CIE 117) \
                            is defined for a horizontal line of sight";
             return Err(self.error(&spec.view_dir.span(), &at("view_dir"), message));
-        }
+        };
         let ugr_limit = match &spec.ugr_limit {
             Some(u) => Some(self.ugr(u, &at("ugr_limit"))?),
             None => None,
@@ -308,7 +317,7 @@ impl Loader<'_> {
         Ok(Observer {
             name: spec.name.as_ref().map_or(field.clone(), |n| n.get_ref().clone()),
             eye,
-            view: view.normalize(),
+            view,
             ugr_limit,
         })
     }
@@ -320,21 +329,23 @@ impl Loader<'_> {
         field: &str,
     ) -> Result<LuminousShape> {
         let bad = |message: String| self.error(&spec.span(), field, message);
-        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let positive = |v: f64| v > 0.0 && v <= MAX_LUMINOUS_SIZE_M;
         match spec.get_ref() {
             LuminousSizeSpec::Diameter(d) if positive(*d) => Ok(LuminousShape::Ellipse {
                 length_m: *d,
                 width_m: *d,
                 side_height_m: 0.0,
             }),
-            LuminousSizeSpec::Diameter(d) => Err(bad(format!("the diameter {d} m must be > 0"))),
+            LuminousSizeSpec::Diameter(d) => Err(bad(format!(
+                "the diameter {d} m must be > 0 and ≤ {MAX_LUMINOUS_SIZE_M} m"
+            ))),
             LuminousSizeSpec::Sides(sides) => match sides.as_slice() {
-                &[l, w] | &[l, w, _] if !(positive(l) && positive(w)) => {
-                    Err(bad(format!("length {l} m and width {w} m must be > 0")))
-                }
-                &[_, _, h] if !(h.is_finite() && h >= 0.0) => {
-                    Err(bad(format!("the height {h} m must be ≥ 0")))
-                }
+                &[l, w] | &[l, w, _] if !(positive(l) && positive(w)) => Err(bad(format!(
+                    "length {l} m and width {w} m must be > 0 and ≤ {MAX_LUMINOUS_SIZE_M} m"
+                ))),
+                &[_, _, h] if !(0.0..=MAX_LUMINOUS_SIZE_M).contains(&h) => Err(bad(format!(
+                    "the height {h} m must be ≥ 0 and ≤ {MAX_LUMINOUS_SIZE_M} m"
+                ))),
                 &[l, w] => Ok(LuminousShape::Rectangle {
                     length_m: l,
                     width_m: w,
@@ -353,35 +364,30 @@ impl Loader<'_> {
         }
     }
 
-    /// `[x, y]` with finite components.
-    fn point2(&self, spec: &Spanned<[f64; 2]>, field: &str) -> Result<DVec2> {
-        let v = *spec.get_ref();
-        if v.iter().any(|x| !x.is_finite()) {
-            return Err(self.error(&spec.span(), field, format!("{v:?} must be finite numbers")));
+    /// `[x, y]`: exactly two finite numbers.
+    fn point2(&self, spec: &Spanned<Vec<f64>>, field: &str) -> Result<DVec2> {
+        match spec.get_ref().as_slice() {
+            &[x, y] if x.is_finite() && y.is_finite() => Ok(DVec2::new(x, y)),
+            &[x, y] => Err(self.error(
+                &spec.span(),
+                field,
+                format!("{:?} must be finite numbers", [x, y]),
+            )),
+            other => {
+                let message = format!("needs exactly 2 numbers [x, y], not {}", other.len());
+                Err(self.error(&spec.span(), field, message))
+            }
         }
-        Ok(DVec2::from_array(v))
     }
 
     /// A ratio in (0, 1].
     fn fraction(&self, spec: &Spanned<f64>, field: &str) -> Result<f64> {
-        let value = self.number(spec, field, 0.0, true)?;
-        if value > 1.0 {
-            return Err(self.error(&spec.span(), field, format!("{value} must be in (0, 1]")));
-        }
-        Ok(value)
+        self.number(spec, field, Bounds::above(0.0, 1.0))
     }
 
     /// A UGR value in (0, 40].
     fn ugr(&self, spec: &Spanned<f64>, field: &str) -> Result<f64> {
-        let value = self.number(spec, field, 0.0, true)?;
-        if value > MAX_UGR {
-            return Err(self.error(
-                &spec.span(),
-                field,
-                format!("UGR {value} must be in (0, {MAX_UGR}]"),
-            ));
-        }
-        Ok(value)
+        self.number(spec, field, Bounds::above(0.0, MAX_UGR))
     }
 }
 

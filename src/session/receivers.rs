@@ -1,0 +1,236 @@
+//! Illuminance at a fixed set of receivers (calculation points, probe points, the point under
+//! the editor's cursor), kept current edit by edit (docs/ARCHITECTURE.md, "Numbers").
+//!
+//! What an edit cannot change is computed once per set: each light's direct-light geometry
+//! ([`DirectCache`]: directions, `cosθ / (r² + a²)`, visibility; rebuilt only when the light
+//! moves) and the gather from the coarse patches ([`GatherOperator`]: `F · V` per receiver and
+//! patch). An edit of one light then costs one curve evaluation per receiver for its direct
+//! light, its patch irradiance from its baked columns ([`light_patch_irradiance`]), and one pass
+//! over the stored gather factors: no rays. The numbers are those of `haiko probe` at the same
+//! points — `Session::illuminance_at` goes through this type too.
+
+use glam::DVec3;
+
+use crate::photometry::{LightState, ShBasis, ZonalWeights, coefficients_from_weights, sh_count};
+use crate::scene::{DirectMode, Scene};
+use crate::session::light::LightEdit;
+use crate::transport::bake::{BakedLight, patch_reflectance};
+use crate::transport::direct::{DirectCache, Receiver, luminance_weight};
+use crate::transport::gather::{GatherOperator, light_patch_irradiance};
+use crate::transport::occlusion::Occluders;
+use crate::transport::visibility::Visibility;
+
+/// What a [`ReceiverSet`] needs of one light to compute it.
+#[derive(Debug, Clone, Copy)]
+pub struct LightInput<'a> {
+    /// The light's current state.
+    pub light: &'a LightEdit,
+    /// Its curve's Legendre weights (cd), kept current edit by edit.
+    pub weights: &'a ZonalWeights,
+    /// Its baked basis, if the session has a bake.
+    pub baked: Option<&'a BakedLight>,
+    /// A number that changes whenever anything above changes (the set recomputes the light
+    /// when it differs from the one it last saw).
+    pub version: u64,
+}
+
+/// One light as a receiver set keeps it.
+#[derive(Debug, Clone)]
+struct SetLight {
+    version: u64,
+    position: DVec3,
+    radius_m: f64,
+    cache: DirectCache,
+    /// Direct illuminance at each receiver (lx, photopic: colour weighted).
+    direct: Vec<f64>,
+    /// Irradiance of every coarse patch (lx, linear RGB, colour applied); empty without the
+    /// gather.
+    irradiance: Vec<[f64; 3]>,
+}
+
+/// Illuminance at fixed receivers for the lights' current states.
+#[derive(Debug, Clone)]
+pub struct ReceiverSet {
+    receivers: Vec<Receiver>,
+    mode: DirectMode,
+    /// The gather from the coarse patches; `None` for direct light only.
+    gather: Option<GatherOperator>,
+    /// Coarse patch reflectance per channel (for `B = ρ H`).
+    reflectance: [Vec<f64>; 3],
+    /// Per light; `None` until first computed (a new set, an inserted light).
+    lights: Vec<Option<SetLight>>,
+    /// True when the sums below must be redone.
+    stale: bool,
+    /// Total illuminance per receiver, lx (photopic).
+    total: Vec<f64>,
+    /// The indirect part of `total`, lx (photopic).
+    indirect: Vec<f64>,
+}
+
+impl ReceiverSet {
+    /// A set for `receivers` in `scene` with `n_lights` lights (computed at the first
+    /// [`Self::update`]). With `indirect`, the gather from the coarse patches is built here
+    /// (four visibility rays per receiver and patch against `occluders`); `mode` chooses how
+    /// direct light is evaluated (exact, or from each light's SH series as in paper mode).
+    pub fn new(
+        scene: &Scene,
+        receivers: Vec<Receiver>,
+        n_lights: usize,
+        indirect: bool,
+        mode: DirectMode,
+        occluders: Option<&Occluders>,
+    ) -> Self {
+        let gather = indirect.then(|| GatherOperator::build(scene, occluders, &receivers));
+        let reflectance = if indirect {
+            [0, 1, 2].map(|ch| patch_reflectance(scene, &scene.coarse, ch))
+        } else {
+            Default::default()
+        };
+        let n = receivers.len();
+        ReceiverSet {
+            receivers,
+            mode,
+            gather,
+            reflectance,
+            lights: vec![None; n_lights],
+            stale: true,
+            total: vec![0.0; n],
+            indirect: vec![0.0; n],
+        }
+    }
+
+    /// The receivers.
+    pub fn receivers(&self) -> &[Receiver] {
+        &self.receivers
+    }
+
+    /// Total illuminance at each receiver (lx, photopic), as of the last [`Self::update`].
+    pub fn lux(&self) -> &[f64] {
+        &self.total
+    }
+
+    /// The indirect part of [`Self::lux`] (lx, photopic; 0 for direct light only).
+    pub fn indirect_lux(&self) -> &[f64] {
+        &self.indirect
+    }
+
+    /// A light was inserted at `at`: computed at the next update.
+    pub fn insert_light(&mut self, at: usize) {
+        self.lights.insert(at, None);
+        self.stale = true;
+    }
+
+    /// Light `at` was removed.
+    pub fn remove_light(&mut self, at: usize) {
+        self.lights.remove(at);
+        self.stale = true;
+    }
+
+    /// Recomputes the lights whose version changed (the direct cache only for a light that
+    /// moved) and the sums; returns true when anything changed. `lights` must have one entry
+    /// per light of the set, in order.
+    pub fn update(&mut self, lights: &[LightInput<'_>], occluders: Option<&Occluders>) -> bool {
+        assert_eq!(lights.len(), self.lights.len(), "one input per light of the set");
+        let vis = occluders.map(|o| o as &dyn Visibility);
+        for (slot, input) in self.lights.iter_mut().zip(lights) {
+            if slot.as_ref().is_some_and(|s| s.version == input.version) {
+                continue;
+            }
+            let light = input.light;
+            let reuse = slot
+                .take()
+                .filter(|s| s.position == light.position && s.radius_m == light.radius_m);
+            let cache = match reuse {
+                Some(s) => s.cache,
+                None => DirectCache::build(light.position, light.radius_m, &self.receivers, vis),
+            };
+            let mut computed = SetLight {
+                version: input.version,
+                position: light.position,
+                radius_m: light.radius_m,
+                cache,
+                direct: vec![0.0; self.receivers.len()],
+                irradiance: Vec::new(),
+            };
+            compute_light(&mut computed, input, self.mode, self.gather.is_some());
+            *slot = Some(computed);
+            self.stale = true;
+        }
+        if !self.stale {
+            return false;
+        }
+        self.resum();
+        self.stale = false;
+        true
+    }
+
+    fn resum(&mut self) {
+        let lights: Vec<&SetLight> = self.lights.iter().flatten().collect();
+        for (r, total) in self.total.iter_mut().enumerate() {
+            *total = lights.iter().map(|l| l.direct[r]).sum();
+        }
+        let Some(gather) = &self.gather else {
+            self.indirect.fill(0.0);
+            return;
+        };
+        let n_patches = self.reflectance[0].len();
+        let mut radiosity = vec![[0.0; 3]; n_patches];
+        for light in lights.iter().filter(|l| l.irradiance.len() == n_patches) {
+            for (b, h) in radiosity.iter_mut().zip(&light.irradiance) {
+                (0..3).for_each(|ch| b[ch] += h[ch]);
+            }
+        }
+        for (p, b) in radiosity.iter_mut().enumerate() {
+            (0..3).for_each(|ch| b[ch] *= self.reflectance[ch][p]);
+        }
+        let gathered = gather.apply(&radiosity);
+        for ((total, indirect), e) in self.total.iter_mut().zip(&mut self.indirect).zip(gathered) {
+            *indirect = luminance_weight(e);
+            *total += *indirect;
+        }
+    }
+}
+
+/// Fills `out.direct` (and, with the gather, `out.irradiance`) for the light's current state.
+fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, gather: bool) {
+    let light = input.light;
+    let state = LightState {
+        curve: light.curve.clone(),
+        aim: light.aim,
+        dimmer: light.dimmer,
+        color: light.color,
+    };
+    let weight = luminance_weight(light.color);
+    // The SH coefficients of the baked order, when a basis needs them.
+    let series = input.baked.map(|baked| {
+        let basis = ShBasis::new(baked.plan.order);
+        let mut coeffs = vec![0.0; sh_count(baked.plan.order)];
+        coefficients_from_weights(&state, input.weights, light.window.forced(), &basis, &mut coeffs);
+        (basis, coeffs, baked)
+    });
+    match (&series, mode) {
+        (Some((basis, coeffs, baked)), DirectMode::Basis) => {
+            let mask = baked.plan.mask.map(DVec3::from);
+            out.cache.illuminance_with(
+                |dir| {
+                    if mask.is_some_and(|n| dir.dot(n) <= 0.0) {
+                        0.0
+                    } else {
+                        basis.dot(coeffs, dir)
+                    }
+                },
+                1.0,
+                &mut out.direct,
+            );
+        }
+        _ => out
+            .cache
+            .illuminance_into(&light.curve, light.aim, light.dimmer, &mut out.direct),
+    }
+    if weight != 1.0 {
+        out.direct.iter_mut().for_each(|e| *e *= weight);
+    }
+    if let (true, Some((_, coeffs, baked))) = (gather, &series) {
+        light_patch_irradiance(baked, coeffs, light.color, &mut out.irradiance);
+    }
+}

@@ -1,0 +1,875 @@
+//! Bad input through the real binary (docs/DECISIONS.md, "Bad input"): every class of the second
+//! bad-input round gets exit code 2 and a one-line message naming the file and the place, never a
+//! panic, a hang, a NaN or a quote of a file that is not what it claims to be.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use haiko::scene::points::{MAX_POINTS, parse_points};
+
+/// What a run of the binary produced.
+struct Run {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+/// Runs `haiko ARGS` in `dir` with a private bake cache; fails the test if it takes more than
+/// 60 s (a hang on a FIFO or a device).
+fn haiko(dir: &Path, args: &[&str]) -> Run {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_haiko"));
+    command.args(args);
+    run_in(dir, command, args)
+}
+
+/// Runs `haiko ARGS` as [`haiko`] does, with files limited to `blocks` blocks of 512 bytes
+/// (`ulimit -f`) and SIGXFSZ ignored, so a write past the limit fails with EFBIG as on a full
+/// disk (without root or a small file system).
+fn haiko_with_file_limit(dir: &Path, blocks: u32, args: &[&str]) -> Run {
+    let mut command = Command::new("sh");
+    command
+        .arg("-c")
+        .arg(format!("trap '' XFSZ; ulimit -f {blocks}; exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_haiko"))
+        .args(args);
+    run_in(dir, command, args)
+}
+
+fn run_in(dir: &Path, mut command: Command, args: &[&str]) -> Run {
+    let out = dir.join(".stdout");
+    let err = dir.join(".stderr");
+    let mut child = command
+        .current_dir(dir)
+        .env("HAIKO_CACHE_DIR", dir.join(".cache"))
+        .stdin(Stdio::null())
+        .stdout(fs::File::create(&out).unwrap())
+        .stderr(fs::File::create(&err).unwrap())
+        .spawn()
+        .expect("the binary runs");
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if Instant::now() > deadline {
+            child.kill().ok();
+            child.wait().ok();
+            panic!("haiko {args:?} hung");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    Run {
+        code: status.code(),
+        stdout: String::from_utf8_lossy(&fs::read(&out).unwrap()).into_owned(),
+        stderr: String::from_utf8_lossy(&fs::read(&err).unwrap()).into_owned(),
+    }
+}
+
+/// Asserts exit code 2 with one stderr line that names `file` and contains every one of `words`.
+fn assert_bad_input(run: &Run, file: &str, words: &[&str]) {
+    let err = &run.stderr;
+    assert_eq!(run.code, Some(2), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains(file), "names {file}: {err}");
+    for w in words {
+        assert!(err.contains(w), "{w:?} in: {err}");
+    }
+    assert!(!err.contains("panicked") && !err.contains('\u{1b}'), "{err}");
+}
+
+/// A black 4 × 4 × 3 m room with one isotropic 1000 cd light at (2, 2, 2.5).
+const ROOM: &str = r#"version = 1
+[room]
+size = [4.0, 4.0, 3.0]
+[room.reflectance]
+floor = 0.0
+walls = 0.0
+ceiling = 0.0
+[[light]]
+name = "iso"
+position = [2.0, 2.0, 2.5]
+lid = [[0, 1000], [180, 1000]]
+[settings]
+patch_size = 0.5
+solver_patch_size = 1.0
+"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    fs::write(&path, text).unwrap();
+    path
+}
+
+/// `ROOM` with `from` replaced by `to` (which must occur).
+fn room_with(from: &str, to: &str) -> String {
+    assert!(ROOM.contains(from), "{from}");
+    ROOM.replacen(from, to, 1)
+}
+
+#[test]
+fn arrays_of_the_wrong_length_name_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            "size = [4.0, 4.0, 3.0]",
+            "size = [4.0, 4.0, 3.0, 1.0]",
+            "room.size",
+            "line 3",
+        ),
+        (
+            "position = [2.0, 2.0, 2.5]",
+            "position = [2.0, 2.0, 2.5, 9]",
+            "light[0].position",
+            "line 10",
+        ),
+        (
+            "position = [2.0, 2.0, 2.5]",
+            "position = [2.0, 2.0]",
+            "light[0].position",
+            "line 10",
+        ),
+        (
+            "lid = [[0, 1000], [180, 1000]]",
+            "lid = [[0, 1000], [180, 1000, 5]]",
+            "light[0].lid[1]",
+            "line 11",
+        ),
+        (
+            "lid = [[0, 1000], [180, 1000]]",
+            "lid = [[0, 1000], [180]]",
+            "light[0].lid[1]",
+            "line 11",
+        ),
+        (
+            "floor = 0.0",
+            "floor = [0.1, 0.2]",
+            "room.reflectance.floor",
+            "line 5",
+        ),
+        (
+            "lid = [[0, 1000], [180, 1000]]",
+            "lid = [[0, 1000], [180, 1000]]\naim_dir = [0, 0, -1, 0]",
+            "light[0].aim_dir",
+            "line 12",
+        ),
+        (
+            "lid = [[0, 1000], [180, 1000]]",
+            "lid = [[0, 1000], [180, 1000]]\naim = [1, 1]",
+            "light[0].aim",
+            "line 12",
+        ),
+        (
+            "lid = [[0, 1000], [180, 1000]]",
+            "lid = [[0, 1000], [180, 1000]]\ncolor = [1, 1, 1, 1]",
+            "light[0].color",
+            "line 12",
+        ),
+        (
+            "[[light]]",
+            "[[box]]\nmin = [1, 1]\nmax = [2, 2, 1]\nreflectance = 0.2\n[[light]]",
+            "box[0].min",
+            "line 9",
+        ),
+        (
+            "[settings]",
+            "[camera]\neye = [0.5, 0.5, 1.6, 0.0]\ntarget = [2, 2, 1]\n[settings]",
+            "camera.eye",
+            "line 13",
+        ),
+        (
+            "[settings]",
+            "[[mesh]]\nfile = \"m.obj\"\ntranslate = [0, 0, 0, 0]\n[settings]",
+            "mesh[0].translate",
+            "line 14",
+        ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[surface]]\nmin = [1, 1, 0]\nmax = [2, 2]",
+            "surface[0].min",
+            "line 16",
+        ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[observer]]\neye = [1, 1, 1.2, 0]\nview_dir = [0, 1, 0]",
+            "observer[0].eye",
+            "line 16",
+        ),
+    ];
+    for (from, to, field, line) in cases {
+        write(dir.path(), "bad.toml", &room_with(from, to));
+        let run = haiko(dir.path(), &["plan", "bad.toml"]);
+        assert_bad_input(&run, "bad.toml", &[field, line]);
+    }
+}
+
+#[test]
+fn numbers_out_of_range_name_the_field_and_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let light = "lid = [[0, 1000], [180, 1000]]";
+    let cases = [
+        (
+            "size = [4.0, 4.0, 3.0]",
+            "size = [1e-6, 1e-6, 1e-6]".to_string(),
+            "room.size",
+            "0.1 m",
+        ),
+        (
+            "size = [4.0, 4.0, 3.0]",
+            "size = [4.0, 1e5, 3.0]".to_string(),
+            "room.size",
+            "1000 m",
+        ),
+        (
+            light,
+            "lid = [[0, 1e160], [180, 1000]]".to_string(),
+            "light[0].lid",
+            "1e9",
+        ),
+        (
+            light,
+            format!("{light}\ndimmer = 1e308"),
+            "light[0].dimmer",
+            "≤ 100",
+        ),
+        (
+            light,
+            format!("{light}\ncolor = [1e308, 1, 1]"),
+            "light[0].color",
+            "0 to 100",
+        ),
+        (
+            light,
+            format!("{light}\nradius = 1e308"),
+            "light[0].radius",
+            "≤ 10",
+        ),
+        (
+            light,
+            format!("{light}\naim = [1e308, 0, 0]"),
+            "light[0].aim",
+            "±1e6",
+        ),
+        (light, format!("{light}\norder = 151"), "light[0].order", "150"),
+        (
+            "patch_size = 0.5",
+            "patch_size = 1e-9".to_string(),
+            "settings.patch_size",
+            "≥ 0.001",
+        ),
+        (
+            "patch_size = 0.5",
+            "patch_size = 1e300".to_string(),
+            "settings.patch_size",
+            "≤ 1000",
+        ),
+        (
+            "patch_size = 0.5",
+            "patch_size = 0.5\ntolerance = 1e-300".to_string(),
+            "settings.tolerance",
+            "1e-9",
+        ),
+        (
+            "[settings]",
+            "[camera]\neye = [0.5, 0.5, 1.6]\ntarget = [2, 2, 1]\nfov_deg = 1e-300\n[settings]".to_string(),
+            "camera.fov_deg",
+            "≥ 1",
+        ),
+        (
+            light,
+            format!("{light}\nluminous_size = 1e308"),
+            "light[0].luminous_size",
+            "100 m",
+        ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[surface]]\nspacing = 1e-9".to_string(),
+            "surface[0].spacing",
+            "≥ 0.001",
+        ),
+        (
+            "solver_patch_size = 1.0",
+            "solver_patch_size = 1.0\n[[surface]]\ntarget_lux = 1e308".to_string(),
+            "surface[0].target_lux",
+            "≤ 1000000",
+        ),
+    ];
+    for (from, to, field, limit) in cases {
+        write(dir.path(), "bad.toml", &room_with(from, &to));
+        let run = haiko(dir.path(), &["plan", "bad.toml"]);
+        assert_bad_input(&run, "bad.toml", &[field, limit, "line "]);
+    }
+}
+
+/// `haiko probe ROOM --points P --direct-only` for one receiver; returns the lux.
+fn probe_one(dir: &Path, room: &str, point: [f64; 3], normal: [f64; 3]) -> f64 {
+    write(dir, "room.toml", room);
+    let [x, y, z] = point;
+    let [a, b, c] = normal;
+    write(
+        dir,
+        "p.csv",
+        &format!("x,y,z,nx,ny,nz\n{x},{y},{z},{a},{b},{c}\n"),
+    );
+    let run = haiko(dir, &["probe", "room.toml", "--points", "p.csv", "--direct-only"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let row = run.stdout.lines().nth(1).expect("a row");
+    row.rsplit(',').next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn extreme_values_that_are_allowed_stay_finite() {
+    let dir = tempfile::tempdir().unwrap();
+    // The largest curve, dimmer and colour at once: 1e9 cd × 100 × 100 at 2.5 m straight above.
+    let room = room_with(
+        "lid = [[0, 1000], [180, 1000]]",
+        "lid = [[0, 1e9], [180, 1e9]]\ndimmer = 100\ncolor = [100, 100, 100]",
+    );
+    let lux = probe_one(dir.path(), &room, [2.0, 2.0, 0.0], [0.0, 0.0, 1.0]);
+    let expected = 1e9 * 100.0 * 100.0 / 2.5f64.powi(2);
+    assert!((lux / expected - 1.0).abs() < 1e-9, "{lux} vs {expected}");
+    // A huge aim direction is a direction: the same as [1, 1, 0].
+    let sideways = room_with(
+        "lid = [[0, 1000], [180, 1000]]",
+        "lid = [[0, 1000], [90, 1000], [90, 0]]\naim_dir = [1e308, 1e308, 0]",
+    );
+    let wall = probe_one(dir.path(), &sideways, [4.0, 4.0, 2.5], [-1.0, -1.0, 0.0]);
+    assert!(
+        (wall - 1000.0 / 8.0).abs() < 1e-6,
+        "{wall}: 1000 cd on axis at 2√2 m"
+    );
+    let unit = sideways.replace("[1e308, 1e308, 0]", "[1, 1, 0]");
+    assert_eq!(
+        probe_one(dir.path(), &unit, [4.0, 4.0, 2.5], [-1.0, -1.0, 0.0]),
+        wall
+    );
+    let run = haiko(dir.path(), &["plan", "room.toml", "--json"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(
+        !run.stdout.contains("NaN") && !run.stdout.contains("inf"),
+        "{}",
+        run.stdout
+    );
+}
+
+#[test]
+fn a_small_room_is_lit_and_a_tiny_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    // 10 cm cube, 1 cd isotropic 9 cm above the floor's centre: E = 1 / 0.09² lx.
+    let room = ROOM
+        .replace("size = [4.0, 4.0, 3.0]", "size = [0.1, 0.1, 0.1]")
+        .replace("position = [2.0, 2.0, 2.5]", "position = [0.05, 0.05, 0.09]")
+        .replace("lid = [[0, 1000], [180, 1000]]", "lid = [[0, 1], [180, 1]]")
+        .replace(
+            "patch_size = 0.5\nsolver_patch_size = 1.0",
+            "patch_size = 0.01\nsolver_patch_size = 0.02",
+        );
+    let lux = probe_one(dir.path(), &room, [0.05, 0.05, 0.0], [0.0, 0.0, 1.0]);
+    assert!((lux - 1.0 / 0.0081).abs() < 1e-6, "{lux}");
+    let micro = room.replace("size = [0.1, 0.1, 0.1]", "size = [1e-6, 1e-6, 1e-6]");
+    write(dir.path(), "micro.toml", &micro);
+    let run = haiko(
+        dir.path(),
+        &["grid", "micro.toml", "--height", "0", "--spacing", "1e-7"],
+    );
+    assert_bad_input(&run, "micro.toml", &["room.size", "from 0.1 m to 1000 m"]);
+}
+
+#[test]
+fn devices_fifos_and_directories_are_refused_without_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", ROOM);
+    let fifo = d.join("fifo.toml");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.ies")).unwrap();
+    std::os::unix::fs::symlink("/dev/urandom", d.join("random.ldt")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.csv")).unwrap();
+    fs::create_dir(d.join("dir.toml")).unwrap();
+    let run = haiko(d, &["plan", "fifo.toml"]);
+    assert_bad_input(&run, "fifo.toml", &["FIFO (named pipe), not a regular file"]);
+    let run = haiko(d, &["plan", "dir.toml"]);
+    assert_bad_input(&run, "dir.toml", &["directory"]);
+    let run = haiko(d, &["plan", "/dev/zero"]);
+    assert_bad_input(&run, "/dev/zero", &["character device"]);
+    let run = haiko(d, &["lid", "zero.ies"]);
+    assert_bad_input(&run, "zero.ies", &["character device"]);
+    let run = haiko(d, &["lid", "random.ldt"]);
+    assert_bad_input(&run, "random.ldt", &["character device"]);
+    let run = haiko(
+        d,
+        &["probe", "room.toml", "--points", "zero.csv", "--direct-only"],
+    );
+    assert_bad_input(&run, "zero.csv", &["character device"]);
+    let fifo_points = d.join("fifo.csv");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo_points)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let run = haiko(
+        d,
+        &["probe", "room.toml", "--points", "fifo.csv", "--direct-only"],
+    );
+    assert_bad_input(&run, "fifo.csv", &["FIFO"]);
+    // Through a room: the light's file is a device.
+    write(
+        d,
+        "lit.toml",
+        &room_with("lid = [[0, 1000], [180, 1000]]", "lid_file = \"zero.ies\""),
+    );
+    let run = haiko(d, &["plan", "lit.toml"]);
+    assert_bad_input(
+        &run,
+        "lit.toml",
+        &["light[0].lid_file", "`zero.ies`", "character device"],
+    );
+}
+
+#[test]
+fn oversized_files_are_refused_by_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.toml");
+    let file = fs::File::create(&big).unwrap();
+    file.set_len(16 * 1024 * 1024 + 1).unwrap();
+    let run = haiko(dir.path(), &["plan", "big.toml"]);
+    assert_bad_input(
+        &run,
+        "big.toml",
+        &["is 16777217 bytes; a room file may be at most 16 MiB"],
+    );
+}
+
+#[test]
+fn files_that_are_not_what_their_name_says_are_never_quoted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let secret = "root:x:0:0:SECRET-PASSWORD-LINE:/root:/bin/bash\n";
+    let passwd = write(d, "passwd", &secret.repeat(40));
+    for name in ["p.ies", "p.ldt"] {
+        std::os::unix::fs::symlink(&passwd, d.join(name)).unwrap();
+        let run = haiko(d, &["lid", name]);
+        assert_bad_input(&run, name, &[]);
+        assert!(
+            !run.stderr.contains("SECRET") && !run.stderr.contains("root:x"),
+            "{}",
+            run.stderr
+        );
+    }
+    // Through a room, with an absolute path too.
+    let absolute = d.join("p.ldt");
+    for lid_file in ["p.ies", absolute.to_str().unwrap()] {
+        write(
+            d,
+            "room.toml",
+            &room_with(
+                "lid = [[0, 1000], [180, 1000]]",
+                &format!("lid_file = \"{lid_file}\""),
+            ),
+        );
+        let run = haiko(d, &["plan", "room.toml"]);
+        assert_bad_input(&run, "room.toml", &["light[0].lid_file"]);
+        assert!(!run.stderr.contains("SECRET"), "{}", run.stderr);
+    }
+    // A points file that is not one.
+    write(d, "room.toml", ROOM);
+    let run = haiko(d, &["probe", "room.toml", "--points", "passwd", "--direct-only"]);
+    assert!(!run.stderr.contains("SECRET"), "{}", run.stderr);
+    // After recognition only the offending token, at most 24 characters.
+    let ies = fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ies/isotropic.ies"))
+        .unwrap();
+    write(
+        d,
+        "long.ies",
+        &ies.replacen("TILT=NONE", "TILT=NONE\nABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789", 1),
+    );
+    let run = haiko(d, &["lid", "long.ies"]);
+    assert_bad_input(&run, "long.ies", &["`ABCDEFGHIJKLMNOPQRSTUVWX…` is not a number"]);
+}
+
+#[test]
+fn names_with_control_characters_stay_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let twice = |name: &str| {
+        ROOM.replace("name = \"iso\"", &format!("name = \"{name}\""))
+            + &format!("[[light]]\nname = \"{name}\"\nposition = [1.0, 1.0, 2.0]\nlid = [[0, 1], [90, 0]]\n")
+    };
+    for (name, shown) in [
+        ("a\\nb", "a\\nb"),
+        ("red\\u001b[31m", "red\\u{1b}[31m"),
+        ("x\\u202ey", "x\\u{202e}y"),
+    ] {
+        write(dir.path(), "dup.toml", &twice(name));
+        let run = haiko(dir.path(), &["plan", "dup.toml"]);
+        assert_bad_input(&run, "dup.toml", &["light[1].name", shown]);
+        assert!(!run.stderr.contains('\u{202e}'), "{}", run.stderr);
+    }
+}
+
+/// A room with one `[[mesh]]` of `obj` (z up) whose MTL is `mtl`.
+fn obj_room(dir: &Path, obj: &str, mtl: &str) -> Run {
+    write(dir, "m.obj", obj);
+    write(dir, "m.mtl", mtl);
+    write(
+        dir,
+        "room.toml",
+        &room_with("[settings]", "[[mesh]]\nfile = \"m.obj\"\nup = \"z\"\n[settings]"),
+    );
+    haiko(dir, &["plan", "room.toml"])
+}
+
+const QUAD: &str = "mtllib m.mtl\nusemtl a\nv 1 1 1\nv 3 1 1\nv 3 3 1\nv 1 3 1\nf 1 2 3 4\n";
+
+#[test]
+fn short_mtl_colour_lines_are_errors_or_grey_never_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = obj_room(dir.path(), QUAD, "newmtl a\nKd 0.5\n");
+    assert_eq!(
+        run.code,
+        Some(0),
+        "one Kd value is grey (MTL spec): {}",
+        run.stderr
+    );
+    for line in ["Kd", "Kd 0.5 0.5", "Kd 0.5 0.5 x"] {
+        let run = obj_room(dir.path(), QUAD, &format!("newmtl a\n{line}\n"));
+        assert_bad_input(
+            &run,
+            "room.toml",
+            &["mesh[0].file", "`m.obj`", "m.mtl: line 2", "`Kd` needs three"],
+        );
+    }
+    for line in ["Ka 0.5", "Ka", "Ks 0.5 0.5", "Ke", "Ke 1"] {
+        let run = obj_room(dir.path(), QUAD, &format!("newmtl a\n{line}\nKd 0.5 0.5 0.5\n"));
+        assert_eq!(run.code, Some(0), "{line} is ignored: {}", run.stderr);
+    }
+    let run = obj_room(dir.path(), &QUAD.replace("f 1 2 3 4", "f 1 2 3 9"), "newmtl a\n");
+    assert_bad_input(&run, "room.toml", &["`m.obj`: line 7: face 1 refers to vertex 9"]);
+}
+
+#[test]
+fn an_obj_too_large_for_any_patch_size_is_told_to_simplify() {
+    let dir = tempfile::tempdir().unwrap();
+    // 200 × 200 quads = 80 000 triangles per file; nine copies may need 9 · 3 · 80 000 > 2 000 000
+    // vertices whatever the patch size.
+    let n = 200;
+    let mut obj = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            obj.push_str(&format!(
+                "v {} {} 0.5\n",
+                1.0 + i as f64 / n as f64,
+                1.0 + j as f64 / n as f64
+            ));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            obj.push_str(&format!("f {a} {} {} {}\n", a + 1, a + n + 2, a + n + 1));
+        }
+    }
+    write(dir.path(), "grid.obj", &obj);
+    let meshes = "[[mesh]]\nfile = \"grid.obj\"\nup = \"z\"\n".repeat(9);
+    write(
+        dir.path(),
+        "room.toml",
+        &room_with("[settings]", &format!("{meshes}[settings]")),
+    );
+    let run = haiko(dir.path(), &["plan", "room.toml"]);
+    assert_bad_input(
+        &run,
+        "room.toml",
+        &["720000 triangles", "at any patch size", "simplify the OBJ"],
+    );
+    assert!(!run.stderr.contains("larger patch_size"), "{}", run.stderr);
+}
+
+#[test]
+fn lights_on_box_tops_and_obj_faces_are_mounted() {
+    let dir = tempfile::tempdir().unwrap();
+    // An uplight (0–90°, aimed up) standing on a box top and one on an OBJ quad at z = 1.
+    let room = room_with(
+        "[[light]]",
+        "[[box]]\nmin = [0.5, 0.5, 0.0]\nmax = [1.5, 1.5, 0.8]\nreflectance = 0.3\n\
+         [[mesh]]\nfile = \"m.obj\"\nup = \"z\"\n\
+         [[light]]\nname = \"on box\"\nposition = [1.0, 1.0, 0.8]\naim_dir = [0, 0, 1]\nlid = [[0, 100], [90, 0]]\n\
+         [[light]]\nname = \"on obj\"\nposition = [2.0, 2.0, 1.0]\naim_dir = [0, 0, 1]\nlid = [[0, 100], [90, 0]]\n\
+         [[light]]",
+    );
+    write(
+        dir.path(),
+        "m.obj",
+        "v 1.6 1.6 1\nv 3 1.6 1\nv 3 3 1\nv 1.6 3 1\nf 1 2 3 4\n",
+    );
+    write(dir.path(), "room.toml", &room);
+    let run = haiko(dir.path(), &["plan", "room.toml", "--json"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let plan: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
+    let lights = plan["lights"].as_array().unwrap();
+    for (i, surface) in [(0, "box0-top"), (1, "mesh0:")] {
+        assert_eq!(
+            lights[i]["mask"],
+            serde_json::json!([0.0, 0.0, 1.0]),
+            "{}",
+            lights[i]
+        );
+        let reason = lights[i]["mask_reason"].as_str().unwrap();
+        assert!(
+            reason.contains("mounted 0.00 m") && reason.contains(surface),
+            "{reason}"
+        );
+    }
+    assert_eq!(
+        lights[2]["mask"],
+        serde_json::Value::Null,
+        "the ceiling light hangs 0.5 m low"
+    );
+    // A light on a slanted OBJ face inside the OBJ's bounds is accepted and mounted too.
+    write(
+        dir.path(),
+        "m.obj",
+        "v 1 1 1\nv 3 1 1\nv 3 3 2\nv 1 3 2\nf 1 2 3 4\n",
+    );
+    let slanted = room.replace(
+        "position = [2.0, 2.0, 1.0]\naim_dir = [0, 0, 1]",
+        "position = [2.0, 2.0, 1.5]\naim_dir = [0, -1, 2]",
+    );
+    write(dir.path(), "room.toml", &slanted);
+    let run = haiko(dir.path(), &["plan", "room.toml", "--json"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let plan: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
+    let mask = plan["lights"][1]["mask"].as_array().expect("masked").clone();
+    let n: Vec<f64> = mask.iter().map(|v| v.as_f64().unwrap()).collect();
+    let expected = DVec3::new(0.0, -1.0, 2.0).normalize();
+    assert!(
+        (DVec3::new(n[0], n[1], n[2]) - expected).length() < 1e-12,
+        "{n:?}"
+    );
+}
+
+#[test]
+fn points_files_have_a_row_limit() {
+    let mut text = String::from("x,y,z,nx,ny,nz\n");
+    text.push_str(&"1,1,1,0,0,1\n".repeat(MAX_POINTS));
+    assert_eq!(parse_points(&text, Path::new("p.csv")).unwrap().len(), MAX_POINTS);
+    text.push_str("1,1,1,0,0,1\n");
+    let e = parse_points(&text, Path::new("p.csv")).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        format!(
+            "p.csv: line {}: more than 1000000 points; split the file",
+            MAX_POINTS + 2
+        )
+    );
+}
+
+/// `ROOM` with grey walls (so there is interreflection and a bake cache entry).
+fn grey_room() -> String {
+    room_with("walls = 0.0", "walls = 0.5")
+}
+
+fn render_args<'a>(room: &'a str, output: &'a str) -> [&'a str; 8] {
+    ["render", room, "-o", output, "--width", "160", "--height", "120"]
+}
+
+#[test]
+fn outputs_that_are_inputs_are_refused_and_left_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ies = fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ies/isotropic.ies"))
+        .unwrap();
+    write(d, "lamp.ies", &ies);
+    let room = room_with("lid = [[0, 1000], [180, 1000]]", "lid_file = \"lamp.ies\"");
+    write(d, "room.toml", &room);
+    std::os::unix::fs::symlink("room.toml", d.join("soft.png")).unwrap();
+    fs::hard_link(d.join("room.toml"), d.join("hard.png")).unwrap();
+    for (output, input) in [
+        ("room.toml", "room.toml"),
+        ("soft.png", "room.toml"),
+        ("hard.png", "room.toml"),
+        ("lamp.ies", "lamp.ies"),
+    ] {
+        let run = haiko(d, &render_args("room.toml", output));
+        assert_bad_input(
+            &run,
+            output,
+            &["is the input file", input, "never overwrites an input"],
+        );
+    }
+    assert_eq!(fs::read_to_string(d.join("room.toml")).unwrap(), room);
+    assert_eq!(fs::read_to_string(d.join("lamp.ies")).unwrap(), ies);
+    // An OBJ and its MTL are inputs too.
+    write(d, "m.obj", QUAD);
+    write(d, "m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n");
+    write(
+        d,
+        "mesh.toml",
+        &room_with("[settings]", "[[mesh]]\nfile = \"m.obj\"\nup = \"z\"\n[settings]"),
+    );
+    for output in ["m.obj", "m.mtl"] {
+        let run = haiko(d, &render_args("mesh.toml", output));
+        assert_bad_input(&run, output, &["is the input file", "never overwrites an input"]);
+    }
+    assert_eq!(fs::read_to_string(d.join("m.obj")).unwrap(), QUAD);
+    // A new output is written (a PNG), through a temporary file that does not stay.
+    let run = haiko(d, &render_args("room.toml", "out.png"));
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert_eq!(&fs::read(d.join("out.png")).unwrap()[..8], b"\x89PNG\r\n\x1a\n");
+    let temporaries: Vec<_> = fs::read_dir(d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains("haiko-tmp"))
+        .collect();
+    assert!(temporaries.is_empty(), "{temporaries:?}");
+}
+
+#[test]
+fn a_failed_image_write_keeps_the_old_image_and_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", ROOM);
+    write(d, "out.png", "the previous image");
+    // One block of 512 bytes: the 160 × 120 PNG (several kB) cannot be written.
+    let run = haiko_with_file_limit(d, 1, &render_args("room.toml", "out.png"));
+    assert_eq!(run.code, Some(1), "an I/O failure is exit 1: {}", run.stderr);
+    assert_eq!(run.stderr.trim_end().lines().count(), 1, "{}", run.stderr);
+    assert!(
+        run.stderr.contains("cannot write out.png")
+            && run.stderr.contains("the previous file, if any, is unchanged"),
+        "{}",
+        run.stderr
+    );
+    assert_eq!(
+        fs::read_to_string(d.join("out.png")).unwrap(),
+        "the previous image"
+    );
+    let names: Vec<String> = fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with(".std") && n != ".cache")
+        .collect();
+    let mut names = names;
+    names.sort();
+    assert_eq!(names, ["out.png", "room.toml"], "no temporary file left");
+}
+
+#[test]
+fn a_tiny_grid_spacing_is_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "room.toml", ROOM);
+    for spacing in ["1e-9", "1e-300", "5e-324"] {
+        let run = haiko(
+            dir.path(),
+            &["grid", "room.toml", "--height", "0.8", "--spacing", spacing],
+        );
+        assert_bad_input(
+            &run,
+            "--spacing",
+            &[
+                "points, more than 4000000",
+                "choose a spacing of at least 0.003 m",
+            ],
+        );
+        assert!(!run.stderr.contains("furniture"), "{}", run.stderr);
+    }
+    // At that spacing the grid fits: 4 m / 0.003 m + 1 = 1334 points per axis (margin 1.5 mm).
+    let run = haiko(
+        dir.path(),
+        &[
+            "grid",
+            "room.toml",
+            "--height",
+            "0.8",
+            "--spacing",
+            "0.003",
+            "--direct-only",
+        ],
+    );
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains("1333 × 1333 points"), "{}", run.stdout);
+}
+
+#[test]
+fn names_are_escaped_wherever_they_are_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let room = ROOM.replace("name = \"iso\"", "name = \"red\\u001b[31m\\nx\"");
+    write(d, "room.toml", &room);
+    let shown = "red\\u{1b}[31m\\nx";
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains(&format!("light {shown}")), "{}", run.stdout);
+    let run = haiko(d, &["bake", "room.toml"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains(shown), "{}", run.stdout);
+    let source = "room.toml#red\u{1b}[31m\nx";
+    let run = haiko(d, &["lid", source]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(
+        run.stdout.starts_with(&format!("room.toml#{shown}\n")),
+        "{}",
+        run.stdout
+    );
+    let run = haiko(
+        d,
+        &[
+            "pick",
+            "room.toml",
+            "--pixel",
+            "80,100",
+            "--width",
+            "160",
+            "--height",
+            "120",
+            "--aim",
+            "red\u{1b}[31m\nx",
+        ],
+    );
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stdout.contains(&format!("(light {shown})")), "{}", run.stdout);
+    for out in [&run.stdout, &run.stderr] {
+        assert!(!out.contains('\u{1b}'), "{out}");
+    }
+}
+
+#[test]
+fn a_fifo_named_like_a_cache_file_is_never_opened() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", &grey_room());
+    write(d, "p.csv", "x,y,z,nx,ny,nz\n2,2,0,0,0,1\n");
+    let first = haiko(d, &["probe", "room.toml", "--points", "p.csv"]);
+    assert_eq!(first.code, Some(0), "{}", first.stderr);
+    let entries: Vec<PathBuf> = fs::read_dir(d.join(".cache"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "bake"))
+        .collect();
+    assert!(!entries.is_empty(), "the bake was cached");
+    for entry in &entries {
+        fs::remove_file(entry).unwrap();
+        assert!(Command::new("mkfifo").arg(entry).status().unwrap().success());
+    }
+    // Neither command blocks on the FIFO (the helper fails a run after 60 s): the entry is
+    // invalid, the bake is redone and cached again as a regular file, the answer unchanged.
+    let again = haiko(d, &["probe", "room.toml", "--points", "p.csv"]);
+    assert_eq!(again.code, Some(0), "{}", again.stderr);
+    assert!(
+        again.stderr.contains("FIFO (named pipe), not a regular file"),
+        "{}",
+        again.stderr
+    );
+    assert_eq!(again.stdout, first.stdout);
+    for entry in &entries {
+        assert!(fs::metadata(entry).unwrap().is_file(), "{entry:?} rewritten");
+        fs::remove_file(entry).unwrap();
+        assert!(Command::new("mkfifo").arg(entry).status().unwrap().success());
+    }
+    let run = haiko(d, &render_args("room.toml", "out.png"));
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(run.stderr.contains("FIFO"), "{}", run.stderr);
+}
