@@ -9,6 +9,7 @@
 use std::borrow::Cow;
 use std::fmt;
 use std::path::Path;
+use std::sync::{Mutex, PoisonError};
 
 /// A failure with a one-line, user-facing message.
 #[derive(Debug, thiserror::Error)]
@@ -80,6 +81,39 @@ impl Error {
 
 /// The crate's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The last panic's message and place, kept by [`install_panic_recorder`]'s hook.
+static LAST_PANIC: Mutex<Option<String>> = Mutex::new(None);
+
+/// Replaces the default panic report (several lines on standard error) by a record of the
+/// message and its place, for [`take_recorded_panic`]: the command boundary
+/// (`cli::catch_panics`) and the editor (a worker that stopped) turn it into one line. The
+/// binary installs it once at start; hooks installed later (the editor's terminal restore) run
+/// before it.
+pub fn install_panic_recorder() {
+    std::panic::set_hook(Box::new(|info| {
+        let place = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        let text = format!("{}{place}", panic_text(info.payload()));
+        *LAST_PANIC.lock().unwrap_or_else(PoisonError::into_inner) = Some(text);
+    }));
+}
+
+/// The last recorded panic (message and place), taken; `None` when none was recorded.
+pub fn take_recorded_panic() -> Option<String> {
+    LAST_PANIC.lock().unwrap_or_else(PoisonError::into_inner).take()
+}
+
+/// A panic payload's message (`panic!` gives a `&str` or a `String`).
+pub fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic without a message".to_string())
+}
 
 /// Checks that every number of a result about to be printed is finite. The input ranges
 /// (docs/ROOM_FILE.md "Limits") rule out a NaN or an infinity, so one here is Haiko's bug: an

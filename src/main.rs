@@ -4,7 +4,8 @@ use clap::Parser;
 
 fn main() {
     let cli = haiko::cli::Cli::parse();
-    if let Err(err) = haiko::cli::run(cli) {
+    haiko::error::install_panic_recorder();
+    if let Err(err) = haiko::cli::catch_panics(|| haiko::cli::run(cli)) {
         eprintln!("haiko: {err}");
         std::process::exit(err.exit_code());
     }

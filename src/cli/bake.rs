@@ -7,6 +7,7 @@ use std::path::Path;
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::scene;
+use crate::session::budget::{Estimate, LimitSource, MemoryLimit};
 use crate::transport::bake::{Bake, Progress};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
@@ -64,22 +65,46 @@ pub(crate) fn format_plan(p: &Plan) -> String {
 }
 
 /// Runs `haiko plan`.
-pub(crate) fn run_plan(room: &Path, json: bool) -> Result<()> {
+pub(crate) fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     check_finite(
         "plan: a mounting normal",
         p.lights.iter().flat_map(|l| l.mask.into_iter().flatten()),
     )?;
+    let estimate = Estimate::of(&p, true);
     if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&p).map_err(|e| Error::internal(e.to_string()))?
-        );
+        let json_error = |e: serde_json::Error| Error::internal(e.to_string());
+        let mut doc = serde_json::to_value(&p).map_err(json_error)?;
+        doc["budget"] = serde_json::json!({
+            "estimate_bytes": estimate.bytes(),
+            "form_factor_bytes": estimate.form_factor_bytes,
+            "basis_bytes": estimate.basis_bytes,
+            "relight_bytes": estimate.relight_bytes,
+            "rays": estimate.rays,
+            "limit_bytes": limit.bytes,
+            "limit_from": match limit.source {
+                LimitSource::Option => "--max-memory",
+                LimitSource::Machine => "half the available memory",
+            },
+            "within": estimate.bytes() <= limit.bytes,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc).map_err(json_error)?);
     } else {
         print!("{}", format_plan(&p));
+        println!("{}", format_budget(&estimate, limit));
     }
     Ok(())
+}
+
+/// One line on the estimate against the limit: what `bake` (and the other commands) will check.
+pub(crate) fn format_budget(estimate: &Estimate, limit: &MemoryLimit) -> String {
+    let verdict = if estimate.bytes() <= limit.bytes {
+        "within"
+    } else {
+        "ABOVE (the commands that simulate will refuse)"
+    };
+    format!("budget: {estimate}; {verdict} the limit of {limit}")
 }
 
 /// A progress reporter for the command line: a redrawn bar on a terminal, stage lines otherwise.
@@ -171,11 +196,13 @@ pub(crate) fn format_bake(b: &Bake) -> String {
 }
 
 /// Runs `haiko bake`.
-pub(crate) fn run_bake(room: &Path) -> Result<()> {
+pub(crate) fn run_bake(room: &Path, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
+    // Refused before the plan is printed: the one line on standard error is all that shows.
+    limit.check(room, &Estimate::of(&p, true))?;
     print!("{}", format_plan(&p));
-    let session = open_session(scene, true)?;
+    let session = open_session(scene, true, limit)?;
     let b = session
         .bake()
         .ok_or_else(|| Error::internal("bake: the session has no bake"))?;

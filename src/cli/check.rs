@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::metrics::{Check, SurfaceResult, SurfaceSummary};
 use crate::scene;
 use crate::session::DesignNumbers;
+use crate::session::budget::MemoryLimit;
 
 /// One grid point in the JSON: where it is, which way it faces, its new illuminance.
 #[derive(Serialize)]
@@ -140,10 +141,10 @@ pub(crate) fn to_text(
 
 /// Runs the command: loads the room, opens a session (the user's bake cache unless
 /// `direct_only`) and prints the surfaces' numbers.
-pub fn run(room: &Path, json: bool, direct_only: bool) -> Result<()> {
+pub fn run(room: &Path, json: bool, direct_only: bool, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let maintenance_factor = scene.design.maintenance_factor;
-    let mut session = open_session(scene, !direct_only)?;
+    let mut session = open_session(scene, !direct_only, limit)?;
     let DesignNumbers { surfaces, .. } = session.design_numbers();
     let name = room.display().to_string();
     if json {

@@ -13,6 +13,7 @@ use crate::cli::open_session;
 use crate::error::{Error, Result};
 use crate::metrics::{ObserverGlare, SourceStatus, UgrStatus};
 use crate::scene;
+use crate::session::budget::MemoryLimit;
 
 #[derive(Serialize)]
 struct GlareJson<'a> {
@@ -118,9 +119,9 @@ pub(crate) fn to_text(room: &str, direct_only: bool, observers: &[ObserverGlare]
 
 /// Runs the command: loads the room, opens a session (the user's bake cache unless
 /// `direct_only`: the background luminance needs the indirect light) and prints the ratings.
-pub fn run(room: &Path, json: bool, direct_only: bool) -> Result<()> {
+pub fn run(room: &Path, json: bool, direct_only: bool, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
-    let mut session = open_session(scene, !direct_only)?;
+    let mut session = open_session(scene, !direct_only, limit)?;
     let observers = session.design_numbers().observers;
     let name = room.display().to_string();
     if json {

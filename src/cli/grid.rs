@@ -9,6 +9,7 @@ use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::metrics::work_plane::{GridStats, WorkPlane};
 use crate::scene::{self, DirectMode};
+use crate::session::budget::MemoryLimit;
 
 #[derive(Serialize)]
 struct GridPoint {
@@ -39,13 +40,14 @@ pub fn run(
     margin_m: Option<f64>,
     json: bool,
     direct_only: bool,
+    limit: &MemoryLimit,
 ) -> Result<()> {
     let scene = scene::load(room)?;
     let plane = WorkPlane::new(&scene, height_m, spacing_m, margin_m.unwrap_or(spacing_m / 2.0))?;
     if plane.receivers.is_empty() {
         return Err(Error::input(room, "", "every grid point lies inside furniture"));
     }
-    let mut session = open_session(scene, !direct_only)?;
+    let mut session = open_session(scene, !direct_only, limit)?;
     let lux = session.illuminance_at(&plane.receivers, direct_only, DirectMode::Exact)?;
     check_finite("grid: an illuminance", lux.iter().copied())?;
     let stats = GridStats::of(&lux);

@@ -1,14 +1,17 @@
 //! The command line: argument definitions (clap) and one function per subcommand.
 //! `main.rs` only parses and calls [`run`].
 
+use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use crate::error::Result;
+use crate::error::{Error, Result, panic_text, take_recorded_panic};
 use crate::photometry::Window;
 use crate::scene::Scene;
+use crate::session::budget::{self, MemoryLimit, MemorySize};
 use crate::session::{ExposureChoice, Session, SessionOptions};
+use crate::transport::plan::PlanOptions;
 use crate::tui::Graphics;
 
 pub mod accuracy;
@@ -42,6 +45,8 @@ pub enum Command {
         /// Inline image protocol for the preview.
         #[arg(long, value_enum, default_value_t = GraphicsArg::Auto)]
         graphics: GraphicsArg,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Luminous intensity curve report: flux, asymmetry, truncation error per SH order.
     Lid {
@@ -70,6 +75,8 @@ pub enum Command {
         /// Direct light exact from the curve (hybrid, default) or from the SH series (paper mode).
         #[arg(long, value_enum, default_value_t = DirectArg::Exact)]
         mode: DirectArg,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Which effects the scene calls for, and why.
     Plan {
@@ -78,11 +85,15 @@ pub enum Command {
         /// Print JSON.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Precompute and cache the SH basis (interreflection) of every light.
     Bake {
         /// The room file.
         room: PathBuf,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Work-plane calculation grid: E_avg, E_min, E_max, U0 = E_min/E_avg.
     Grid {
@@ -103,6 +114,8 @@ pub enum Command {
         /// Direct light only (no interreflection).
         #[arg(long)]
         direct_only: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Design check: every calculation surface's maintained Ē, E_min, E_max, U0, g2 against its targets.
     Check {
@@ -114,6 +127,8 @@ pub enum Command {
         /// Direct light only (no interreflection).
         #[arg(long)]
         direct_only: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Glare: UGR (CIE 117) at every observer, with each luminaire's luminance, solid angle and position index.
     Glare {
@@ -125,6 +140,8 @@ pub enum Command {
         /// Direct light only (no background luminance: UGR undefined).
         #[arg(long)]
         direct_only: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Client report: one self-contained HTML file (views, surfaces, glare, schedule, settings) for A4.
     Report {
@@ -139,6 +156,8 @@ pub enum Command {
         /// Height of each view, pixels.
         #[arg(long, default_value_t = 800)]
         height: u32,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// Headless preview: render the room's camera view to a PNG, with per-stage timings.
     Render {
@@ -176,6 +195,8 @@ pub enum Command {
         /// (default: the room's exposure, chosen from its light).
         #[arg(long, value_name = "EV100|auto")]
         exposure: Option<render::ExposureArg>,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// What a pixel of the `render` image shows (patch, surface, point, normal); aims a light at it.
     Pick {
@@ -199,6 +220,8 @@ pub enum Command {
         /// The illuminance at the picked point by direct light only (no interreflection).
         #[arg(long)]
         direct_only: bool,
+        #[command(flatten)]
+        memory: MemoryArg,
     },
     /// What accuracy costs in time: error against time for each knob (docs/ACCURACY.md).
     Accuracy {
@@ -214,6 +237,22 @@ pub enum Command {
         #[arg(value_enum, default_value_t = CacheAction::List)]
         action: CacheAction,
     },
+}
+
+/// `--max-memory`, shared by the commands that plan a session.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct MemoryArg {
+    /// Most memory the simulation may plan to use (`8G`, `512M`; binary units); default: half
+    /// the memory available (README "Memory").
+    #[arg(long, value_name = "SIZE")]
+    pub max_memory: Option<MemorySize>,
+}
+
+impl MemoryArg {
+    /// The limit this option sets ([`MemoryLimit::from_option`]).
+    pub fn limit(self) -> MemoryLimit {
+        MemoryLimit::from_option(self.max_memory)
+    }
 }
 
 /// `haiko cache` actions.
@@ -286,21 +325,26 @@ pub enum WindowArg {
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Edit { room, graphics } => crate::tui::app::run(&room, graphics.into()),
+        Command::Edit {
+            room,
+            graphics,
+            memory,
+        } => crate::tui::app::run(&room, graphics.into(), &memory.limit()),
         Command::Lid {
             source,
             order,
             window,
             json,
         } => lid::run(&source, order, window.map(Window::from), json),
-        Command::Plan { room, json } => bake::run_plan(&room, json),
-        Command::Bake { room } => bake::run_bake(&room),
+        Command::Plan { room, json, memory } => bake::run_plan(&room, json, &memory.limit()),
+        Command::Bake { room, memory } => bake::run_bake(&room, &memory.limit()),
         Command::Probe {
             room,
             points,
             direct_only,
             mode,
-        } => probe::run(&room, &points, direct_only, mode.into()),
+            memory,
+        } => probe::run(&room, &points, direct_only, mode.into(), &memory.limit()),
         Command::Grid {
             room,
             height,
@@ -308,23 +352,27 @@ pub fn run(cli: Cli) -> Result<()> {
             margin,
             json,
             direct_only,
-        } => grid::run(&room, height, spacing, margin, json, direct_only),
+            memory,
+        } => grid::run(&room, height, spacing, margin, json, direct_only, &memory.limit()),
         Command::Check {
             room,
             json,
             direct_only,
-        } => check::run(&room, json, direct_only),
+            memory,
+        } => check::run(&room, json, direct_only, &memory.limit()),
         Command::Glare {
             room,
             json,
             direct_only,
-        } => glare::run(&room, json, direct_only),
+            memory,
+        } => glare::run(&room, json, direct_only, &memory.limit()),
         Command::Report {
             room,
             output,
             width,
             height,
-        } => report::run(&room, &output, width, height),
+            memory,
+        } => report::run(&room, &output, width, height, &memory.limit()),
         Command::Render {
             room,
             output,
@@ -337,6 +385,7 @@ pub fn run(cli: Cli) -> Result<()> {
             isolux,
             no_legend,
             exposure,
+            memory,
         } => render::run(
             &room,
             &output,
@@ -351,6 +400,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 legend: !no_legend,
                 exposure: exposure.map_or_else(ExposureChoice::default, Into::into),
             },
+            &memory.limit(),
         ),
         Command::Pick {
             room,
@@ -360,7 +410,16 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
             aim,
             direct_only,
-        } => pick::run(&room, pixel, width, height, json, aim.as_deref(), direct_only),
+            memory,
+        } => pick::run(
+            &room,
+            pixel,
+            (width, height),
+            json,
+            aim.as_deref(),
+            direct_only,
+            &memory.limit(),
+        ),
         Command::Accuracy { room, json } => accuracy::run(&room, json),
         Command::Cache { action } => match action {
             CacheAction::List => cache::run_list(),
@@ -369,11 +428,26 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// Opens a session on `scene` for a command: the user's bake cache, the progress bar on
-/// standard error, cache notices printed; `indirect` false for direct light only (no bake).
+/// Runs one command at the command boundary: a panic anywhere below (the last resort; no input
+/// should reach one) becomes an internal error, exit code 1, with one line naming the message
+/// and where it happened. Unwinding drops the editor's terminal guard, so the terminal is
+/// restored first. The binary installs [`crate::error::install_panic_recorder`] first.
+pub fn catch_panics(command: impl FnOnce() -> Result<()>) -> Result<()> {
+    std::panic::catch_unwind(AssertUnwindSafe(command)).unwrap_or_else(|payload| {
+        let text = take_recorded_panic().unwrap_or_else(|| panic_text(payload.as_ref()));
+        Err(Error::internal(format!(
+            "internal error: {text} (a bug in Haiko; please report it with the input files)"
+        )))
+    })
+}
+
+/// Opens a session on `scene` for a command: the plan's estimate checked against `limit` first,
+/// then the user's bake cache, the progress bar on standard error, cache notices printed;
+/// `indirect` false for direct light only (no bake).
 ///
-/// Errors: the bake failing (internal).
-pub(crate) fn open_session(scene: Scene, indirect: bool) -> Result<Session> {
+/// Errors: the estimate above the limit (bad input), the bake failing (internal).
+pub(crate) fn open_session(scene: Scene, indirect: bool, limit: &MemoryLimit) -> Result<Session> {
+    budget::check_scene(&scene, PlanOptions::default(), indirect, limit)?;
     let options = SessionOptions {
         indirect,
         ..SessionOptions::with_user_cache()
@@ -393,5 +467,32 @@ impl From<WindowArg> for Window {
             WindowArg::Lanczos => Window::Lanczos,
             WindowArg::Cesaro2 => Window::Cesaro2,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_at_the_command_boundary_is_a_one_line_internal_error() {
+        let e = catch_panics(|| {
+            let lights: Vec<usize> = Vec::new();
+            let i = lights.len() + 2;
+            panic!("light {i} of {}\nsecond line", lights.len())
+        })
+        .unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+        let text = e.to_string();
+        assert!(
+            text.starts_with("internal error: light 2 of 0\\nsecond line")
+                && text.ends_with("(a bug in Haiko; please report it with the input files)"),
+            "{text}"
+        );
+        assert_eq!(text.lines().count(), 1);
+        // No panic: the command's own result passes through.
+        assert!(catch_panics(|| Ok(())).is_ok());
+        let bad = catch_panics(|| Err(Error::input("room.toml", "line 1", "bad"))).unwrap_err();
+        assert_eq!(bad.exit_code(), 2);
     }
 }

@@ -14,6 +14,7 @@ use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::render::{DisplayMode, aim_direction};
 use crate::scene::{self, DirectMode, Receiver};
+use crate::session::budget::MemoryLimit;
 use crate::session::frame::check_size;
 use crate::session::{FrameSpec, Session};
 
@@ -221,15 +222,15 @@ pub(crate) fn to_text(report: &PickReport, aim_light: Option<&str>) -> String {
 pub fn run(
     room: &Path,
     pixel: Pixel,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     json: bool,
     aim_light: Option<&str>,
     direct_only: bool,
+    limit: &MemoryLimit,
 ) -> Result<()> {
     let scene = scene::load(room)?;
     check_pixel(pixel, width, height)?;
-    let mut session = open_session(scene, !direct_only)?;
+    let mut session = open_session(scene, !direct_only, limit)?;
     let report = pick_pixel(&mut session, width, height, pixel, aim_light, direct_only)?;
     let vectors = [Some(report.point), Some(report.normal), report.aim];
     check_finite(

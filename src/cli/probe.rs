@@ -7,6 +7,7 @@ use crate::cli::open_session;
 use crate::error::{Result, check_finite};
 use crate::scene::points::POINTS_HEADER;
 use crate::scene::{self, DirectMode};
+use crate::session::budget::MemoryLimit;
 use crate::transport::direct::Receiver;
 
 /// Formats receivers and their illuminance as CSV (`x,y,z,nx,ny,nz,lux`), in input order.
@@ -20,10 +21,16 @@ pub(crate) fn format_csv(receivers: &[Receiver], lux: &[f64]) -> String {
 }
 
 /// Runs the command: prints the CSV on standard output.
-pub fn run(room: &Path, points: &Path, direct_only: bool, mode: DirectMode) -> Result<()> {
+pub fn run(
+    room: &Path,
+    points: &Path,
+    direct_only: bool,
+    mode: DirectMode,
+    limit: &MemoryLimit,
+) -> Result<()> {
     let scene = scene::load(room)?;
     let receivers = scene::points::read_points(points)?;
-    let mut session = open_session(scene, !direct_only)?;
+    let mut session = open_session(scene, !direct_only, limit)?;
     let lux = session.illuminance_at(&receivers, direct_only, mode)?;
     check_finite("probe: an illuminance", lux.iter().copied())?;
     print!("{}", format_csv(&receivers, &lux));

@@ -12,6 +12,7 @@ use crate::error::{Error, Result, printable};
 use crate::fsio;
 use crate::render::{DisplayMode, DisplayShader, LuxScale, write_pfm};
 use crate::scene;
+use crate::session::budget::MemoryLimit;
 use crate::session::frame::check_size;
 use crate::session::{ExposureChoice, FrameSpec, ViewChoice};
 
@@ -110,9 +111,10 @@ fn ms_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
-/// Runs the command: renders `room` into the PNG `output` as `options` say (and the lux PFM),
-/// and prints the stage times and the lux range in false-colour mode, the exposure in photo mode.
-pub fn run(room: &Path, output: &Path, options: &RenderOptions) -> Result<()> {
+/// Runs the command: renders `room` into the PNG `output` as `options` say (and the lux PFM)
+/// within the memory `limit`, and prints the stage times and the lux range in false-colour
+/// mode, the exposure in photo mode.
+pub fn run(room: &Path, output: &Path, options: &RenderOptions, limit: &MemoryLimit) -> Result<()> {
     let (width, height, mode) = (options.width, options.height, options.mode);
     let start = Instant::now();
     let scene = scene::load(room)?;
@@ -125,7 +127,7 @@ pub fn run(room: &Path, output: &Path, options: &RenderOptions) -> Result<()> {
     let load_ms = ms_since(start);
 
     let start = Instant::now();
-    let mut session = open_session(scene, !options.direct_only)?;
+    let mut session = open_session(scene, !options.direct_only, limit)?;
     let bake_ms = ms_since(start);
 
     let start = Instant::now();

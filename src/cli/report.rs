@@ -4,28 +4,31 @@
 use std::path::Path;
 
 use crate::cli::open_session;
-use crate::error::{Error, Result};
+use crate::error::{Result, printable};
+use crate::fsio;
 use crate::report::{ReportOptions, report_html};
 use crate::scene;
+use crate::session::budget::MemoryLimit;
 use crate::session::frame::check_size;
 
 /// Runs the command: loads and bakes the room (or reads the bake cache), renders the views and
 /// writes the HTML file `output`.
-pub fn run(room: &Path, output: &Path, width: u32, height: u32) -> Result<()> {
+pub fn run(room: &Path, output: &Path, width: u32, height: u32, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     check_size(width, height, ["--width", "--height"])?;
-    let mut session = open_session(scene, true)?;
+    // Every file the room named has been read: none of them may be the output.
+    fsio::check_not_an_input(output, &[room])?;
+    let mut session = open_session(scene, true, limit)?;
     let options = ReportOptions {
         width_px: width,
         height_px: height,
     };
     let text = report_html(&mut session, &room.display().to_string(), &options)?;
-    std::fs::write(output, &text)
-        .map_err(|e| Error::input(output, "", format!("cannot write the report: {e}")))?;
+    fsio::write_atomic(output, text.as_bytes())?;
     println!(
         "{}: report written to {} ({} kB)",
-        room.display(),
-        output.display(),
+        printable(&room.display().to_string()),
+        printable(&output.display().to_string()),
         text.len().div_ceil(1024)
     );
     Ok(())

@@ -18,34 +18,71 @@ use ratatui_image::protocol::Protocol;
 use crate::error::{Error, Result};
 use crate::photometry::read_lid_file;
 use crate::render::DisplayMode;
-use crate::scene;
+use crate::scene::save::{IfChanged, SaveError, Saved};
+use crate::scene::{self, LidSource, RoomText};
+use crate::session::budget::{self, MemoryLimit};
 use crate::session::{FrameSpec, SessionOptions, ViewChoice, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::luminaires::{self, LidInfo};
 use crate::tui::msg::{CurveSave, Effect, Msg};
-use crate::tui::save::save_with_curves;
+use crate::tui::save::SaveTarget;
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
 use crate::tui::workers::{
     AppEvent, EncodeJob, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
 };
-use crate::tui::{Mode, Model, PreviewArea, preview, update, view};
+use crate::tui::{Mode, Model, PreviewArea, preview, save, update, view};
 
 /// Runs the editor on the room file `room` with the `graphics` protocol choice. A bad room
 /// fails before the terminal is touched; the terminal is restored however the editor ends.
 ///
 /// Errors: the room file (bad input), the terminal or a worker (internal).
-pub fn run(room: &Path, graphics: Graphics) -> Result<()> {
-    let scene = scene::load(room)?;
+pub fn run(room: &Path, graphics: Graphics, limit: &MemoryLimit) -> Result<()> {
+    let loaded = scene::read_room(room)?;
+    let scene = scene::load::load_text(room, &loaded.text)?;
+    // Before the terminal is taken: a room too large for memory is refused on a sane screen.
+    budget::check_scene(&scene, PlanOptions::default(), true, limit)?;
+    // Temporaries of a save that was killed midway (docs/DECISIONS.md "Saving").
+    let removed = scene::save::remove_stale_temporaries(room).unwrap_or_default();
     let mut session = TerminalSession::enter(graphics)?;
-    let mut app = App::start(scene, room, &session)?;
+    let mut app = App::start(scene, loaded, room, *limit, &session)?;
+    if !removed.is_empty() {
+        app.model.message = Some(format!(
+            "removed {} temporary file(s) an interrupted save left beside the room file",
+            removed.len()
+        ));
+    }
     app.run(&mut session)
+}
+
+/// The editor's model for a freshly loaded scene: the plan's orders, as if the file said them.
+fn fresh_model(
+    scene: &scene::Scene,
+    terminal_size: (u16, u16),
+    cell_px: (u16, u16),
+    protocol: String,
+) -> Model {
+    let mut model = Model::new(scene, terminal_size, cell_px);
+    model.protocol = protocol;
+    let planned = initial_lights(scene, &plan(scene, PlanOptions::default()));
+    for (i, light) in planned.iter().enumerate() {
+        model.set_planned_order(i, light.order);
+    }
+    model.lid_files = luminaires::read_lid_infos(&model.lights);
+    model
 }
 
 /// The running editor: the model and the app's side of the workers.
 struct App {
     model: Model,
+    /// The room file being edited (changes with "save as").
     room: PathBuf,
+    /// Its text as last read or saved: what a save edits and compares the file against.
+    loaded: RoomText,
+    /// The memory limit (checked again on reload).
+    limit: MemoryLimit,
     events: Receiver<AppEvent>,
+    /// For the workers of a reloaded room.
+    sender: Sender<AppEvent>,
     engine: Sender<EngineRequest>,
     encode_jobs: Sender<EncodeJob>,
     /// Requests for the engine from this loop turn, sent in order at its end.
@@ -58,22 +95,30 @@ struct App {
 }
 
 impl App {
-    fn start(scene: scene::Scene, room: &Path, session: &TerminalSession) -> Result<App> {
-        let mut model = Model::new(&scene, session.size()?, preview::cell_px(session.picker()));
-        model.protocol = preview::protocol_label(session.picker());
-        let planned = initial_lights(&scene, &plan(&scene, PlanOptions::default()));
-        for (i, light) in planned.iter().enumerate() {
-            model.set_planned_order(i, light.order);
-        }
-        model.lid_files = luminaires::read_lid_infos(&model.lights);
+    fn start(
+        scene: scene::Scene,
+        loaded: RoomText,
+        room: &Path,
+        limit: MemoryLimit,
+        session: &TerminalSession,
+    ) -> Result<App> {
+        let model = fresh_model(
+            &scene,
+            session.size()?,
+            preview::cell_px(session.picker()),
+            preview::protocol_label(session.picker()),
+        );
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
         let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
-        let encode_jobs = spawn_encode_worker(session.picker().clone(), sender);
+        let encode_jobs = spawn_encode_worker(session.picker().clone(), sender.clone());
         Ok(App {
             model,
             room: room.to_path_buf(),
+            loaded,
+            limit,
             events,
+            sender,
             engine,
             encode_jobs,
             outbox: Vec::new(),
@@ -155,7 +200,9 @@ impl App {
                         preview_px: self.model.preview_px,
                         aim,
                     }),
-                    Effect::Save(curves) => queue.push_back(self.save(curves)),
+                    Effect::Save { curves, overwrite } => queue.push_back(self.save(curves, overwrite)),
+                    Effect::SaveAs(name) => queue.push_back(self.save_as(&name)),
+                    Effect::Reload => self.reload(),
                     Effect::LoadLid(typed) => queue.push_back(self.load_lid(&typed)),
                     Effect::Report => self.outbox.push(EngineRequest::Report(report_path(&self.room))),
                     Effect::Quit => self.quit = true,
@@ -165,14 +212,79 @@ impl App {
         Ok(())
     }
 
-    /// Saves the room file ([`save_with_curves`]).
-    fn save(&self, curves: CurveSave) -> Msg {
-        match save_with_curves(&self.room, &self.model, curves) {
-            Ok((message, sources)) => Msg::Saved { message, sources },
-            Err(e) => Msg::Failed {
-                message: e.to_string(),
-            },
+    /// Saves into the room file; a refusal becomes the prompt that asks what to do.
+    fn save(&mut self, curves: CurveSave, overwrite: bool) -> Msg {
+        let if_changed = if overwrite {
+            IfChanged::Overwrite
+        } else {
+            IfChanged::Refuse
+        };
+        let target = SaveTarget::Room(if_changed);
+        let result = save::save_curves_to(&self.room, &self.loaded, &self.model, curves, target);
+        self.saved(result, curves, None)
+    }
+
+    /// Saves as `name` (relative to the room file's folder; edited file curves inline); the
+    /// editor then edits that file.
+    fn save_as(&mut self, name: &str) -> Msg {
+        let folder = self.room.parent().unwrap_or(Path::new("."));
+        let path = folder.join(name);
+        let (curves, target) = (CurveSave::Inline, SaveTarget::As(&path));
+        let result = save::save_curves_to(&self.room, &self.loaded, &self.model, curves, target);
+        self.saved(result, curves, Some(path.clone()))
+    }
+
+    /// The message for a save's `result`; on success the room as written is what the next save
+    /// compares against, and `new_room` (a "save as") becomes the file edited.
+    fn saved(
+        &mut self,
+        result: std::result::Result<(Saved, Vec<LidSource>), SaveError>,
+        curves: CurveSave,
+        new_room: Option<PathBuf>,
+    ) -> Msg {
+        match result {
+            Ok((saved, sources)) => {
+                self.loaded = saved.room;
+                if let Some(path) = new_room {
+                    self.room = path;
+                }
+                Msg::Saved {
+                    message: saved.message,
+                    sources,
+                }
+            }
+            Err(e) => save::refusal(e, curves),
         }
+    }
+
+    /// Reads the room file again and starts over on it (the user chose "reload"): a new model,
+    /// a new engine (the old one is stopped). A room that no longer loads keeps the session.
+    fn reload(&mut self) {
+        let read = scene::read_room(&self.room).and_then(|loaded| {
+            let scene = scene::load::load_text(&self.room, &loaded.text)?;
+            budget::check_scene(&scene, PlanOptions::default(), true, &self.limit)?;
+            Ok((loaded, scene))
+        });
+        let (loaded, scene) = match read {
+            Ok(read) => read,
+            Err(e) => {
+                self.model.message = Some(format!("cannot reload: {e}"));
+                return;
+            }
+        };
+        let _ = self.engine.send(EngineRequest::Stop);
+        self.outbox.clear();
+        let model = &self.model;
+        let mut fresh = fresh_model(&scene, model.terminal_size, model.cell_px, model.protocol.clone());
+        fresh.false_colour = model.false_colour;
+        fresh.message = Some(format!(
+            "reloaded {} (the edits were dropped)",
+            self.room.display()
+        ));
+        self.model = fresh;
+        self.loaded = loaded;
+        self.engine = spawn_engine(scene, SessionOptions::with_user_cache(), self.sender.clone());
+        self.frame_changed = true;
     }
 
     /// Reads the photometric file the user typed.
@@ -247,8 +359,14 @@ pub fn report_path(room: &Path) -> PathBuf {
     room.with_file_name(format!("{stem}-report.html"))
 }
 
+/// A worker's channel closed: it ended, most likely by a panic, whose recorded message is given.
 fn worker_stopped() -> Error {
-    Error::internal("a background worker of the editor stopped")
+    match crate::error::take_recorded_panic() {
+        Some(panic) => Error::internal(format!(
+            "internal error: a background worker of the editor panicked: {panic}"
+        )),
+        None => Error::internal("a background worker of the editor stopped"),
+    }
 }
 
 /// The message for a terminal event the editor reacts to.

@@ -24,11 +24,15 @@ pub enum ModeKind {
     ConfirmSave,
     /// The unsaved-changes quit prompt.
     ConfirmQuit,
+    /// The room file changed on disk since it was read: overwrite, reload or save as.
+    SaveConflict,
+    /// Typing the name of the file to save as.
+    SaveAs,
 }
 
 impl ModeKind {
     /// Every mode, in the order the help overlay lists them.
-    pub const ALL: [ModeKind; 8] = [
+    pub const ALL: [ModeKind; 10] = [
         ModeKind::Normal,
         ModeKind::Aim,
         ModeKind::Move,
@@ -37,6 +41,8 @@ impl ModeKind {
         ModeKind::Help,
         ModeKind::ConfirmSave,
         ModeKind::ConfirmQuit,
+        ModeKind::SaveConflict,
+        ModeKind::SaveAs,
     ];
 
     /// Heading of the mode's section in the help overlay.
@@ -50,6 +56,8 @@ impl ModeKind {
             ModeKind::ConfirmSave => "Save prompt (edited file curves)",
             ModeKind::Help => "Help",
             ModeKind::ConfirmQuit => "Quit prompt",
+            ModeKind::SaveConflict => "File changed on disk",
+            ModeKind::SaveAs => "Save as (S)",
         }
     }
 }
@@ -130,6 +138,12 @@ pub enum Action {
     Quit,
     /// Save the room file.
     Save,
+    /// Save the room as another file (type its name).
+    SaveAs,
+    /// Save over a room file that changed on disk since it was read.
+    Overwrite,
+    /// Read the room file again, dropping the edits.
+    Reload,
     /// Select the next light.
     NextLight,
     /// Select the previous light.
@@ -211,11 +225,11 @@ pub enum Action {
     Finish,
     /// Leave the mode, undoing what it did.
     Cancel,
-    /// Type the pressed digit or `.`.
+    /// Type the pressed character (a digit or `.` for a value).
     Type,
     /// Delete the last typed character.
     Backspace,
-    /// Apply the typed value.
+    /// Apply the typed value (or save under the typed name).
     Apply,
     /// Quit without saving.
     ConfirmQuit,
@@ -291,7 +305,9 @@ const fn bind(
 
 use Action as A;
 use Key::{Char as C, Code, Ctrl, CtrlCode, Shift};
-use ModeKind::{Aim, ConfirmQuit, ConfirmSave, Help, Move, Normal, PathEntry, ValueEntry};
+use ModeKind::{
+    Aim, ConfirmQuit, ConfirmSave, Help, Move, Normal, PathEntry, SaveAs, SaveConflict, ValueEntry,
+};
 
 /// Every key binding of the editor.
 #[rustfmt::skip]
@@ -299,6 +315,7 @@ pub const BINDINGS: &[Binding] = &[
     bind(Normal, &[C('?')], A::ToggleHelp, "show this help", Some("help")),
     bind(Normal, &[C('q')], A::Quit, "quit (asks if unsaved)", Some("quit")),
     bind(Normal, &[C('s')], A::Save, "save the room file", Some("save")),
+    bind(Normal, &[C('S')], A::SaveAs, "save as another file", None),
     bind(Normal, &[Code(KeyCode::Tab)], A::NextLight, "next light", Some("light")),
     bind(Normal, &[Code(KeyCode::BackTab)], A::PreviousLight, "previous light", None),
     bind(Normal, &[Code(KeyCode::Left), C('h')], A::PreviousPoint, "previous control point", None),
@@ -381,6 +398,14 @@ pub const BINDINGS: &[Binding] = &[
     bind(Help, &[C('?'), Code(KeyCode::Esc), C('q')], A::ToggleHelp, "close the help", Some("close")),
     bind(ConfirmQuit, &[C('y')], A::ConfirmQuit, "quit without saving", Some("quit")),
     bind(ConfirmQuit, &[C('n'), Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
+    bind(SaveConflict, &[C('o')], A::Overwrite, "overwrite with yours", Some("overwrite")),
+    bind(SaveConflict, &[C('r')], A::Reload, "reload (drops the edits)", Some("reload")),
+    bind(SaveConflict, &[C('a')], A::SaveAs, "save as another file", Some("save as")),
+    bind(SaveConflict, &[Code(KeyCode::Esc)], A::Cancel, "keep editing", Some("cancel")),
+    bind(SaveAs, &[Key::AnyChar], A::Type, "type the file name", None),
+    bind(SaveAs, &[Code(KeyCode::Backspace)], A::Backspace, "delete a character", None),
+    bind(SaveAs, &[Code(KeyCode::Enter)], A::Apply, "save under that name", Some("save")),
+    bind(SaveAs, &[Code(KeyCode::Esc)], A::Cancel, "cancel", Some("cancel")),
 ];
 
 /// The action bound to `event` in `mode`, if any.

@@ -354,7 +354,10 @@ pub(crate) fn on_action(model: &mut Model, action: Action) -> Vec<Effect> {
 pub(crate) fn save(model: &mut Model) -> Vec<Effect> {
     let edited = edited_file_curves(model);
     if edited.is_empty() {
-        return vec![Effect::Save(CurveSave::Inline)];
+        return vec![Effect::Save {
+            curves: CurveSave::Inline,
+            overwrite: false,
+        }];
     }
     model.mode = Mode::ConfirmSave;
     Vec::new()

@@ -14,6 +14,7 @@ use crate::session::{ExposureChoice, LightStatus, RoomBounds, Series};
 use crate::tui::history::History;
 use crate::tui::keys::ModeKind;
 use crate::tui::luminaires::LidInfos;
+use crate::tui::msg::CurveSave;
 use crate::tui::panel::PanelNumbers;
 use crate::tui::view::preview_rect;
 
@@ -54,6 +55,20 @@ pub enum Mode {
     ConfirmSave,
     /// "Unsaved changes: quit?" prompt.
     ConfirmQuit,
+    /// The room file changed on disk since it was read: overwrite, reload or save as?
+    SaveConflict {
+        /// What the save found, for the prompt.
+        reason: String,
+        /// How the refused save wrote edited file curves (an overwrite does the same).
+        curves: CurveSave,
+    },
+    /// Typing the name of a file to save the room as.
+    SaveAs {
+        /// What was typed so far (relative names are in the room file's folder).
+        buffer: String,
+        /// Why "save as" is offered (a refused save), if it was.
+        reason: Option<String>,
+    },
 }
 
 impl Mode {
@@ -68,6 +83,8 @@ impl Mode {
             Mode::PathEntry { .. } => ModeKind::PathEntry,
             Mode::ConfirmSave => ModeKind::ConfirmSave,
             Mode::ConfirmQuit => ModeKind::ConfirmQuit,
+            Mode::SaveConflict { .. } => ModeKind::SaveConflict,
+            Mode::SaveAs { .. } => ModeKind::SaveAs,
         }
     }
 
@@ -83,6 +100,8 @@ impl Mode {
             Mode::PathEntry { .. } => "FILE",
             Mode::ConfirmSave => "SAVE?",
             Mode::ConfirmQuit => "QUIT?",
+            Mode::SaveConflict { .. } => "CHANGED ON DISK",
+            Mode::SaveAs { .. } => "SAVE AS",
         }
     }
 }

@@ -95,6 +95,26 @@ pub enum Msg {
         /// What went wrong.
         message: String,
     },
+    /// The save was refused and wrote nothing; the editor offers `offer`.
+    SaveRefused {
+        /// Why, one line.
+        reason: String,
+        /// What the user may do instead.
+        offer: SaveOffer,
+    },
+}
+
+/// What the editor offers after a refused save (docs/DECISIONS.md "Saving").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SaveOffer {
+    /// The file changed on disk since it was read: overwrite (writing edited file curves as
+    /// `curves` says), reload or save as.
+    OverwriteReloadOrSaveAs {
+        /// How the refused save wrote edited file curves.
+        curves: CurveSave,
+    },
+    /// The file cannot be replaced (read-only, hard-linked): save as another file.
+    SaveAs,
 }
 
 /// Work the app carries out for the editor; its results come back as [`Msg`]s.
@@ -112,9 +132,20 @@ pub enum Effect {
         /// True to aim the selected light at it.
         aim: bool,
     },
-    /// Save the room file ([`crate::tui::save::save_room`]), edited file curves as `curves`
-    /// says; answer with [`Msg::Saved`] or [`Msg::Failed`].
-    Save(CurveSave),
+    /// Save the room file ([`crate::tui::save::save_curves_to`]), edited file curves as
+    /// `curves` says; `overwrite` writes over a change made on disk since it was read. Answered
+    /// with [`Msg::Saved`], [`Msg::SaveRefused`] or [`Msg::Failed`].
+    Save {
+        /// How edited file curves are written.
+        curves: CurveSave,
+        /// True when the user chose to overwrite a change on disk.
+        overwrite: bool,
+    },
+    /// Save the room as the file typed (relative to the room file's folder; edited file curves
+    /// inline); the editor then edits that file. Answered as [`Effect::Save`].
+    SaveAs(String),
+    /// Read the room file again, dropping the edits (the user chose "reload").
+    Reload,
     /// Read the photometric file the user typed (relative to the room file); answer with
     /// [`Msg::LidLoaded`].
     LoadLid(String),

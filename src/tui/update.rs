@@ -18,13 +18,16 @@ use crate::tui::history::Change;
 use crate::tui::keys::{self, Action};
 use crate::tui::luminaires::{self, group};
 use crate::tui::model::{LightEdit, Mode, Model, Picked, Timings};
-use crate::tui::msg::{CurveSave, Effect, Msg};
+use crate::tui::msg::{CurveSave, Effect, Msg, SaveOffer};
 use crate::tui::view::{cell_to_pixel, preview_rect};
 
 /// Longest typed value, characters.
 const MAX_TYPED_LEN: usize = 16;
 /// Longest typed path, characters.
 const MAX_TYPED_PATH_LEN: usize = 4096;
+
+/// Longest typed file name, characters.
+const MAX_TYPED_NAME_LEN: usize = 1024;
 
 /// Applies one message to the model and returns the work the app must do.
 pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
@@ -92,6 +95,16 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.message = Some(message);
             Vec::new()
         }
+        Msg::SaveRefused { reason, offer } => {
+            model.mode = match offer {
+                SaveOffer::OverwriteReloadOrSaveAs { curves } => Mode::SaveConflict { reason, curves },
+                SaveOffer::SaveAs => Mode::SaveAs {
+                    buffer: String::new(),
+                    reason: Some(reason),
+                },
+            };
+            Vec::new()
+        }
     }
 }
 
@@ -125,11 +138,35 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         Action::Save => luminaires::save(model),
         Action::SaveCurveFiles => {
             model.mode = Mode::Normal;
-            vec![Effect::Save(CurveSave::NewFiles)]
+            vec![Effect::Save {
+                curves: CurveSave::NewFiles,
+                overwrite: false,
+            }]
         }
         Action::SaveInline => {
             model.mode = Mode::Normal;
-            vec![Effect::Save(CurveSave::Inline)]
+            vec![Effect::Save {
+                curves: CurveSave::Inline,
+                overwrite: false,
+            }]
+        }
+        Action::SaveAs => {
+            model.mode = Mode::SaveAs {
+                buffer: String::new(),
+                reason: None,
+            };
+            Vec::new()
+        }
+        Action::Overwrite => match std::mem::replace(&mut model.mode, Mode::Normal) {
+            Mode::SaveConflict { curves, .. } => vec![Effect::Save {
+                curves,
+                overwrite: true,
+            }],
+            _ => Vec::new(),
+        },
+        Action::Reload => {
+            model.mode = Mode::Normal;
+            vec![Effect::Reload]
         }
         Action::DuplicateLight
         | Action::DeleteLight
@@ -177,6 +214,7 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         Action::Type => {
             let limit = match model.mode {
                 Mode::PathEntry { .. } => MAX_TYPED_PATH_LEN,
+                Mode::SaveAs { .. } => MAX_TYPED_NAME_LEN,
                 _ => MAX_TYPED_LEN,
             };
             if let (Some(buffer), KeyCode::Char(c)) = (typed_buffer(&mut model.mode), event.code)
@@ -205,6 +243,12 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
                 model.message = Some(format!("reading {}…", buffer.trim()));
                 vec![Effect::LoadLid(buffer)]
             }
+            Mode::SaveAs { buffer, reason } if buffer.trim().is_empty() => {
+                model.message = Some("type a file name to save as (Esc cancels)".into());
+                model.mode = Mode::SaveAs { buffer, reason };
+                Vec::new()
+            }
+            Mode::SaveAs { buffer, .. } => vec![Effect::SaveAs(buffer.trim().to_string())],
             _ => Vec::new(),
         },
         Action::Order(delta) => edit(model, |l, i| Ok(edits::change_order(l, i, delta))),
@@ -312,9 +356,10 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
 /// The text being typed in an entry mode.
 fn typed_buffer(mode: &mut Mode) -> Option<&mut String> {
     match mode {
-        Mode::ValueEntry { buffer } | Mode::DimmerEntry { buffer } | Mode::PathEntry { buffer } => {
-            Some(buffer)
-        }
+        Mode::ValueEntry { buffer }
+        | Mode::DimmerEntry { buffer }
+        | Mode::PathEntry { buffer }
+        | Mode::SaveAs { buffer, .. } => Some(buffer),
         _ => None,
     }
 }

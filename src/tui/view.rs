@@ -6,7 +6,7 @@ use ratatui::Frame;
 use ratatui::layout::{Alignment, Constraint, Layout, Position, Rect};
 use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState};
+use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState, Wrap};
 
 use crate::error::printable;
 use crate::session::{ExposureChoice, LightStatus};
@@ -136,9 +136,33 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
     draw_panel(model.numbers.as_ref(), frame, areas.panel);
     frame.render_widget(Paragraph::new(status_line(model)).reversed(), areas.status);
     frame.render_widget(Paragraph::new(hint_line(model)), areas.hints);
-    match model.mode {
+    match &model.mode {
         Mode::Help => draw_help(frame, area),
         Mode::ConfirmQuit => draw_quit_prompt(frame, area),
+        Mode::SaveConflict { reason, .. } => draw_prompt(
+            frame,
+            area,
+            " the room file changed on disk ",
+            vec![
+                Line::from(printable(reason).into_owned()),
+                Line::from(
+                    "Overwrite it with this version, reload it (dropping the edits), or save as another file?",
+                ),
+                Line::from(keys::hint_line(ModeKind::SaveConflict)).bold(),
+            ],
+        ),
+        Mode::SaveAs { buffer, reason } => {
+            let mut lines: Vec<Line<'static>> = reason
+                .iter()
+                .map(|r| Line::from(printable(r).into_owned()).fg(Color::Yellow))
+                .collect();
+            lines.push(Line::from(vec![
+                Span::from("save as (file name): "),
+                Span::from(format!("{}▏", printable(buffer))).bold(),
+            ]));
+            lines.push(Line::from(keys::hint_line(ModeKind::SaveAs)).bold());
+            draw_prompt(frame, area, " save as ", lines);
+        }
         Mode::ConfirmSave => draw_save_prompt(model, frame, area),
         _ => {}
     }
@@ -341,7 +365,7 @@ fn status_line(model: &Model) -> Line<'static> {
 
 fn hint_line(model: &Model) -> Line<'static> {
     if let Some(message) = &model.message {
-        return Line::from(format!(" {message}")).style(Style::new().fg(Color::Yellow));
+        return Line::from(format!(" {}", printable(message))).style(Style::new().fg(Color::Yellow));
     }
     let hints = keys::hint_line(model.mode.kind());
     match &model.mode {
@@ -417,6 +441,22 @@ fn draw_help(frame: &mut Frame<'_>, area: Rect) {
     for (chunk, column) in lines.chunks(per_column).zip(column_areas.iter()) {
         frame.render_widget(Paragraph::new(chunk.to_vec()), *column);
     }
+}
+
+/// A bordered prompt titled `title` over the middle of the screen, its lines wrapped.
+fn draw_prompt(frame: &mut Frame<'_>, area: Rect, title: &'static str, lines: Vec<Line<'static>>) {
+    let width = area.width.saturating_sub(4).min(100);
+    let inner_width = usize::from(width.saturating_sub(2).max(1));
+    let rows: usize = lines.iter().map(|l| l.width().div_ceil(inner_width).max(1)).sum();
+    let height = u16::try_from(rows + 2).unwrap_or(u16::MAX);
+    let popup = centred(area, width, height);
+    frame.render_widget(Clear, popup);
+    frame.render_widget(
+        Paragraph::new(lines)
+            .wrap(Wrap { trim: false })
+            .block(Block::bordered().title(title)),
+        popup,
+    );
 }
 
 fn draw_save_prompt(model: &Model, frame: &mut Frame<'_>, area: Rect) {

@@ -95,6 +95,8 @@ pub enum EngineRequest {
     /// Write the report of the current state to this HTML file (answered with
     /// [`Msg::Reported`] or [`Msg::Failed`]).
     Report(std::path::PathBuf),
+    /// End the engine (the room was reloaded and a new engine took over).
+    Stop,
 }
 
 /// Milliseconds since `start`.
@@ -222,10 +224,8 @@ impl Engine {
     /// Writes the report of the current state to `path`.
     fn report(&mut self, path: &std::path::Path) -> Msg {
         let room = self.session.scene().path.display().to_string();
-        let written = report_html(&mut self.session, &room, &ReportOptions::default()).and_then(|html| {
-            std::fs::write(path, html)
-                .map_err(|e| crate::error::Error::input(path, "", format!("cannot write the report: {e}")))
-        });
+        let written = report_html(&mut self.session, &room, &ReportOptions::default())
+            .and_then(|html| crate::fsio::write_atomic(path, html.as_bytes()));
         match written {
             Ok(()) => Msg::Reported {
                 message: format!("report written to {}", path.display()),
@@ -253,6 +253,7 @@ impl Engine {
         let mut reports = Vec::new();
         for request in batch {
             match request {
+                EngineRequest::Stop => return None,
                 EngineRequest::Commands(commands) => {
                     for command in commands {
                         match self.session.apply(command) {

@@ -25,14 +25,14 @@ fn haiko(dir: &Path, args: &[&str]) -> Run {
     run_in(dir, command, args)
 }
 
-/// Runs `haiko ARGS` as [`haiko`] does, with files limited to `blocks` blocks of 512 bytes
-/// (`ulimit -f`) and SIGXFSZ ignored, so a write past the limit fails with EFBIG as on a full
-/// disk (without root or a small file system).
-fn haiko_with_file_limit(dir: &Path, blocks: u32, args: &[&str]) -> Run {
+/// Runs `haiko ARGS` as [`haiko`] does under `ulimit LIMIT` (`-f 1`: files of at most one
+/// 512-byte block; `-v 4194304`: 4 GiB of address space), with SIGXFSZ ignored, so a write past
+/// a file limit fails with EFBIG as on a full disk (without root or a small file system).
+fn haiko_limited(dir: &Path, limit: &str, args: &[&str]) -> Run {
     let mut command = Command::new("sh");
     command
         .arg("-c")
-        .arg(format!("trap '' XFSZ; ulimit -f {blocks}; exec \"$0\" \"$@\""))
+        .arg(format!("trap '' XFSZ; ulimit {limit}; exec \"$0\" \"$@\""))
         .arg(env!("CARGO_BIN_EXE_haiko"))
         .args(args);
     run_in(dir, command, args)
@@ -700,6 +700,23 @@ fn outputs_that_are_inputs_are_refused_and_left_alone() {
             &["is the input file", input, "never overwrites an input"],
         );
     }
+    // The report is an output too.
+    for output in ["room.toml", "hard.png", "lamp.ies"] {
+        let run = haiko(
+            d,
+            &[
+                "report",
+                "room.toml",
+                "-o",
+                output,
+                "--width",
+                "64",
+                "--height",
+                "48",
+            ],
+        );
+        assert_bad_input(&run, output, &["is the input file", "never overwrites an input"]);
+    }
     assert_eq!(fs::read_to_string(d.join("room.toml")).unwrap(), room);
     assert_eq!(fs::read_to_string(d.join("lamp.ies")).unwrap(), ies);
     // An OBJ and its MTL are inputs too.
@@ -734,7 +751,7 @@ fn a_failed_image_write_keeps_the_old_image_and_exits_1() {
     write(d, "room.toml", ROOM);
     write(d, "out.png", "the previous image");
     // One block of 512 bytes: the 160 × 120 PNG (several kB) cannot be written.
-    let run = haiko_with_file_limit(d, 1, &render_args("room.toml", "out.png"));
+    let run = haiko_limited(d, "-f 1", &render_args("room.toml", "out.png"));
     assert_eq!(run.code, Some(1), "an I/O failure is exit 1: {}", run.stderr);
     assert_eq!(run.stderr.trim_end().lines().count(), 1, "{}", run.stderr);
     assert!(
@@ -872,4 +889,157 @@ fn a_fifo_named_like_a_cache_file_is_never_opened() {
     let run = haiko(d, &render_args("room.toml", "out.png"));
     assert_eq!(run.code, Some(0), "{}", run.stderr);
     assert!(run.stderr.contains("FIFO"), "{}", run.stderr);
+}
+
+/// An 80 × 80 × 4 m hall with grey surfaces and the default patch sizes: about 53 000 solver
+/// patches, so the dense form factors alone take about 11 GB.
+const HALL: &str = r#"version = 1
+[room]
+size = [80.0, 80.0, 4.0]
+[room.reflectance]
+floor = 0.2
+walls = 0.5
+ceiling = 0.7
+[[light]]
+name = "high bay"
+position = [40.0, 40.0, 3.9]
+lid = [[0, 10000], [90, 0]]
+"#;
+
+#[test]
+fn a_hall_too_large_for_memory_is_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "hall.toml", HALL);
+    write(d, "p.csv", "x,y,z,nx,ny,nz\n40,40,0,0,0,1\n");
+    // The default limit: half the memory the process may have; under a 4 GiB address space
+    // (the bad-input corpus's cap) that is 2 GiB on any machine.
+    let run = haiko_limited(d, "-v 4194304", &["bake", "hall.toml"]);
+    assert!(
+        run.stdout.is_empty(),
+        "refused before the plan is printed: {}",
+        run.stdout
+    );
+    assert_bad_input(
+        &run,
+        "hall.toml",
+        &[
+            "needs about 1",
+            " GB of memory (form factors ",
+            "more than the limit of 2.15 GB (half the memory available to Haiko",
+            "`settings.solver_patch_size`",
+            "`--max-memory`",
+        ],
+    );
+    let editor = haiko_limited(d, "-v 4194304", &["edit", "hall.toml"]);
+    assert_bad_input(&editor, "hall.toml", &["more than the limit of 2.15 GB"]);
+    assert!(!editor.stdout.contains('\u{1b}'), "the terminal was never taken");
+    let limited: [&[&str]; 4] = [
+        &["bake", "hall.toml"],
+        &[
+            "render",
+            "hall.toml",
+            "-o",
+            "hall.png",
+            "--width",
+            "64",
+            "--height",
+            "48",
+        ],
+        &["probe", "hall.toml", "--points", "p.csv"],
+        &["grid", "hall.toml", "--height", "0.8", "--spacing", "1"],
+    ];
+    for args in limited {
+        let args = [args, &["--max-memory", "4G"]].concat();
+        let run = haiko(d, &args);
+        assert_bad_input(
+            &run,
+            "hall.toml",
+            &["more than the limit of 4.29 GB (--max-memory)"],
+        );
+    }
+    assert!(!d.join("hall.png").exists());
+    // `plan` shows the estimate against the limit, and refuses nothing.
+    let run = haiko(d, &["plan", "hall.toml", "--max-memory", "4G"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    assert!(
+        run.stdout.contains("budget: about 1")
+            && run
+                .stdout
+                .contains("ABOVE (the commands that simulate will refuse) the limit of 4.29 GB"),
+        "{}",
+        run.stdout
+    );
+}
+
+#[test]
+fn a_small_room_runs_within_a_given_budget_and_not_within_a_tiny_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", &grey_room());
+    write(d, "p.csv", "x,y,z,nx,ny,nz\n2,2,0,0,0,1\n");
+    let commands: [&[&str]; 5] = [
+        &["bake", "room.toml"],
+        &[
+            "render",
+            "room.toml",
+            "-o",
+            "out.png",
+            "--width",
+            "64",
+            "--height",
+            "48",
+        ],
+        &["probe", "room.toml", "--points", "p.csv"],
+        &["grid", "room.toml", "--height", "0.8", "--spacing", "1"],
+        &[
+            "pick",
+            "room.toml",
+            "--pixel",
+            "32,40",
+            "--width",
+            "64",
+            "--height",
+            "48",
+        ],
+    ];
+    for args in commands {
+        let run = haiko(d, &[args, &["--max-memory", "64G"]].concat());
+        assert_eq!(run.code, Some(0), "{args:?}: {}", run.stderr);
+        let run = haiko(d, &[args, &["--max-memory", "1K"]].concat());
+        assert_bad_input(
+            &run,
+            "room.toml",
+            &["more than the limit of 1.02 kB (--max-memory)"],
+        );
+    }
+    let run = haiko(d, &["plan", "room.toml", "--max-memory", "64G"]);
+    assert!(
+        run.stdout.contains("within the limit of 68.7 GB (--max-memory)"),
+        "{}",
+        run.stdout
+    );
+    let run = haiko(d, &["plan", "room.toml", "--json", "--max-memory", "1K"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let plan: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
+    let budget = &plan["budget"];
+    assert_eq!(budget["limit_bytes"], 1024);
+    assert_eq!(budget["limit_from"], "--max-memory");
+    assert_eq!(budget["within"], false);
+    let parts = ["form_factor_bytes", "basis_bytes", "relight_bytes"].map(|k| budget[k].as_u64().unwrap());
+    assert_eq!(
+        budget["estimate_bytes"].as_u64().unwrap(),
+        parts.iter().sum::<u64>()
+    );
+    // The dense form factors of n solver patches: n² × 4 bytes.
+    let n = plan["coarse_patches"].as_u64().unwrap();
+    assert!(n > 0);
+    assert_eq!(parts[0], n * n * 4);
+    let run = haiko(d, &["bake", "room.toml", "--max-memory", "12Q"]);
+    assert_eq!(run.code, Some(2), "{}", run.stderr);
+    assert!(
+        run.stderr.contains("`12Q` is not a memory size"),
+        "{}",
+        run.stderr
+    );
 }

@@ -476,7 +476,13 @@ fn saving_asks_how_to_write_an_edited_file_curve() {
     let (_, mut m) = room_and_model(dir.path());
     // Unedited: no question.
     send(&mut m, [ch('D')]);
-    assert_eq!(send(&mut m, [ch('s')]), vec![Effect::Save(CurveSave::Inline)]);
+    assert_eq!(
+        send(&mut m, [ch('s')]),
+        vec![Effect::Save {
+            curves: CurveSave::Inline,
+            overwrite: false
+        }]
+    );
     // An edited point of a's file curve: the prompt, Enter writes new files (the default).
     send(&mut m, [key(KeyCode::Up), ch('s')]);
     assert_eq!(m.mode, Mode::ConfirmSave);
@@ -484,7 +490,10 @@ fn saving_asks_how_to_write_an_edited_file_curve() {
     assert!(text.contains("Edited curves from photometric files: a"), "{text}");
     assert_eq!(
         send(&mut m, [key(KeyCode::Enter)]),
-        vec![Effect::Save(CurveSave::NewFiles)]
+        vec![Effect::Save {
+            curves: CurveSave::NewFiles,
+            overwrite: false
+        }]
     );
     send(&mut m, [ch('s')]);
     assert_eq!(send(&mut m, [key(KeyCode::Esc)]), vec![]);

@@ -802,7 +802,13 @@ fn saved_clears_dirty_only_when_the_app_reports_success() {
     // The spot's curve came from a file: the save asks how to write it.
     assert_eq!(update(&mut m, ch('s')), vec![]);
     assert_eq!(m.mode, Mode::ConfirmSave);
-    assert_eq!(update(&mut m, ch('i')), vec![Effect::Save(CurveSave::Inline)]);
+    assert_eq!(
+        update(&mut m, ch('i')),
+        vec![Effect::Save {
+            curves: CurveSave::Inline,
+            overwrite: false
+        }]
+    );
     assert_eq!(m.mode, Mode::Normal);
     assert!(m.dirty);
     update(
@@ -1370,4 +1376,79 @@ fn light_names_are_escaped_in_the_panels() {
     // The curve panel's title and the status line both show the escaped name.
     assert_eq!(text.matches("red\\u{1b}[31m\\nx\\u{202e}").count(), 2, "{text}");
     assert!(!text.contains('\u{1b}') && !text.contains('\u{202e}'));
+}
+
+#[test]
+fn refused_saves_ask_what_to_do() {
+    use haiko::tui::msg::SaveOffer;
+    let mut m = model();
+    send(&mut m, [key(KeyCode::Up)]);
+    // The centre light's curve is inline: no question about file curves.
+    let save = |curves, overwrite| Effect::Save { curves, overwrite };
+    assert_eq!(update(&mut m, ch('s')), vec![save(CurveSave::Inline, false)]);
+    // Changed on disk: overwrite, reload or save as.
+    let conflict = || Msg::SaveRefused {
+        reason: "room.toml: cannot save: the file was changed on disk".into(),
+        offer: SaveOffer::OverwriteReloadOrSaveAs {
+            curves: CurveSave::NewFiles,
+        },
+    };
+    update(&mut m, conflict());
+    assert_eq!(m.mode.kind(), ModeKind::SaveConflict);
+    // Overwrite writes the file curves as the refused save did.
+    assert_eq!(update(&mut m, ch('o')), vec![save(CurveSave::NewFiles, true)]);
+    assert_eq!(m.mode, Mode::Normal);
+    update(&mut m, conflict());
+    assert_eq!(update(&mut m, ch('r')), vec![Effect::Reload]);
+    assert_eq!(m.mode, Mode::Normal);
+    update(&mut m, conflict());
+    assert_eq!(update(&mut m, key(KeyCode::Esc)), vec![]);
+    assert_eq!(m.mode, Mode::Normal);
+    assert!(m.dirty, "a cancelled save keeps the edits");
+    update(&mut m, conflict());
+    assert!(update(&mut m, ch('a')).is_empty());
+    assert_eq!(
+        m.mode,
+        Mode::SaveAs {
+            buffer: String::new(),
+            reason: None
+        }
+    );
+    // Read-only or hard-linked: save as, with the reason shown.
+    update(
+        &mut m,
+        Msg::SaveRefused {
+            reason: "room.toml: cannot save: the file is read-only".into(),
+            offer: SaveOffer::SaveAs,
+        },
+    );
+    let reason = Some("room.toml: cannot save: the file is read-only".to_string());
+    assert_eq!(
+        m.mode,
+        Mode::SaveAs {
+            buffer: String::new(),
+            reason: reason.clone()
+        }
+    );
+    assert!(update(&mut m, key(KeyCode::Enter)).is_empty(), "no name, no save");
+    type_keys(&mut m, "sub/Copy 2.tomlx");
+    update(&mut m, key(KeyCode::Backspace));
+    let screen = draw(&m, 120, 40);
+    let text: String = screen
+        .backend()
+        .buffer()
+        .content()
+        .iter()
+        .map(|c| c.symbol())
+        .collect();
+    assert!(text.contains("save as (file name): sub/Copy 2.toml▏"), "{text}");
+    assert!(text.contains("cannot save: the file is read-only"), "{text}");
+    assert_eq!(
+        update(&mut m, key(KeyCode::Enter)),
+        vec![Effect::SaveAs("sub/Copy 2.toml".into())]
+    );
+    assert_eq!(m.mode, Mode::Normal);
+    // `S` offers save as at any time.
+    update(&mut m, ch('S'));
+    assert_eq!(m.mode.kind(), ModeKind::SaveAs);
 }

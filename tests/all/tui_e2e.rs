@@ -120,10 +120,22 @@ pub(crate) fn number(value: &toml::Value) -> f64 {
 /// The editor on a copy of the paper room in `dir`, with a private bake cache in `dir/cache`;
 /// its exit status goes to the returned file.
 fn start_editor(dir: &Path) -> (TmuxSession, PathBuf, PathBuf, String) {
-    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let original = std::fs::read_to_string(repo.join("rooms/paper.toml")).unwrap();
+    let original = paper_room();
     let room = dir.join("paper.toml");
     std::fs::write(&room, &original).unwrap();
+    let (session, exit_file) = start_editor_on(dir, &room);
+    (session, room, exit_file, original)
+}
+
+/// The text of `rooms/paper.toml`.
+fn paper_room() -> String {
+    let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    std::fs::read_to_string(repo.join("rooms/paper.toml")).unwrap()
+}
+
+/// The editor on the room file `room` (as named: a link stays a link), with a private bake
+/// cache in `dir/cache`; its exit status goes to the returned file.
+fn start_editor_on(dir: &Path, room: &Path) -> (TmuxSession, PathBuf) {
     let exit_file = dir.join("exit-status");
     // A private bake cache: the editor bakes on start (the preview appears when it is done).
     let command = format!(
@@ -133,7 +145,7 @@ fn start_editor(dir: &Path) -> (TmuxSession, PathBuf, PathBuf, String) {
         room.display(),
         exit_file.display()
     );
-    (TmuxSession::start(&command, 160, 48), room, exit_file, original)
+    (TmuxSession::start(&command, 160, 48), exit_file)
 }
 
 #[test]
@@ -266,4 +278,220 @@ fn a_move_in_tmux_finishes_its_bake_and_keeps_one_cache_entry_per_light() {
         .count();
     assert_eq!(entries, 2, "one cache entry per light");
     drop(session);
+}
+
+// ---------------------------------------------------------------- saving (docs/DECISIONS.md "Saving")
+
+/// The centre light's first `lid` point as written in `text`.
+fn first_point(text: &str) -> (f64, f64) {
+    let room: toml::Value = toml::from_str(text).unwrap_or_else(|e| panic!("{e}:\n{text}"));
+    let first = room["light"][0]["lid"][0].as_array().unwrap().clone();
+    (number(&first[0]), number(&first[1]))
+}
+
+/// Waits for the first frame, then raises centre's first point to 1050 cd (unsaved).
+fn raise_first_point(session: &TmuxSession) {
+    session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
+    session.send("Up");
+    session.wait_for("the raised point", |s| {
+        s.contains("1050.0") && s.contains("unsaved")
+    });
+}
+
+/// `q` on a saved room, or `q` `y` on an unsaved one: the editor exits 0.
+fn quit(session: &TmuxSession, exit_file: &Path, unsaved: bool) {
+    session.send("q");
+    if unsaved {
+        session.wait_for("the quit prompt", |s| status_line(s).contains("QUIT?"));
+        session.send("y");
+    }
+    assert_eq!(wait_for_file(exit_file).trim(), "EXIT=0");
+}
+
+#[test]
+fn a_read_only_room_is_refused_and_saved_as_another_file_in_tmux() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let (session, room, exit_file, original) = start_editor(dir.path());
+    std::fs::set_permissions(&room, std::fs::Permissions::from_mode(0o444)).unwrap();
+    raise_first_point(&session);
+    session.send("s");
+    let screen = session.wait_for("the save-as prompt", |s| status_line(s).contains("SAVE AS"));
+    assert!(
+        screen.contains("cannot save: the file is read-only") && screen.contains("save as (file name):"),
+        "{screen}"
+    );
+    session.send("copy.toml");
+    session.wait_for("the typed name", |s| s.contains("copy.toml▏"));
+    session.send("Enter");
+    let screen = session.wait_for("the save as", shows_saved);
+    assert!(screen.contains("copy.toml"), "{screen}");
+    quit(&session, &exit_file, false);
+    assert_eq!(
+        std::fs::read_to_string(&room).unwrap(),
+        original,
+        "the read-only file is untouched"
+    );
+    let mode = std::fs::metadata(&room).unwrap().permissions().mode();
+    assert_eq!(mode & 0o777, 0o444);
+    let copy = std::fs::read_to_string(dir.path().join("copy.toml")).unwrap();
+    assert_eq!(first_point(&copy), (0.0, 1050.0));
+}
+
+#[test]
+fn a_symlinked_room_is_saved_through_to_its_target_in_tmux() {
+    let dir = tempfile::tempdir().unwrap();
+    let real_dir = dir.path().join("real");
+    std::fs::create_dir(&real_dir).unwrap();
+    let target = real_dir.join("paper.toml");
+    std::fs::write(&target, paper_room()).unwrap();
+    let link = dir.path().join("link.toml");
+    std::os::unix::fs::symlink("real/paper.toml", &link).unwrap();
+    let (session, exit_file) = start_editor_on(dir.path(), &link);
+    raise_first_point(&session);
+    session.send("s");
+    session.wait_for("the save", shows_saved);
+    quit(&session, &exit_file, false);
+    assert!(
+        std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(),
+        "the link stays"
+    );
+    assert_eq!(std::fs::read_link(&link).unwrap(), Path::new("real/paper.toml"));
+    assert_eq!(
+        first_point(&std::fs::read_to_string(&target).unwrap()),
+        (0.0, 1050.0)
+    );
+}
+
+#[test]
+fn a_hard_linked_room_is_refused_with_save_as_offered_in_tmux() {
+    let dir = tempfile::tempdir().unwrap();
+    let (session, room, exit_file, original) = start_editor(dir.path());
+    let other = dir.path().join("other-name.toml");
+    std::fs::hard_link(&room, &other).unwrap();
+    raise_first_point(&session);
+    session.send("s");
+    let screen = session.wait_for("the save-as prompt", |s| status_line(s).contains("SAVE AS"));
+    assert!(screen.contains("has 2 hard links"), "{screen}");
+    session.send("Escape");
+    session.wait_for("editing again", |s| status_line(s).contains("EDIT"));
+    quit(&session, &exit_file, true);
+    assert_eq!(std::fs::read_to_string(&room).unwrap(), original);
+    assert_eq!(std::fs::read_to_string(&other).unwrap(), original);
+    use std::os::unix::fs::MetadataExt;
+    assert_eq!(
+        std::fs::metadata(&room).unwrap().nlink(),
+        2,
+        "the link is not broken"
+    );
+}
+
+/// The room changed on disk after the editor read it: another program set the accent light's
+/// dimmer. Returns the changed text.
+fn change_on_disk(room: &Path) -> String {
+    let text = std::fs::read_to_string(room).unwrap();
+    let changed = text.replacen("radius = 0.03", "radius = 0.03\ndimmer = 0.5", 1);
+    assert_ne!(changed, text);
+    std::fs::write(room, &changed).unwrap();
+    changed
+}
+
+#[test]
+fn a_room_changed_on_disk_asks_and_overwrite_writes_ours_in_tmux() {
+    let dir = tempfile::tempdir().unwrap();
+    let (session, room, exit_file, _) = start_editor(dir.path());
+    raise_first_point(&session);
+    change_on_disk(&room);
+    session.send("s");
+    let screen = session.wait_for("the conflict prompt", |s| {
+        status_line(s).contains("CHANGED ON DISK")
+    });
+    assert!(
+        screen.contains("changed on disk since it was read") && screen.contains("o overwrite"),
+        "{screen}"
+    );
+    session.send("o");
+    session.wait_for("the save", shows_saved);
+    quit(&session, &exit_file, false);
+    let saved = std::fs::read_to_string(&room).unwrap();
+    assert_eq!(first_point(&saved), (0.0, 1050.0));
+    assert!(
+        !saved.contains("dimmer = 0.5"),
+        "overwrite replaces the other change:\n{saved}"
+    );
+}
+
+#[test]
+fn a_room_changed_on_disk_asks_and_reload_takes_theirs_in_tmux() {
+    let dir = tempfile::tempdir().unwrap();
+    let (session, room, exit_file, _) = start_editor(dir.path());
+    raise_first_point(&session);
+    let changed = change_on_disk(&room);
+    session.send("s");
+    session.wait_for("the conflict prompt", |s| {
+        status_line(s).contains("CHANGED ON DISK")
+    });
+    session.send("r");
+    let screen = session.wait_for("the reload", |s| s.contains("reloaded") && !s.contains("unsaved"));
+    assert!(
+        screen.contains("1000.0") && !screen.contains("1050.0"),
+        "{screen}"
+    );
+    // The reloaded room is edited and saved as usual.
+    session.wait_for("a frame of the reloaded room", |s| {
+        status_line(s).contains("relight")
+    });
+    session.send("Down");
+    session.wait_for("the lowered point", |s| {
+        s.contains("950.0") && s.contains("unsaved")
+    });
+    session.send("s");
+    session.wait_for("the save", shows_saved);
+    quit(&session, &exit_file, false);
+    let saved = std::fs::read_to_string(&room).unwrap();
+    assert!(saved.contains("dimmer = 0.5"), "their change is kept:\n{saved}");
+    assert_eq!(first_point(&saved), (0.0, 950.0));
+    assert_eq!(saved.lines().count(), changed.lines().count());
+}
+
+#[test]
+fn comments_inside_an_edited_lid_array_are_kept_in_tmux() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = dir.path().join("paper.toml");
+    let text = paper_room().replacen(
+        "lid = [[0, 1000], [30, 950], [60, 700], [90, 0]]",
+        "lid = [\n    # straight down\n    [0, 1000],\n    [30, 950], # shoulder\n    # the cut-off\n    [60, 700],\n    [90, 0],\n]",
+        1,
+    );
+    std::fs::write(&room, &text).unwrap();
+    let (session, exit_file) = start_editor_on(dir.path(), &room);
+    raise_first_point(&session);
+    session.send("s");
+    session.wait_for("the save", shows_saved);
+    quit(&session, &exit_file, false);
+    let saved = std::fs::read_to_string(&room).unwrap();
+    assert_eq!(first_point(&saved), (0.0, 1050.0));
+    assert!(
+        saved.contains("lid = [\n    # straight down\n    [0, 1050],\n    [30, 950], # shoulder\n    # the cut-off\n    [60, 700],\n    [90, 0],\n]"),
+        "{saved}"
+    );
+}
+
+#[test]
+fn a_stale_temporary_of_a_killed_save_is_removed_on_open_in_tmux() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = dir.path().join("paper.toml");
+    std::fs::write(&room, paper_room()).unwrap();
+    // Left by a save whose process is gone (ids above the kernel's 2^22 maximum never live),
+    // and one of another file, which stays.
+    let stale = dir.path().join(".paper.toml.haiko-tmp-99999999-0");
+    let other = dir.path().join(".other.toml.haiko-tmp-99999999-0");
+    std::fs::write(&stale, "partial room").unwrap();
+    std::fs::write(&other, "partial").unwrap();
+    let (session, exit_file) = start_editor_on(dir.path(), &room);
+    let screen = session.wait_for("the notice", |s| s.contains("removed 1 temporary file(s)"));
+    assert!(!stale.exists(), "{screen}");
+    assert!(other.exists());
+    session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
+    quit(&session, &exit_file, false);
 }
