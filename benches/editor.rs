@@ -1,8 +1,11 @@
-//! The editor's costs per keystroke (docs/BENCHMARKS.md): a key press → a new 1024 × 768
-//! preview pixmap of the paper room (update → command → session relight + render + overlays,
-//! into reused buffers), the heap allocations that key press makes (counted with dhat), and
-//! what one preview frame costs on the wire for each image protocol at 160 × 48 cells with a
-//! 10 × 20 px font (encode time is benched; the byte counts are printed).
+//! The editor's costs per keystroke (docs/BENCHMARKS.md), on one core (wall time, and `…-cpu`:
+//! CPU time of the pool's one thread, see `common/cpu_time.rs`): a key press → a new
+//! 1024 × 768 preview pixmap of the paper and office rooms (update → command → session relight,
+//! per-pixel direct light, shading and overlays, into reused buffers; targets 16 ms and 33 ms), a
+//! 5° camera orbit step (target 200 ms), the per-pixel light's memory (printed), the heap
+//! allocations of a key press (counted with dhat), and what one preview frame costs on the wire
+//! for each image protocol at 160 × 48 cells with a 10 × 20 px font (encode time is benched; the
+//! byte counts are printed).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -18,6 +21,10 @@ use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::{Rect, Size};
 use ratatui_image::picker::{Picker, ProtocolType};
 
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+use cpu_time::cpu_time_of;
+
 #[global_allocator]
 static ALLOCATOR: dhat::Alloc = dhat::Alloc;
 
@@ -29,32 +36,34 @@ const FONT: (u16, u16) = (10, 20);
 const SIZE: (u32, u32) = (1024, 768);
 
 fn paper() -> haiko::scene::Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rooms/paper.toml");
-    haiko::scene::load(&path).expect("the paper room loads")
+    room("paper")
+}
+
+fn room(name: &str) -> haiko::scene::Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("rooms/{name}.toml"));
+    haiko::scene::load(&path).expect("a bundled room loads")
 }
 
 fn key(code: KeyCode) -> Msg {
     Msg::Key(KeyEvent::new(code, KeyModifiers::NONE))
 }
 
-/// The editor and its engine on the paper room, with one frame rendered.
-fn editor() -> (Model, Session, FrameSpec) {
-    let scene = paper();
+/// The editor and its engine on a bundled room, with one frame rendered.
+fn editor(name: &str) -> (Model, Session, FrameSpec) {
+    let scene = room(name);
     let model = Model::new(&scene, TERMINAL, FONT);
     let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
     let spec = FrameSpec {
-        size_px: SIZE,
-        mode: DisplayMode::Photo,
         selected_light: Some(0),
-        cursor: None,
+        ..FrameSpec::new(SIZE, DisplayMode::Photo)
     };
     session.render(&spec).expect("the first frame renders");
     (model, session, spec)
 }
 
 /// One key press as the editor handles it: update → the command to the session → a frame.
-fn press(model: &mut Model, session: &mut Session, spec: &FrameSpec, up: bool) {
-    let effects = update(model, key(if up { KeyCode::Up } else { KeyCode::Down }));
+fn press_key(model: &mut Model, session: &mut Session, spec: &FrameSpec, code: KeyCode) {
+    let effects = update(model, key(code));
     let mut changed = false;
     for effect in effects {
         if let Effect::Engine(command) = effect {
@@ -68,16 +77,76 @@ fn press(model: &mut Model, session: &mut Session, spec: &FrameSpec, up: bool) {
     black_box(&session.render(spec).expect("the frame renders").pixmap);
 }
 
-/// ↑ then ↓ alternately (so every press changes the curve).
+/// ↑ (raise the selected point 5 %) or ↓.
+fn press(model: &mut Model, session: &mut Session, spec: &FrameSpec, up: bool) {
+    press_key(model, session, spec, if up { KeyCode::Up } else { KeyCode::Down });
+}
+
+/// A one-thread rayon pool (the targets are for one core).
+fn one_core() -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a rayon pool")
+}
+
+/// ↑ then ↓ alternately (so every press changes the curve), on one core: the curve edit, the
+/// relight of the per-vertex (indirect) light, the per-pixel curve evaluation of the edited
+/// light, shading and overlays. Also prints the per-pixel light's memory.
 fn key_to_pixmap(c: &mut Criterion) {
-    let (mut model, mut session, spec) = editor();
-    let mut up = true;
-    c.bench_function("editor/key_to_pixmap_paper_1024x768", |b| {
-        b.iter(|| {
-            press(&mut model, &mut session, &spec, up);
-            up = !up;
-        })
-    });
+    let pool = one_core();
+    let mut group = c.benchmark_group("editor/key_to_pixmap_1024x768");
+    for name in ["paper", "office"] {
+        let (mut model, mut session, spec) = pool.install(|| editor(name));
+        if let Some((shared, per_light)) = session.preview_memory_per_pixel() {
+            let lights = session.lights().len() as f64;
+            println!(
+                "{name}: per-pixel light {shared:.1} bytes per pixel + {per_light:.3} per light and pixel ({:.1} MiB at 1024×768 with {lights} lights)",
+                (shared + per_light * lights) * f64::from(SIZE.0 * SIZE.1) / (1024.0 * 1024.0)
+            );
+        }
+        let mut up = true;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                pool.install(|| press(&mut model, &mut session, &spec, up));
+                up = !up;
+            })
+        });
+        group.bench_function(format!("{name}-cpu"), |b| {
+            b.iter_custom(|iters| {
+                pool.install(|| {
+                    cpu_time_of(iters, || {
+                        press(&mut model, &mut session, &spec, up);
+                        up = !up;
+                    })
+                })
+            })
+        });
+    }
+    group.finish();
+}
+
+/// One 5° orbit step (alternately left and right), on one core: new per-pixel surfaces, every
+/// light's shadow rays and direct light, shading and overlays.
+fn camera_orbit(c: &mut Criterion) {
+    let pool = one_core();
+    let mut group = c.benchmark_group("editor/orbit_step_1024x768");
+    for name in ["paper", "office"] {
+        let (mut model, mut session, spec) = pool.install(|| editor(name));
+        let mut left = true;
+        let mut orbit = |model: &mut Model, session: &mut Session| {
+            let code = KeyCode::Char(if left { '[' } else { ']' });
+            press_key(model, session, &spec, code);
+            left = !left;
+        };
+        group.bench_function(name, |b| {
+            b.iter(|| pool.install(|| orbit(&mut model, &mut session)))
+        });
+        group.bench_function(format!("{name}-cpu"), |b| {
+            b.iter_custom(|iters| pool.install(|| cpu_time_of(iters, || orbit(&mut model, &mut session))))
+        });
+    }
+    group.finish();
 }
 
 /// One 0.1 m move of light 0 (alternating back and forth), as the editor completes it: the
@@ -112,7 +181,7 @@ fn light_move(c: &mut Criterion) {
 /// Heap allocations of one key press (after the first frame), printed: the frame buffers are
 /// reused, so what is left is a few small vectors.
 fn allocations_per_key(_: &mut Criterion) {
-    let (mut model, mut session, spec) = editor();
+    let (mut model, mut session, spec) = editor("paper");
     press(&mut model, &mut session, &spec, true);
     let _profiler = dhat::Profiler::builder().testing().build();
     let before = dhat::HeapStats::get();
@@ -178,6 +247,6 @@ fn configured() -> Criterion {
 criterion_group! {
     name = benches;
     config = configured();
-    targets = key_to_pixmap, light_move, allocations_per_key, bytes_per_frame
+    targets = key_to_pixmap, camera_orbit, light_move, allocations_per_key, bytes_per_frame
 }
 criterion_main!(benches);

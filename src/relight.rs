@@ -198,6 +198,22 @@ impl Relighter {
         self.lights[i].basis.as_ref().map(|b| &b.baked)
     }
 
+    /// Indirect illuminance per fine vertex summed over the lights (lx, linear RGB, colour
+    /// applied) into `out` (resized): each light's contribution less its direct light. The
+    /// per-pixel preview adds it to the exact direct light of every pixel. O(lights × vertices).
+    pub fn indirect_into(&self, out: &mut Vec<[f32; 3]>) {
+        out.clear();
+        out.resize(self.total.len(), [0.0; 3]);
+        for light in &self.lights {
+            let color = light.state.color;
+            for ((o, c), &d) in out.iter_mut().zip(&light.contribution).zip(&light.direct) {
+                for ch in 0..3 {
+                    o[ch] += (c[ch] - color[ch] * d) as f32;
+                }
+            }
+        }
+    }
+
     /// Replaces light `i`'s curve and updates the illuminance (only that light is recomputed).
     pub fn set_curve(&mut self, i: usize, curve: Curve) {
         let order = self.baked_order(i);
@@ -554,6 +570,46 @@ solver_patch_size = 1.0
                 );
             }
         }
+    }
+
+    /// The indirect total is each light's contribution less its coloured direct light, summed:
+    /// zero without a bake or with every light off, positive in a baked room.
+    #[test]
+    fn indirect_into_is_the_contributions_less_the_direct_light() {
+        let original = scene("[0.6, 0.5, 0.4]", "[1.0, 0.8, 0.6]");
+        let baked = bake(&original, &BakeOptions::default(), &mut |_| {}).expect("the test room bakes");
+        let mut out = Vec::new();
+        Relighter::new(&original).indirect_into(&mut out);
+        assert_eq!(out.len(), original.fine.n_vertices());
+        assert!(
+            out.iter().flatten().all(|&x| x == 0.0),
+            "no bake, no indirect light"
+        );
+        let mut relighter = Relighter::with_bake(&original, &baked);
+        relighter.indirect_into(&mut out);
+        for (v, o) in out.iter().enumerate() {
+            for ch in 0..3 {
+                let expected: f64 = (0..2)
+                    .map(|i| {
+                        relighter.light_contribution(i)[v][ch]
+                            - original.lights[i].color[ch] * relighter.light_direct(i)[v]
+                    })
+                    .sum();
+                assert!((f64::from(o[ch]) - expected).abs() <= 1e-5 * (1.0 + expected.abs()));
+            }
+        }
+        assert!(
+            out.iter().all(|o| o[1] > 0.0),
+            "a closed room with ρ > 0 reflects light everywhere"
+        );
+        for i in 0..2 {
+            relighter.set_dimmer(i, 0.0);
+        }
+        relighter.indirect_into(&mut out);
+        assert!(
+            out.iter().flatten().all(|&x| x.to_bits() == 0),
+            "every light off: exactly +0"
+        );
     }
 
     /// After exactly [`RESUM_EVERY`] edits the total is re-summed from the contributions, so it

@@ -10,7 +10,7 @@ use crate::error::{Error, Result, panic_text, take_recorded_panic};
 use crate::photometry::Window;
 use crate::scene::Scene;
 use crate::session::budget::{self, MemoryLimit, MemorySize};
-use crate::session::{Session, SessionOptions};
+use crate::session::{ExposureChoice, Session, SessionOptions};
 use crate::transport::plan::PlanOptions;
 use crate::tui::Graphics;
 
@@ -197,6 +197,26 @@ pub enum Command {
         /// What the image shows.
         #[arg(long, value_enum, default_value_t = render::ModeArg::Photo)]
         mode: render::ModeArg,
+        /// Where the image looks from: the room's camera, or the plan (top-down, parallel).
+        #[arg(long, value_enum, default_value_t = render::ViewArg::Camera)]
+        view: render::ViewArg,
+        /// Also write the per-pixel illuminance (lx) of the visible surfaces to this Portable
+        /// Float Map (`Pf`, little-endian, rows bottom to top, 0 where no surface is seen).
+        #[arg(long, value_name = "PFM")]
+        lux: Option<PathBuf>,
+        /// Direct light only: no bake, no interreflection.
+        #[arg(long)]
+        direct_only: bool,
+        /// Draw isolux lines at round lux values of the false-colour scale.
+        #[arg(long)]
+        isolux: bool,
+        /// Leave out the false-colour legend (colour bar with lux ticks).
+        #[arg(long)]
+        no_legend: bool,
+        /// Photo exposure: EV at ISO 100 of the luminance shown as mid-grey, or `auto`
+        /// (default: the room's exposure, chosen from its light).
+        #[arg(long, value_name = "EV100|auto")]
+        exposure: Option<render::ExposureArg>,
         #[command(flatten)]
         memory: MemoryArg,
     },
@@ -417,6 +437,12 @@ pub fn run(cli: Cli) -> Result<()> {
             width,
             height,
             mode,
+            view,
+            lux,
+            direct_only,
+            isolux,
+            no_legend,
+            exposure,
             memory,
         } => match (terminal, output) {
             (Some(terminal), output) => terminal_frames::run(
@@ -428,7 +454,22 @@ pub fn run(cli: Cli) -> Result<()> {
                 json,
                 &memory.limit(),
             ),
-            (None, Some(output)) => render::run(&room, &output, width, height, mode.into(), &memory.limit()),
+            (None, Some(output)) => render::run(
+                &room,
+                &output,
+                &render::RenderOptions {
+                    width,
+                    height,
+                    mode: mode.into(),
+                    view: view.into(),
+                    lux,
+                    direct_only,
+                    isolux,
+                    legend: !no_legend,
+                    exposure: exposure.map_or_else(ExposureChoice::default, Into::into),
+                },
+                &memory.limit(),
+            ),
             (None, None) => Err(Error::input("--output", "", "required without --terminal")),
         },
         Command::Pick {

@@ -87,12 +87,7 @@ pub fn pick_pixel(
     let light = aim_light
         .map(|name| session.light_named(name, "--aim"))
         .transpose()?;
-    session.render(&FrameSpec {
-        size_px: (width, height),
-        mode: DisplayMode::Photo,
-        selected_light: None,
-        cursor: None,
-    })?;
+    session.render(&FrameSpec::new((width, height), DisplayMode::Photo))?;
     let hit = session
         .pick((pixel.x, pixel.y))
         .ok_or_else(|| Error::input("--pixel", "", format!("nothing at pixel {pixel} (background)")))?;

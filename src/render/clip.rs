@@ -1,7 +1,8 @@
 //! Mesh → screen triangles: back-face culling, clipping in homogeneous clip space and the
 //! perspective divide.
 //!
-//! Triangles are clipped (Sutherland–Hodgman) against the near plane `w = near` and a guard
+//! Triangles are clipped (Sutherland–Hodgman) against the near plane `w = z` (see
+//! [`super::camera`]: `z = near` for a perspective view, the depth for an orthographic one) and a guard
 //! band `|x|, |y| ≤ GUARD_BAND · w` that keeps snapped pixel coordinates small; the guard band
 //! lies outside the image, so its cuts are never seen. An edge crossing a plane is always cut
 //! from its inside end towards its outside end, so two triangles sharing that edge get
@@ -36,9 +37,9 @@ impl ClipVertex {
 }
 
 /// Signed distance of a clip-space point to plane `plane` (inside when ≥ 0).
-fn plane_distance(plane: usize, c: DVec4, near: f64) -> f64 {
+fn plane_distance(plane: usize, c: DVec4) -> f64 {
     match plane {
-        0 => c.w - near,
+        0 => c.w - c.z,
         1 => GUARD_BAND * c.w - c.x,
         2 => GUARD_BAND * c.w + c.x,
         3 => GUARD_BAND * c.w - c.y,
@@ -49,7 +50,6 @@ fn plane_distance(plane: usize, c: DVec4, near: f64) -> f64 {
 /// The screen triangles of every patch of `mesh` seen by `view`, with per-vertex `attrs`, in
 /// patch order. The caller guarantees `attrs.len() == mesh.n_vertices()` and valid indices.
 pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View) -> Vec<ScreenTriangle> {
-    let near = view.near_m();
     // Once per vertex: its clip-space form and, when it is inside every clip plane, its screen
     // vertex (shared bit for bit by all its triangles).
     let vertices: Vec<(ClipVertex, Option<ScreenVertex>)> = mesh
@@ -61,12 +61,11 @@ pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View
                 clip: view.clip_from_world(position),
                 attr: DVec3::from(attr.map(f64::from)),
             };
-            let inside = (0..N_PLANES).all(|k| plane_distance(k, v.clip, near) >= 0.0);
+            let inside = (0..N_PLANES).all(|k| plane_distance(k, v.clip) >= 0.0);
             (v, inside.then(|| to_screen(&v, view)))
         })
         .collect();
     let triangles: Vec<([u32; 3], u32)> = mesh.triangles().collect();
-    let eye = view.camera().eye;
     let unused = ScreenVertex {
         x: 0.0,
         y: 0.0,
@@ -78,7 +77,7 @@ pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View
         .par_iter()
         .flat_map_iter(|&(ids, patch_id)| {
             let patch = &mesh.patches[patch_id as usize];
-            let facing = patch.normal.dot(eye - patch.centroid) > 0.0;
+            let facing = view.sees_front(patch.normal, patch.centroid);
             let [a, b, c] = ids.map(|i| vertices[i as usize]);
             let mut screen = [unused; MAX_POLYGON];
             let n = if view.culls_back_faces() && !facing {
@@ -87,7 +86,7 @@ pub(crate) fn screen_triangles(mesh: &PatchMesh, attrs: &[[f32; 3]], view: &View
                 screen[..3].copy_from_slice(&[sa, sb, sc]);
                 3
             } else {
-                let polygon = clip_triangle([a.0, b.0, c.0], near);
+                let polygon = clip_triangle([a.0, b.0, c.0]);
                 for (s, v) in screen.iter_mut().zip(&polygon.vertices[..polygon.len]) {
                     *s = to_screen(v, view);
                 }
@@ -126,7 +125,7 @@ impl Polygon {
 }
 
 /// The convex polygon (0 or 3..=8 vertices) of `triangle` inside all clip planes.
-fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Polygon {
+fn clip_triangle(triangle: [ClipVertex; 3]) -> Polygon {
     let mut polygon = Polygon::empty(triangle[0]);
     triangle.iter().for_each(|&v| polygon.push(v));
     for plane in 0..N_PLANES {
@@ -134,8 +133,8 @@ fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Polygon {
         let corners = &polygon.vertices[..polygon.len];
         for (k, &current) in corners.iter().enumerate() {
             let next = corners[(k + 1) % corners.len()];
-            let d_current = plane_distance(plane, current.clip, near);
-            let d_next = plane_distance(plane, next.clip, near);
+            let d_current = plane_distance(plane, current.clip);
+            let d_next = plane_distance(plane, next.clip);
             if d_current >= 0.0 {
                 clipped.push(current);
             }
@@ -156,7 +155,7 @@ fn clip_triangle(triangle: [ClipVertex; 3], near: f64) -> Polygon {
     polygon
 }
 
-/// Perspective divide and viewport transform of a clipped vertex (`w ≥ near > 0`).
+/// Perspective divide and viewport transform of a clipped vertex (`w ≥ z > 0`).
 fn to_screen(v: &ClipVertex, view: &View) -> ScreenVertex {
     let pixel = view.pixel_from_clip(v.clip);
     ScreenVertex {

@@ -97,7 +97,7 @@ fn draw_aim(pixmap: &mut Pixmap, view: &View, light: &LightMarker) {
 /// Pixel end points of the part of segment `a → b` (world) in front of the near plane.
 fn clip_segment(view: &View, a: DVec3, b: DVec3) -> Option<(DVec3, DVec3)> {
     let (ca, cb) = (view.clip_from_world(a), view.clip_from_world(b));
-    let (da, db) = (ca.w - view.near_m(), cb.w - view.near_m());
+    let (da, db) = (ca.w - ca.z, cb.w - cb.z);
     let cut =
         |inside: DVec4, d_in: f64, outside: DVec4, d_out: f64| inside.lerp(outside, d_in / (d_in - d_out));
     let (ca, cb) = match (da >= 0.0, db >= 0.0) {

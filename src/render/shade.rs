@@ -1,22 +1,19 @@
 //! Display modes: per-vertex attributes from illuminance, and per-pixel shaders that turn an
 //! interpolated linear RGB triple into sRGB8.
 //!
-//! * [`DisplayMode::Photo`]: the attribute is luminance `L = ρ E / π` per channel (cd/m²).
-//!   Exposure rule (fixed): over the vertices with a positive luminance (Rec. 709 luma), take
-//!   the level `L_90` that 90 % of their area is at or below; the **area-weighted geometric
-//!   mean** of the luminances of the vertices at least `L_90 / 100` bright is the key `L_key`
-//!   (darker ones would drag the key towards 0 and blow the picture out — a ceiling no
-//!   downlight reaches is left near-black instead). A pixel shows `x / (1 + x)` per channel
-//!   (Reinhard) with `x = L · k`, `k = (0.18 / 0.82) / L_key`, then the sRGB transfer (both by
-//!   one table, within one sRGB8 level: [`super::tone`]). So a
-//!   surface at the key luminance is shown at display value 0.18 (mid-grey, sRGB8 118), and
-//!   scaling every light by any factor leaves the picture unchanged.
+//! * [`DisplayMode::Photo`]: the attribute is luminance `L = ρ E / π` per channel (cd/m²). A
+//!   pixel shows the tone curve of `x = L · k` per channel ([`super::tone`]: Reinhard up to
+//!   mid-grey, a highlight shoulder above, sRGB-encoded, by one table within one sRGB8 level);
+//!   the exposure `k = (0.18 / 0.82) / L_key` shows the key luminance `L_key` as mid-grey (sRGB8
+//!   118). The key is fixed or automatic ([`super::exposure`]); with the automatic key scaling
+//!   every light leaves the picture unchanged.
 //! * [`DisplayMode::FalseColor`]: the attribute is illuminance `E` (lx); its luma is placed on
 //!   a logarithmic or linear lux range and coloured with the viridis scale (dark violet at the
 //!   bottom of the range, yellow at the top). The range is returned for the UI's legend.
 
 use std::f64::consts::PI;
 
+use super::exposure::{DEFAULT_EV100, auto_key, ev100_of_key, exposure_of_key, key_of_ev100};
 use super::tone::{self, tone_srgb8};
 use crate::error::{Error, Result};
 use crate::scene::model::{PatchMesh, Surface};
@@ -39,13 +36,6 @@ pub enum DisplayMode {
 
 /// Display value (after the tone curve) of a surface at the key luminance.
 pub const MID_GREY: f64 = 0.18;
-
-/// The auto-exposure's reference level is this area quantile of the lit vertices' luminance.
-pub const KEY_REFERENCE_QUANTILE: f64 = 0.9;
-
-/// Vertices darker than this fraction of the reference level are left out of the key: they
-/// show as near-black instead of dragging the exposure up (a ceiling no light reaches).
-pub const KEY_DARK_FRACTION: f64 = 0.01;
 
 /// Rec. 709 / sRGB luma of a linear RGB triple.
 pub fn luma(rgb: [f64; 3]) -> f64 {
@@ -124,42 +114,39 @@ pub fn vertex_areas(mesh: &PatchMesh) -> Vec<f64> {
 /// The photo shader: exposure, Reinhard tone curve per channel, sRGB encoding.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Photo {
-    exposure: f32,
+    exposure: f64,
 }
 
 impl Photo {
     /// A photo shader multiplying luminance (cd/m²) by `exposure` (m²/cd) before the tone curve.
     pub fn with_exposure(exposure: f64) -> Photo {
-        Photo {
-            exposure: exposure as f32,
+        Photo { exposure }
+    }
+
+    /// A photo shader showing the luminance of EV₁₀₀ `ev100` as mid-grey
+    /// ([`super::exposure`]).
+    pub fn with_ev100(ev100: f64) -> Photo {
+        Photo::with_exposure(exposure_of_key(key_of_ev100(ev100)))
+    }
+
+    /// Auto-exposure ([`super::exposure::auto_key`]) from per-vertex luminance
+    /// `luminance_cd_m2` (as made by [`vertex_attributes`] in photo mode). A scene without light
+    /// gets [`DEFAULT_EV100`], so it shows black.
+    pub fn auto(mesh: &PatchMesh, luminance_cd_m2: &[[f32; 3]]) -> Photo {
+        match auto_key(mesh, luminance_cd_m2) {
+            Some(key) => Photo::with_exposure(exposure_of_key(key)),
+            None => Photo::with_ev100(DEFAULT_EV100),
         }
     }
 
-    /// Auto-exposure by the module's rule from per-vertex luminance `luminance_cd_m2` (as made
-    /// by [`vertex_attributes`] in photo mode). A scene with no lit vertex gets exposure 1.
-    pub fn auto(mesh: &PatchMesh, luminance_cd_m2: &[[f32; 3]]) -> Photo {
-        let areas = vertex_areas(mesh);
-        let mut lit: Vec<(f64, f64)> = areas
-            .iter()
-            .zip(luminance_cd_m2)
-            .map(|(&area, l)| (luma(l.map(f64::from)), area))
-            .filter(|&(y, area)| area > 0.0 && y > 0.0 && y.is_finite())
-            .collect();
-        let Some(reference) = area_quantile(&mut lit, KEY_REFERENCE_QUANTILE) else {
-            return Photo::with_exposure(1.0);
-        };
-        let floor = reference * KEY_DARK_FRACTION;
-        let (weight, log_sum) = lit
-            .iter()
-            .filter(|&&(y, _)| y >= floor)
-            .fold((0.0, 0.0), |(w, s), &(y, area)| (w + area, s + area * y.ln()));
-        let key = (log_sum / weight).exp();
-        Photo::with_exposure(MID_GREY / (1.0 - MID_GREY) / key)
+    /// EV₁₀₀ of the luminance this shader shows as mid-grey.
+    pub fn ev100(&self) -> f64 {
+        ev100_of_key(exposure_of_key(self.exposure()))
     }
 
     /// The exposure factor (m²/cd).
     pub fn exposure(&self) -> f64 {
-        f64::from(self.exposure)
+        self.exposure
     }
 }
 
@@ -167,7 +154,7 @@ impl Shader for Photo {
     #[inline]
     fn shade(&self, luminance: [f32; 3]) -> [u8; 3] {
         let table = tone::table();
-        let k = self.exposure;
+        let k = self.exposure as f32;
         [
             tone_srgb8(table, luminance[0] * k),
             tone_srgb8(table, luminance[1] * k),
@@ -178,7 +165,7 @@ impl Shader for Photo {
 
 /// The area quantile of `(value, area)` pairs: the smallest value such that at least the
 /// fraction `q` of the total area has a value at or below it. Sorts `pairs`; `None` when empty.
-fn area_quantile(pairs: &mut [(f64, f64)], q: f64) -> Option<f64> {
+pub(crate) fn area_quantile(pairs: &mut [(f64, f64)], q: f64) -> Option<f64> {
     pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
     let total: f64 = pairs.iter().map(|p| p.1).sum();
     let mut below = 0.0;

@@ -1,5 +1,15 @@
-//! The photo tone curve by table: sRGB8 of the Reinhard curve `x / (1 + x)` of an exposed
-//! luminance `x ≥ 0`, without a division or a power per pixel.
+//! The photo tone curve, and its table: sRGB8 of an exposed luminance `x ≥ 0` without a
+//! division or a power per pixel.
+//!
+//! The curve ([`tone_curve`]): up to mid-grey `x_m = 0.18 / 0.82` it is Reinhard's `x / (1 + x)`
+//! then the sRGB transfer, so a surface at the key luminance shows at display value 0.18 (sRGB8
+//! 118). Above mid-grey the encoded value rises **linearly in stops** `s = log₂(x / x_m)`,
+//! reaching 90 % of the way to white [`HIGHLIGHT_STOPS`] × 0.9 stops up, then bends into white
+//! with a continuous slope (`1 − v` decays exponentially). Every stop up to 6.3 stops above the
+//! key gets the same ≈ 20 sRGB8 levels, so a spot pool 6 stops above the key shows its gradient
+//! where Reinhard leaves it at 247–251 (≈ 4 levels per stop), nearly flat white; sRGB8 255 is
+//! reached about 9 stops above mid-grey. (An exponential shoulder from mid-grey cannot do this:
+//! at 6 stops it gives at most ≈ 8 levels per stop.)
 //!
 //! The table is indexed by the bits of the f32 `x`: its exponent and top [`MANTISSA_BITS`]
 //! mantissa bits, i.e. `x` on a logarithmic grid with 256 steps per octave (bins 0.27 % wide).
@@ -17,7 +27,7 @@ pub const MANTISSA_BITS: u32 = 8;
 /// Smallest binary exponent of `x` in the table.
 pub const MIN_EXPONENT: i32 = -20;
 /// One past the largest binary exponent of `x` in the table.
-pub const MAX_EXPONENT: i32 = 16;
+pub const MAX_EXPONENT: i32 = 26;
 
 const SHIFT: u32 = 23 - MANTISSA_BITS;
 const FIRST_INDEX: i32 = (127 + MIN_EXPONENT) << MANTISSA_BITS;
@@ -27,10 +37,37 @@ static TABLE: LazyLock<[u8; TABLE_SIZE]> = LazyLock::new(|| {
     std::array::from_fn(|i| {
         let lo = f64::from(f32::from_bits(((FIRST_INDEX + i as i32) as u32) << SHIFT));
         let hi = f64::from(f32::from_bits(((FIRST_INDEX + i as i32 + 1) as u32) << SHIFT));
-        let x = (lo * hi).sqrt();
-        (srgb_encode(x / (1.0 + x)) * 255.0).round() as u8
+        (tone_curve((lo * hi).sqrt()) * 255.0).round() as u8
     })
 });
+
+/// Exposed luminance shown as mid-grey (display value 0.18 under Reinhard).
+const X_MID: f64 = 0.18 / 0.82;
+
+/// Stops above mid-grey at which the linear part of the highlights would reach white.
+pub const HIGHLIGHT_STOPS: f64 = 7.0;
+
+/// Fraction of the range above mid-grey covered linearly before the bend into white.
+const KNEE_FRACTION: f64 = 0.9;
+
+/// The encoded display value (sRGB, 0–1) of an exposed luminance `x ≥ 0` (module docs).
+pub fn tone_curve(x: f64) -> f64 {
+    if x.is_nan() || x <= 0.0 {
+        return 0.0;
+    }
+    if x <= X_MID {
+        return srgb_encode(x / (1.0 + x));
+    }
+    let v_mid = srgb_encode(X_MID / (1.0 + X_MID));
+    let per_stop = (1.0 - v_mid) / HIGHLIGHT_STOPS;
+    let knee_stops = KNEE_FRACTION * HIGHLIGHT_STOPS;
+    let stops = (x / X_MID).log2();
+    if stops <= knee_stops {
+        return v_mid + per_stop * stops;
+    }
+    let v_knee = v_mid + per_stop * knee_stops;
+    1.0 - (1.0 - v_knee) * (-(stops - knee_stops) * per_stop / (1.0 - v_knee)).exp()
+}
 
 /// The tone table, for callers that look up many values (one lazy-init check).
 #[inline]
@@ -38,7 +75,7 @@ pub fn table() -> &'static [u8; TABLE_SIZE] {
     &TABLE
 }
 
-/// sRGB8 of `x / (1 + x)` for an exposed luminance `x` (negative and NaN show black), by
+/// sRGB8 of [`tone_curve`] for an exposed luminance `x` (negative and NaN show black), by
 /// `table` (from [`table`]).
 #[inline(always)]
 pub fn tone_srgb8(table: &[u8; TABLE_SIZE], x: f32) -> u8 {
@@ -52,7 +89,7 @@ mod tests {
     use super::*;
 
     fn exact(x: f64) -> u8 {
-        (srgb_encode(x / (1.0 + x)) * 255.0).round() as u8
+        (tone_curve(x) * 255.0).round() as u8
     }
 
     #[test]
@@ -86,5 +123,43 @@ mod tests {
         assert_eq!(tone_srgb8(t, 1e30), 255);
         // Mid-grey: x = 0.18 / 0.82 gives display value 0.18, sRGB8 118.
         assert_eq!(tone_srgb8(t, 0.18 / 0.82), 118);
+    }
+
+    /// Below mid-grey the curve is Reinhard + sRGB; above it every stop up to 6 gets about
+    /// 20 levels (every quarter stop up to 7 stops at least one of its own); value and slope
+    /// are continuous at the knee; 255 only from about 9 stops up.
+    #[test]
+    fn highlights_rise_evenly_in_stops_and_bend_smoothly_into_white() {
+        let reinhard = |x: f64| srgb_encode(x / (1.0 + x));
+        for x in [1e-4, 0.01, 0.1, 0.2, X_MID] {
+            assert!((tone_curve(x) - reinhard(x)).abs() < 1e-15, "x = {x}");
+        }
+        let at = |stops: f64| tone_curve(X_MID * stops.exp2());
+        let level = |stops: f64| (at(stops) * 255.0).round();
+        assert!((at(1e-9) - at(0.0)).abs() < 1e-9, "continuous at mid-grey");
+        for s in 0..6 {
+            let gained = level(f64::from(s) + 1.0) - level(f64::from(s));
+            assert!((19.0..=20.0).contains(&gained), "stop {s}: {gained} levels");
+        }
+        for q in 0..28 {
+            let s = f64::from(q) / 4.0;
+            assert!(
+                level(s + 0.25) > level(s),
+                "{s} stops: {} vs {}",
+                level(s),
+                level(s + 0.25)
+            );
+        }
+        let knee = KNEE_FRACTION * HIGHLIGHT_STOPS;
+        let h = 1e-7;
+        let (left, right) = ((at(knee) - at(knee - h)) / h, (at(knee + h) - at(knee)) / h);
+        assert!(
+            (left - right).abs() < 1e-5 * left,
+            "slopes {left} and {right} at the knee"
+        );
+        assert!(level(8.0) < 255.0 && level(9.5) == 255.0);
+        // Six stops above the key, Reinhard has 4 levels per stop left; this curve 20.
+        let reinhard_levels = ((reinhard(X_MID * 128.0) - reinhard(X_MID * 64.0)) * 255.0).round();
+        assert!(reinhard_levels <= 4.0, "{reinhard_levels}");
     }
 }

@@ -67,12 +67,7 @@ fn view_png(
     session
         .apply(Command::SetCamera(camera))
         .map_err(|e| Error::internal(format!("report: {e}")))?;
-    let spec = FrameSpec {
-        size_px: (options.width_px, options.height_px),
-        mode,
-        selected_light: None,
-        cursor: None,
-    };
+    let spec = FrameSpec::new((options.width_px, options.height_px), mode);
     session
         .render(&spec)?
         .pixmap

@@ -1,34 +1,110 @@
-//! The session's preview frames: what a frame shows ([`FrameSpec`]), the buffers reused from
-//! frame to frame ([`FrameBuffers`]), the overlays (every light, the selected light's aim line
-//! and target, the aim cursor) and picking with the illuminance under a pixel.
+//! The session's preview frames: what a frame shows ([`FrameSpec`]: size, display mode, camera
+//! or plan view, exposure, isolux lines, legend, overlays), the buffers reused from frame to
+//! frame ([`FrameBuffers`]) and picking with the illuminance under a pixel.
+//!
+//! Direct light is exact per pixel ([`PixelLighting`], docs/DECISIONS.md "Per-pixel direct
+//! light"): a camera or view change rebuilds the per-pixel surfaces and casts the shadow rays
+//! again; a moved light casts its own again; a curve, aim, dimmer or colour edit re-evaluates
+//! only that light per lit pixel. Indirect light stays per vertex (Gouraud over each pixel's
+//! triangle). In paper mode (`direct = "basis"`) the whole per-vertex illuminance is
+//! interpolated instead, as the series gives it.
 //! World frame: metres, z up; pixels as in [`crate::render::camera`] (docs/METHOD.md §1).
 
 use glam::DVec3;
 use tiny_skia::Pixmap;
 
 use crate::error::Result;
+use crate::relight::Relighter;
+use crate::render::exposure::room_ev100;
+use crate::render::plan::{PlanLight, draw_plan_lights, plan_view};
 use crate::render::shade::luma;
 use crate::render::{
-    self, DisplayMode, DisplayShader, FalseColor, LightMarker, LuxScale, Photo, View, draw_crosshair,
-    draw_lights, vertex_attributes_into,
+    self, DisplayMode, DisplayShader, FalseColor, LightMarker, LuxScale, Photo, PixelLight, PixelLighting,
+    PixelSurfaces, View, draw_crosshair, draw_isolux, draw_legend, draw_lights, luma_values, round_levels,
+    vertex_attributes_into,
 };
-use crate::scene::{AimSpec, Camera, PatchMesh, Scene};
+use crate::scene::{AimSpec, Camera, DirectMode, Scene};
 use crate::session::light::LightEdit;
+use crate::transport::occlusion::Occluders;
 
 /// Largest image side (pixels) a frame may have.
 pub const MAX_SIDE_PX: u32 = 8192;
 
-/// What one preview frame shows besides the lit room: its size, display mode and overlays.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// At most this many isolux levels are drawn (round values over the false-colour range).
+pub const MAX_ISOLUX_LEVELS: usize = 8;
+
+/// Where the frame looks from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ViewChoice {
+    /// The session's perspective camera.
+    #[default]
+    Camera,
+    /// The plan: straight down onto the floor with a parallel projection, the room's footprint
+    /// filling the image, luminaire symbols with their aim ([`crate::render::plan`]).
+    Plan,
+}
+
+/// How the photo mode is exposed (docs/DECISIONS.md, "Fixed exposure").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ExposureChoice {
+    /// The room's exposure, chosen from the room at the first photo frame (or the first after a
+    /// refit) and kept across edits, moved by `brighter_ev` stops (negative: darker).
+    Room {
+        /// Stops brighter than the room's exposure.
+        brighter_ev: f64,
+    },
+    /// Fixed at this EV₁₀₀ of the luminance shown as mid-grey ([`crate::render::exposure`]).
+    Ev100(f64),
+    /// Chosen anew from the room at every frame (scaling every light leaves the picture alike).
+    Auto,
+}
+
+impl Default for ExposureChoice {
+    fn default() -> Self {
+        ExposureChoice::Room { brighter_ev: 0.0 }
+    }
+}
+
+/// What one preview frame shows besides the lit room.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameSpec {
     /// Image size in pixels (width, height), each 1..=[`MAX_SIDE_PX`].
     pub size_px: (u32, u32),
     /// Photo or false colour.
     pub mode: DisplayMode,
+    /// Camera or plan view.
+    pub view: ViewChoice,
+    /// The photo mode's exposure.
+    pub exposure: ExposureChoice,
+    /// Draw isolux lines at round values of the false-colour scale (both modes).
+    pub isolux: bool,
+    /// Draw the false-colour legend (a colour bar with lux ticks) at the right edge.
+    pub legend: bool,
+    /// Refit counter: when it differs from the previous frame's, the room's exposure and the
+    /// false-colour range are chosen anew (the editor's reset key).
+    pub refit: u32,
     /// The selected light (its aim line and target are drawn), if any.
     pub selected_light: Option<usize>,
     /// The aim cursor (preview pixel), drawn as a crosshair.
     pub cursor: Option<(u32, u32)>,
+}
+
+impl FrameSpec {
+    /// A frame of `size_px` in `mode` through the camera: the room's exposure, the legend in
+    /// false colour, no isolux lines, no selection or cursor.
+    pub fn new(size_px: (u32, u32), mode: DisplayMode) -> FrameSpec {
+        FrameSpec {
+            size_px,
+            mode,
+            view: ViewChoice::Camera,
+            exposure: ExposureChoice::default(),
+            isolux: false,
+            legend: true,
+            refit: 0,
+            selected_light: None,
+            cursor: None,
+        }
+    }
 }
 
 /// What a pixel of the latest frame shows.
@@ -42,46 +118,79 @@ pub struct PixelHit {
     pub patch: u32,
     /// Surface id (index into the scene's surfaces).
     pub surface: u32,
-    /// Illuminance there (lx, luma of the RGB illuminance), interpolated over the patch as the
-    /// preview shades it.
+    /// Illuminance at the pixel (lx, luma of the RGB illuminance) as the preview shades it:
+    /// exact direct light plus the interpolated indirect light.
     pub lux: f64,
+}
+
+/// The per-pixel surfaces depend on these.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ViewKey {
+    camera: Camera,
+    size_px: (u32, u32),
+    view: ViewChoice,
 }
 
 /// The 3D image without overlays is reused while these stay the same.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct BaseKey {
-    camera: Camera,
-    size_px: (u32, u32),
+    view: ViewKey,
     mode: DisplayMode,
-    illuminance_version: u64,
+    shader: DisplayShader,
+    isolux: bool,
+    legend: bool,
+    /// Bumped whenever the per-pixel or per-vertex light changes.
+    light_version: u64,
+}
+
+/// The per-pixel direct light for one view and what it was built for.
+#[derive(Debug)]
+struct PixelState {
+    lighting: PixelLighting,
+    view: View,
+    key: ViewKey,
 }
 
 /// Frame buffers kept across frames: the rendered image with depth and ids, a copy of its
-/// pixels without overlays, per-vertex attributes and luma, and the fitted display shaders.
-/// After the first frame of a size, rendering allocates nothing.
+/// pixels without overlays, the per-pixel direct light, the per-vertex light interpolated over
+/// it, and the fitted exposure and lux range. After the first frame of a view, a light edit
+/// allocates nothing.
 #[derive(Debug, Default)]
 pub struct FrameBuffers {
     frame: Option<render::Frame>,
-    view: Option<View>,
+    pixel: Option<PixelState>,
+    /// The scene's occluders (boxes, OBJ triangles), built at the first frame.
+    occluders: Option<Option<Occluders>>,
     base_pixels: Option<Pixmap>,
     base_key: Option<BaseKey>,
+    /// Per-vertex light the pixels interpolate: indirect light (lx, linear RGB), or in paper
+    /// mode the whole illuminance; `None` when there is none (direct light only).
+    vertex_light: Option<Vec<[f32; 3]>>,
+    /// `illuminance_version` of `vertex_light`.
+    vertex_version: Option<u64>,
+    /// Per-vertex display attributes (to fit the exposure and the lux range).
     attrs: Vec<[f32; 3]>,
+    /// Per-pixel illuminance of the latest frame (lx, linear RGB), when isolux lines needed it.
+    lux: Vec<[f32; 3]>,
     markers: Vec<LightMarker>,
-    /// Luma of the total illuminance (lx) at each fine vertex.
-    vertex_lux: Vec<f32>,
-    /// Exposure chosen at the first photo frame and kept (a dimmed room looks darker).
+    /// EV₁₀₀ of the room's exposure, chosen at the first photo frame and kept.
+    room_ev100: Option<f64>,
+    /// The photo shader of the latest photo frame.
     photo: Option<Photo>,
-    /// Lux range fitted at the first false-colour frame and kept (a fixed scale while editing).
+    /// Lux range fitted at the first frame that needed it and kept (a fixed scale while editing).
     false_color: Option<FalseColor>,
+    /// `FrameSpec::refit` of the latest frame.
+    refit: Option<u32>,
+    light_version: u64,
 }
 
 impl FrameBuffers {
     /// The latest frame and the view it was rendered through.
     pub fn latest(&self) -> Option<(&render::Frame, &View)> {
-        Some((self.frame.as_ref()?, self.view.as_ref()?))
+        Some((self.frame.as_ref()?, &self.pixel.as_ref()?.view))
     }
 
-    /// The shader of `mode` as fitted at the first frame of that mode, if there was one.
+    /// The shader of `mode` the latest frame of that mode used (exposure or lux range).
     pub fn fitted(&self, mode: DisplayMode) -> Option<DisplayShader> {
         match mode {
             DisplayMode::Photo => self.photo.map(DisplayShader::Photo),
@@ -91,118 +200,326 @@ impl FrameBuffers {
 
     /// Forgets the fitted exposure and lux range: the next frame fits them anew.
     pub fn refit_display(&mut self) {
-        self.photo = None;
+        self.room_ev100 = None;
         self.false_color = None;
         self.base_key = None;
     }
 
-    /// The shader of `mode`, fitted to the current attributes the first time.
-    fn shader(&mut self, mesh: &PatchMesh, mode: DisplayMode) -> DisplayShader {
-        match mode {
-            DisplayMode::Photo => {
-                DisplayShader::Photo(*self.photo.get_or_insert_with(|| Photo::auto(mesh, &self.attrs)))
-            }
-            DisplayMode::FalseColor => DisplayShader::FalseColor(
-                *self
-                    .false_color
-                    .get_or_insert_with(|| FalseColor::fit(&self.attrs, LuxScale::Log)),
-            ),
-        }
+    /// Bytes the per-pixel light holds per pixel whatever the number of lights, and per
+    /// (light, pixel); `None` before the first frame.
+    pub fn memory_per_pixel(&self) -> Option<(f64, f64)> {
+        self.pixel.as_ref().map(|p| p.lighting.memory_per_pixel())
     }
 
-    /// Renders `scene` lit by `illuminance_lx` (per fine vertex, lx, linear RGB; its version
-    /// number changes whenever it does) through `camera` as `spec` says, with the overlays of
-    /// `lights`. The 3D image is re-rasterised only when the camera, size, mode or illuminance
-    /// changed; otherwise its saved pixels are copied back and the overlays drawn anew.
+    /// Renders `scene` lit by `relighter` (its `illuminance_version` changes whenever its light
+    /// does) with the current `lights` through `camera` as `spec` says. The per-pixel surfaces
+    /// are rebuilt only when the view changed, a light's shadow rays only when it moved, and the
+    /// 3D image only when something it shows changed; otherwise its saved pixels are copied back
+    /// and the overlays drawn anew.
     ///
     /// Errors: a bad size or camera (bad input), an internal render failure.
     pub fn render(
         &mut self,
         scene: &Scene,
-        illuminance_lx: (&[[f64; 3]], u64),
+        (relighter, illuminance_version): (&Relighter, u64),
         camera: Camera,
         spec: &FrameSpec,
         lights: &[LightEdit],
     ) -> Result<&render::Frame> {
         let (width, height) = spec.size_px;
         check_size(width, height, ["width", "height"])?;
+        if self.refit != Some(spec.refit) {
+            if self.refit.is_some() {
+                self.refit_display();
+            }
+            self.refit = Some(spec.refit);
+        }
+        let paper_mode = scene.settings.direct == DirectMode::Basis;
+        self.sync_vertex_light(relighter, illuminance_version, paper_mode);
+        self.sync_pixels(scene, camera, spec, lights, paper_mode)?;
+        let shader = self.shader(scene, relighter, spec)?;
+        let pixel = self
+            .pixel
+            .as_ref()
+            .ok_or_else(|| crate::error::Error::internal("frame: no per-pixel light after building it"))?;
         let key = BaseKey {
-            camera,
-            size_px: spec.size_px,
+            view: pixel.key,
             mode: spec.mode,
-            illuminance_version: illuminance_lx.1,
+            shader,
+            isolux: spec.isolux,
+            legend: spec.legend,
+            light_version: self.light_version,
         };
+        let frame = self
+            .frame
+            .as_mut()
+            .ok_or_else(|| crate::error::Error::internal("frame: no frame after the surfaces"))?;
         if self.base_key != Some(key) {
-            let view = View::new(camera, width, height)?;
-            self.fill_attributes(scene, illuminance_lx.0, spec.mode)?;
-            let shader = self.shader(&scene.fine, spec.mode);
-            let frame = match &mut self.frame {
-                Some(frame) => frame,
-                none => none.insert(render::Frame::new(width, height)?),
-            };
-            render::render_into(frame, &scene.fine, &self.attrs, &view, &shader)?;
+            let vertex_light = self.vertex_light.as_deref();
+            let lux = spec.isolux.then_some(&mut self.lux);
+            pixel.lighting.render_into(frame, vertex_light, &shader, lux)?;
+            if spec.isolux {
+                let scale = kept_false_color(&mut self.false_color, scene, relighter, &mut self.attrs)?;
+                let (lo, hi) = scale.range();
+                let surfaces = pixel.lighting.surfaces();
+                draw_isolux(
+                    &mut frame.pixmap,
+                    &luma_values(&self.lux),
+                    |i| surfaces.surface(i),
+                    &round_levels(lo, hi, MAX_ISOLUX_LEVELS),
+                );
+            }
+            if let (true, DisplayShader::FalseColor(scale)) = (spec.legend, shader) {
+                draw_legend(&mut frame.pixmap, &scale);
+            }
             match &mut self.base_pixels {
                 Some(pixels) if pixels.width() == width && pixels.height() == height => {
                     pixels.data_mut().copy_from_slice(frame.pixmap.data());
                 }
                 slot => *slot = Some(frame.pixmap.clone()),
             }
-            self.view = Some(view);
             self.base_key = Some(key);
-        } else if let (Some(frame), Some(pixels)) = (&mut self.frame, &self.base_pixels) {
+        } else if let Some(pixels) = &self.base_pixels {
             frame.pixmap.data_mut().copy_from_slice(pixels.data());
         }
-        let (Some(frame), Some(view)) = (self.frame.as_mut(), self.view.as_ref()) else {
-            unreachable!("a frame was rendered above");
-        };
-        self.markers.clear();
-        self.markers
-            .extend(lights.iter().enumerate().map(|(i, light)| LightMarker {
-                position: light.position,
-                aim_target: aim_target(light, scene.room_size),
-                selected: spec.selected_light == Some(i),
-            }));
-        draw_lights(frame, view, &self.markers);
+        match pixel.key.view {
+            ViewChoice::Camera => {
+                self.markers.clear();
+                self.markers
+                    .extend(lights.iter().enumerate().map(|(i, light)| LightMarker {
+                        position: light.position,
+                        aim_target: aim_target(light, scene.room_size),
+                        selected: spec.selected_light == Some(i),
+                    }));
+                draw_lights(frame, &pixel.view, &self.markers);
+            }
+            ViewChoice::Plan => {
+                let symbols: Vec<PlanLight> = lights
+                    .iter()
+                    .enumerate()
+                    .map(|(i, light)| PlanLight {
+                        name: light.name.clone(),
+                        position: light.position,
+                        aim: light.aim,
+                        selected: spec.selected_light == Some(i),
+                    })
+                    .collect();
+                draw_plan_lights(&mut frame.pixmap, &pixel.view, &symbols, 0.0);
+            }
+        }
         if let Some((x, y)) = spec.cursor {
             draw_crosshair(&mut frame.pixmap, x, y);
         }
         Ok(frame)
     }
 
-    /// Per-vertex attributes of `mode` and the per-vertex luma, into the kept buffers.
-    fn fill_attributes(
+    /// Brings the per-vertex light up to `illuminance_version`: the relighter's indirect light,
+    /// or in paper mode its whole illuminance; none without interreflection.
+    fn sync_vertex_light(&mut self, relighter: &Relighter, illuminance_version: u64, paper_mode: bool) {
+        if self.vertex_version == Some(illuminance_version) {
+            return;
+        }
+        self.vertex_version = Some(illuminance_version);
+        self.light_version += 1;
+        if paper_mode {
+            let values = self.vertex_light.get_or_insert_with(Vec::new);
+            values.clear();
+            values.extend(relighter.total().iter().map(|e| e.map(|x| x as f32)));
+        } else if relighter.has_indirect() {
+            relighter.indirect_into(self.vertex_light.get_or_insert_with(Vec::new));
+        } else {
+            self.vertex_light = None;
+        }
+    }
+
+    /// Brings the per-pixel direct light up to the view and the lights: new surfaces (and every
+    /// shadow ray) when the view changed, new shadow rays for a moved light, the curve, aim,
+    /// dimmer or colour of an edited one. In paper mode it holds no lights.
+    fn sync_pixels(
         &mut self,
         scene: &Scene,
-        illuminance_lx: &[[f64; 3]],
-        mode: DisplayMode,
+        camera: Camera,
+        spec: &FrameSpec,
+        lights: &[LightEdit],
+        paper_mode: bool,
     ) -> Result<()> {
-        vertex_attributes_into(
-            mode,
-            &scene.fine,
-            &scene.surfaces,
-            illuminance_lx,
-            &mut self.attrs,
-        )?;
-        self.vertex_lux.clear();
-        self.vertex_lux
-            .extend(illuminance_lx.iter().map(|&e| luma(e) as f32));
+        let (width, height) = spec.size_px;
+        let key = ViewKey {
+            camera,
+            size_px: spec.size_px,
+            view: spec.view,
+        };
+        let occluders = self
+            .occluders
+            .get_or_insert_with(|| Occluders::of_scene(scene))
+            .as_ref();
+        let wanted: Vec<PixelLight> = if paper_mode {
+            Vec::new()
+        } else {
+            lights.iter().map(pixel_light).collect()
+        };
+        let frame = match &mut self.frame {
+            Some(frame) => frame,
+            none => none.insert(render::Frame::new(width, height)?),
+        };
+        let stale = self.pixel.as_ref().is_none_or(|pixel| pixel.key != key);
+        if stale {
+            let view = match spec.view {
+                ViewChoice::Camera => View::new(camera, width, height)?,
+                ViewChoice::Plan => plan_view(scene.room_size, width, height)?,
+            };
+            match &mut self.pixel {
+                // The lights' own changes follow below, with those of an unchanged view.
+                Some(pixel) => {
+                    pixel
+                        .lighting
+                        .set_view(frame, &scene.fine, &scene.surfaces, &view, occluders)?;
+                    pixel.view = view;
+                    pixel.key = key;
+                }
+                none => {
+                    let surfaces = PixelSurfaces::build(frame, &scene.fine, &scene.surfaces, &view)?;
+                    *none = Some(PixelState {
+                        lighting: PixelLighting::new(surfaces, wanted.clone(), occluders),
+                        view,
+                        key,
+                    });
+                }
+            }
+            self.light_version += 1;
+        }
+        let pixel = self
+            .pixel
+            .as_mut()
+            .ok_or_else(|| crate::error::Error::internal("frame: no per-pixel light after building it"))?;
+        let lighting = &mut pixel.lighting;
+        if lighting.n_lights() != wanted.len() {
+            lighting.set_lights(wanted, occluders);
+            self.light_version += 1;
+            return Ok(());
+        }
+        for (i, light) in wanted.into_iter().enumerate() {
+            let now = lighting.light(i);
+            if now.position != light.position || now.radius_m != light.radius_m {
+                lighting.set_position(i, light.position, light.radius_m, occluders)?;
+                self.light_version += 1;
+            }
+            if lighting.light(i).state != light.state {
+                lighting.set_state(i, light.state)?;
+                self.light_version += 1;
+            }
+        }
         Ok(())
+    }
+
+    /// The display shader of `spec`: the photo exposure it asks for (the room's chosen at the
+    /// first photo frame and kept), or the false-colour range fitted at the first frame that
+    /// needed it and kept.
+    fn shader(&mut self, scene: &Scene, relighter: &Relighter, spec: &FrameSpec) -> Result<DisplayShader> {
+        Ok(match spec.mode {
+            DisplayMode::Photo => {
+                let photo = match spec.exposure {
+                    ExposureChoice::Ev100(ev100) => Photo::with_ev100(ev100),
+                    ExposureChoice::Room { brighter_ev } => {
+                        let ev100 = match self.room_ev100 {
+                            Some(ev100) => ev100,
+                            None => {
+                                photo_attributes(scene, relighter, &mut self.attrs)?;
+                                *self.room_ev100.insert(room_ev100(&scene.fine, &self.attrs))
+                            }
+                        };
+                        Photo::with_ev100(ev100 - brighter_ev)
+                    }
+                    ExposureChoice::Auto => {
+                        photo_attributes(scene, relighter, &mut self.attrs)?;
+                        Photo::auto(&scene.fine, &self.attrs)
+                    }
+                };
+                self.photo = Some(photo);
+                DisplayShader::Photo(photo)
+            }
+            DisplayMode::FalseColor => DisplayShader::FalseColor(kept_false_color(
+                &mut self.false_color,
+                scene,
+                relighter,
+                &mut self.attrs,
+            )?),
+        })
     }
 
     /// What pixel `(x, y)` of the latest frame shows; `None` for the background, a pixel outside
     /// it, or before the first frame.
-    pub fn pick(&self, mesh: &PatchMesh, (x, y): (u32, u32)) -> Option<PixelHit> {
+    pub fn pick(&self, scene: &Scene, (x, y): (u32, u32)) -> Option<PixelHit> {
         let (frame, view) = self.latest()?;
-        let hit = render::pick(frame, view, mesh, x, y)?;
-        let lux = lux_at(mesh, hit.patch, hit.point, &self.vertex_lux)?;
+        let hit = render::pick(frame, view, &scene.fine, x, y)?;
+        let lighting = &self.pixel.as_ref()?.lighting;
+        let i = y as usize * lighting.surfaces().width() as usize + x as usize;
+        let rgb = lighting.illuminance_at(i, self.vertex_light.as_deref()).ok()??;
         Some(PixelHit {
             point: hit.point,
             normal: hit.normal,
             patch: hit.patch,
             surface: hit.surface,
-            lux,
+            lux: luma(rgb.map(f64::from)),
         })
     }
+
+    /// Per-pixel illuminance (lx, luma) of the latest frame, row-major from the top-left pixel,
+    /// 0 where no surface is seen; `None` before the first frame.
+    pub fn lux_image(&mut self) -> Option<Vec<f32>> {
+        let lighting = &self.pixel.as_ref()?.lighting;
+        match self.vertex_light.as_deref() {
+            Some(values) => lighting.illuminance_into(values, &mut self.lux).ok()?,
+            None => lighting.direct_into(&mut self.lux),
+        }
+        Some(luma_values(&self.lux))
+    }
+}
+
+/// A session light as the per-pixel direct light sees it.
+fn pixel_light(light: &LightEdit) -> PixelLight {
+    PixelLight::new(
+        light.position,
+        light.radius_m,
+        crate::photometry::LightState {
+            curve: light.curve.clone(),
+            aim: light.aim,
+            dimmer: light.dimmer,
+            color: light.color,
+        },
+    )
+}
+
+/// Per-vertex photo attributes (luminance, cd/m²) of the relighter's light into `attrs`.
+fn photo_attributes(scene: &Scene, relighter: &Relighter, attrs: &mut Vec<[f32; 3]>) -> Result<()> {
+    vertex_attributes_into(
+        DisplayMode::Photo,
+        &scene.fine,
+        &scene.surfaces,
+        relighter.total(),
+        attrs,
+    )
+}
+
+/// The false-colour range of `spec`'s frames: fitted to the relighter's per-vertex illuminance
+/// (logarithmic scale) the first time and kept in `kept`.
+fn kept_false_color(
+    kept: &mut Option<FalseColor>,
+    scene: &Scene,
+    relighter: &Relighter,
+    attrs: &mut Vec<[f32; 3]>,
+) -> Result<FalseColor> {
+    if let Some(scale) = kept {
+        return Ok(*scale);
+    }
+    vertex_attributes_into(
+        DisplayMode::FalseColor,
+        &scene.fine,
+        &scene.surfaces,
+        relighter.total(),
+        attrs,
+    )?;
+    Ok(*kept.insert(FalseColor::fit(attrs, LuxScale::Log)))
 }
 
 /// Refuses an image side of 0 or above [`MAX_SIDE_PX`]: bad input naming the side as `names`
@@ -244,91 +561,9 @@ fn ray_exit_distance(origin: DVec3, dir: DVec3, size: DVec3) -> f64 {
         .min(size.length())
 }
 
-/// Illuminance (lx) at `point` on patch `patch`, linear over the patch's triangle that holds
-/// it (quads split along the 0–2 diagonal, as the renderer does), from per-vertex values.
-pub fn lux_at(mesh: &PatchMesh, patch: u32, point: DVec3, vertex_lux: &[f32]) -> Option<f64> {
-    let p = mesh.patches.get(patch as usize)?;
-    let v = p.vertices;
-    let triangles = [[v[0], v[1], v[2]], [v[0], v[2], v[3]]];
-    let count = if p.n_vertices == 4 { 2 } else { 1 };
-    let corner = |id: u32| {
-        let i = id as usize;
-        Some((*mesh.positions.get(i)?, f64::from(*vertex_lux.get(i)?)))
-    };
-    let mut best: Option<(f64, f64)> = None; // (smallest barycentric weight, value)
-    for triangle in &triangles[..count] {
-        let [a, b, c] = [corner(triangle[0])?, corner(triangle[1])?, corner(triangle[2])?];
-        let Some(weights) = barycentric(point, a.0, b.0, c.0) else {
-            continue;
-        };
-        let inside = weights.min_element();
-        let w = weights.max(DVec3::ZERO);
-        let value = (w.x * a.1 + w.y * b.1 + w.z * c.1) / w.element_sum();
-        if best.is_none_or(|(b, _)| inside > b) {
-            best = Some((inside, value));
-        }
-    }
-    best.map(|(_, value)| value)
-}
-
-/// Barycentric weights of `p` (projected onto the triangle's plane) in triangle `a b c`;
-/// `None` for a degenerate triangle.
-fn barycentric(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<DVec3> {
-    let (e0, e1, d) = (b - a, c - a, p - a);
-    let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
-    let (d20, d21) = (d.dot(e0), d.dot(e1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom.abs() <= f64::EPSILON * d00 * d11 {
-        return None;
-    }
-    let v = (d11 * d20 - d01 * d21) / denom;
-    let w = (d00 * d21 - d01 * d20) / denom;
-    Some(DVec3::new(1.0 - v - w, v, w))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::model::Patch;
-
-    #[test]
-    fn lux_at_reproduces_a_linear_field_on_a_quad() {
-        let positions = vec![
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(2.0, 0.0, 0.0),
-            DVec3::new(2.0, 1.0, 0.0),
-            DVec3::new(0.0, 1.0, 0.0),
-        ];
-        let field = |p: DVec3| 10.0 * p.x + 20.0 * p.y + 5.0;
-        let lux: Vec<f32> = positions.iter().map(|&p| field(p) as f32).collect();
-        let mesh = PatchMesh {
-            normals: vec![DVec3::Z; 4],
-            vertex_surface: vec![0; 4],
-            patches: vec![Patch {
-                vertices: [0, 1, 2, 3],
-                n_vertices: 4,
-                surface: 0,
-                normal: DVec3::Z,
-                area: 2.0,
-                centroid: DVec3::new(1.0, 0.5, 0.0),
-            }],
-            positions,
-        };
-        for point in [
-            DVec3::new(0.3, 0.8, 0.0),
-            DVec3::new(1.7, 0.2, 0.0),
-            DVec3::new(1.0, 0.5, 0.0),
-            DVec3::new(2.0, 1.0, 0.0),
-        ] {
-            let got = lux_at(&mesh, 0, point, &lux).unwrap();
-            assert!(
-                (got - field(point)).abs() < 1e-4,
-                "{point}: {got} vs {}",
-                field(point)
-            );
-        }
-        assert_eq!(lux_at(&mesh, 1, DVec3::ZERO, &lux), None);
-    }
 
     #[test]
     fn aim_along_a_direction_ends_where_the_ray_leaves_the_room() {

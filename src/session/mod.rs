@@ -18,7 +18,7 @@
 //!
 //! let mut session = Session::open("rooms/paper.toml".as_ref(), SessionOptions::default(), &mut |_| {})?;
 //! session.apply(Command::SetDimmer { light: 0, dimmer: 0.5 })?;
-//! let spec = FrameSpec { size_px: (640, 480), mode: DisplayMode::Photo, selected_light: None, cursor: None };
+//! let spec = FrameSpec::new((640, 480), DisplayMode::Photo);
 //! let frame = session.render(&spec)?;
 //! frame.pixmap.save_png("paper.png").expect("written");
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -36,7 +36,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 pub use command::{Applied, Change, Command, CommandError, RoomBounds};
-pub use frame::{FrameSpec, MAX_SIDE_PX, PixelHit};
+pub use frame::{ExposureChoice, FrameSpec, MAX_SIDE_PX, PixelHit, ViewChoice};
 pub use light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
 pub use numbers::DesignNumbers;
 pub use receivers::{LightInput, ReceiverSet};
@@ -601,7 +601,7 @@ impl Session {
             .ok_or_else(|| Error::internal("session: no relighter"))?;
         self.buffers.render(
             &self.scene,
-            (relighter.total(), self.illuminance_version),
+            (relighter, self.illuminance_version),
             self.camera,
             spec,
             &self.lights,
@@ -640,7 +640,20 @@ impl Session {
 
     /// What pixel `pixel` of the latest frame shows, with the illuminance there.
     pub fn pick(&self, pixel: (u32, u32)) -> Option<PixelHit> {
-        self.buffers.pick(&self.scene.fine, pixel)
+        self.buffers.pick(&self.scene, pixel)
+    }
+
+    /// Per-pixel illuminance (lx, luma) of the latest frame's visible surfaces, row-major from
+    /// the top-left pixel, 0 where no surface is seen (for `--lux` PFM files); `None` before
+    /// the first frame.
+    pub fn lux_image(&mut self) -> Option<Vec<f32>> {
+        self.buffers.lux_image()
+    }
+
+    /// Bytes the preview's per-pixel light holds per pixel whatever the number of lights, and
+    /// per (light, pixel); `None` before the first frame.
+    pub fn preview_memory_per_pixel(&self) -> Option<(f64, f64)> {
+        self.buffers.memory_per_pixel()
     }
 
     /// Illuminance (lx, photopic) at `receivers` for the current lights: exact direct light plus,

@@ -105,13 +105,13 @@ const MIN_RECEIVERS_PER_TASK: usize = 4096;
 
 /// Unit direction light → receiver and `cosθ / (r² + a²)`, or `None` when the receiver faces
 /// away or sits inside the luminaire.
-fn geometry_factor(position: DVec3, radius_m: f64, rx: &Receiver) -> Option<(DVec3, f64)> {
+pub fn geometry_factor(position: DVec3, radius_m: f64, rx: &Receiver) -> Option<(DVec3, f64)> {
     let to = rx.point - position;
     let r2 = to.length_squared();
     if r2 < MIN_DISTANCE_M * MIN_DISTANCE_M {
         return None;
     }
-    let dir = to / r2.sqrt();
+    let dir = to * (1.0 / r2.sqrt()); // one division, not three
     let cos_incidence = -rx.normal.dot(dir);
     (cos_incidence > 0.0).then(|| (dir, cos_incidence / (r2 + radius_m * radius_m)))
 }

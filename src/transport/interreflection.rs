@@ -353,12 +353,12 @@ impl Interreflection {
     fn visibility(&self, p: DVec3, node: &Node, rays: usize) -> f64 {
         let Some(occ) = &self.occluders else { return 1.0 };
         let pad = DVec3::splat(2.0 * RECEIVER_LIFT_M);
-        let shaft = occ.shaft(node.lo.min(p) - pad, node.hi.max(p) + pad);
+        let shaft = occ.within(node.lo.min(p) - pad, node.hi.max(p) + pad);
         if shaft.is_empty() {
             return 1.0;
         }
         let points = self.geometry.spread_points(&self.operator.tree, node, rays);
-        let seen = points.iter().filter(|&&q| !occ.blocked_in(&shaft, p, q)).count();
+        let seen = points.iter().filter(|&&q| !shaft.blocked(p, q)).count();
         seen as f64 / points.len() as f64
     }
 }

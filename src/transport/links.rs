@@ -463,7 +463,7 @@ impl Context<'_> {
     fn visibility(&self, a: &Node, b: &Node, rays: usize) -> f64 {
         let Some(occ) = self.occluders else { return 1.0 };
         let pad = DVec3::splat(LIFT_M * 2.0);
-        let shaft = occ.shaft(a.lo.min(b.lo) - pad, a.hi.max(b.hi) + pad);
+        let shaft = occ.within(a.lo.min(b.lo) - pad, a.hi.max(b.hi) + pad);
         if shaft.is_empty() {
             return 1.0;
         }
@@ -473,7 +473,7 @@ impl Context<'_> {
         // with the power-of-two count).
         let stride = if rays == LEAF_RAYS { 27 } else { 7 };
         let seen = (0..rays)
-            .filter(|&j| !occ.blocked_in(&shaft, pa[j], pb[(j * stride + 3) % rays]))
+            .filter(|&j| !shaft.blocked(pa[j], pb[(j * stride + 3) % rays]))
             .count();
         self.rays.fetch_add(rays as u64, Ordering::Relaxed);
         seen as f64 / rays as f64

@@ -9,7 +9,7 @@
 
 use std::time::Duration;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3A};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle};
 
 use crate::scene::{Aabb, PatchMesh, Scene, SurfaceKind};
@@ -39,23 +39,6 @@ fn slab(b: &Aabb, o: DVec3, inv_d: DVec3, t0: f64, t1: f64) -> bool {
 struct TriangleBvh {
     triangles: Vec<Triangle>,
     bvh: Bvh2,
-    /// Bounds of all the triangles (world, m).
-    bounds: Aabb,
-}
-
-/// The occluders that can meet segments lying inside an axis-aligned region (the bounds of a
-/// shaft between two patches): a short list of boxes and whether the triangles can.
-#[derive(Debug, Clone, Default)]
-pub struct Shaft {
-    boxes: Vec<u32>,
-    triangles: bool,
-}
-
-impl Shaft {
-    /// True when nothing can block a segment inside the region.
-    pub fn is_empty(&self) -> bool {
-        self.boxes.is_empty() && !self.triangles
-    }
 }
 
 impl std::fmt::Debug for TriangleBvh {
@@ -95,17 +78,7 @@ impl Occluders {
                 BvhBuildParams::medium_build(),
                 &mut Duration::default(),
             );
-            let (min, max) = triangles
-                .iter()
-                .flat_map(|t| [t.v0, t.v1, t.v2])
-                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(v.as_dvec3()), hi.max(v.as_dvec3()))
-                });
-            TriangleBvh {
-                triangles,
-                bvh,
-                bounds: Aabb { min, max },
-            }
+            TriangleBvh { triangles, bvh }
         });
         Occluders {
             boxes: boxes.to_vec(),
@@ -123,59 +96,76 @@ impl Occluders {
         self.len() == 0
     }
 
-    /// The occluders whose bounds meet the region `[lo, hi]` (world, m): a segment inside it
-    /// can only be blocked by them (see [`Self::blocked_in`]).
-    pub fn shaft(&self, lo: DVec3, hi: DVec3) -> Shaft {
-        let meets = |b: &Aabb| b.min.cmplt(hi).all() && b.max.cmpgt(lo).all();
-        Shaft {
-            boxes: (0..self.boxes.len() as u32)
-                .filter(|&i| meets(&self.boxes[i as usize]))
-                .collect(),
-            triangles: self.triangles.as_ref().is_some_and(|t| meets(&t.bounds)),
-        }
-    }
-
-    /// [`Self::blocked`] for a segment inside the region of `shaft`, testing only its occluders.
-    pub fn blocked_in(&self, shaft: &Shaft, from: DVec3, to: DVec3) -> bool {
-        let d = to - from;
-        let inv_d = d.recip();
-        if shaft
+    /// The occluders that reach into the box `min`–`max` (world, m): boxes by their extent,
+    /// triangles by their BVH nodes (conservatively). A segment inside that box can be blocked
+    /// only by these, so the shadow rays of a tile of receivers test them alone — or none at all
+    /// when the view is empty.
+    pub fn within(&self, min: DVec3, max: DVec3) -> LocalOccluders<'_> {
+        let boxes = self
             .boxes
             .iter()
-            .any(|&b| slab(&self.boxes[b as usize], from, inv_d, END_EPS, 1.0 - END_EPS))
-        {
-            return true;
-        }
-        shaft.triangles && self.blocked_by_triangles(from, to)
+            .filter(|b| b.min.cmplt(max).all() && b.max.cmpgt(min).all())
+            .copied()
+            .collect();
+        let triangles = self.triangles.as_ref().filter(|tris| {
+            let margin = Vec3A::splat(TRIANGLE_END_M);
+            let bounds = obvhs::aabb::Aabb {
+                min: min.as_vec3a() - margin,
+                max: max.as_vec3a() + margin,
+            };
+            let mut hit = false;
+            tris.bvh.aabb_traverse(bounds, |_, _| {
+                hit = true;
+                false
+            });
+            hit
+        });
+        LocalOccluders { boxes, triangles }
     }
 
     /// True when any occluder meets the open segment `from → to`.
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
-        let d = to - from;
-        let inv_d = d.recip();
-        if self
-            .boxes
-            .iter()
-            .any(|b| slab(b, from, inv_d, END_EPS, 1.0 - END_EPS))
-        {
-            return true;
-        }
-        self.blocked_by_triangles(from, to)
+        segment_blocked(&self.boxes, self.triangles.as_ref(), from, to)
+    }
+}
+
+/// The occluders near a group of shadow rays ([`Occluders::within`]).
+#[derive(Debug, Clone)]
+pub struct LocalOccluders<'a> {
+    boxes: Vec<Aabb>,
+    triangles: Option<&'a TriangleBvh>,
+}
+
+impl LocalOccluders<'_> {
+    /// True when nothing reaches into the region: no segment inside it is blocked.
+    pub fn is_empty(&self) -> bool {
+        self.boxes.is_empty() && self.triangles.is_none()
     }
 
-    fn blocked_by_triangles(&self, from: DVec3, to: DVec3) -> bool {
-        let d = to - from;
-        let Some(tris) = &self.triangles else { return false };
-        let len = d.length();
-        let (t0, t1) = (TRIANGLE_END_M, len as f32 - TRIANGLE_END_M);
-        if len == 0.0 || t1 <= t0 {
-            return false;
-        }
-        let ray = Ray::new(from.as_vec3a(), (d / len).as_vec3a(), t0, t1);
-        !tris.bvh.ray_traverse_miss(ray, |r, id| {
-            tris.triangles[tris.bvh.primitive_indices[id] as usize].intersect(r)
-        })
+    /// True when any of these occluders meets the open segment `from → to` (both inside the
+    /// region the view was made for; the same answer as [`Occluders::blocked`] there).
+    pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
+        segment_blocked(&self.boxes, self.triangles, from, to)
     }
+}
+
+/// True when a box or a triangle meets the open segment `from → to`.
+fn segment_blocked(boxes: &[Aabb], triangles: Option<&TriangleBvh>, from: DVec3, to: DVec3) -> bool {
+    let d = to - from;
+    let inv_d = d.recip();
+    if boxes.iter().any(|b| slab(b, from, inv_d, END_EPS, 1.0 - END_EPS)) {
+        return true;
+    }
+    let Some(tris) = triangles else { return false };
+    let len = d.length();
+    let (t0, t1) = (TRIANGLE_END_M, len as f32 - TRIANGLE_END_M);
+    if len == 0.0 || t1 <= t0 {
+        return false;
+    }
+    let ray = Ray::new(from.as_vec3a(), (d / len).as_vec3a(), t0, t1);
+    !tris.bvh.ray_traverse_miss(ray, |r, id| {
+        tris.triangles[tris.bvh.primitive_indices[id] as usize].intersect(r)
+    })
 }
 
 impl Visibility for Occluders {
@@ -237,6 +227,47 @@ mod tests {
         assert!(!occ.blocked(DVec3::new(0.0, 1.0, 2.0), DVec3::new(3.0, 1.0, 2.0)));
         // No occluders at all (a forced visibility pass in an empty room) blocks nothing.
         assert!(!Occluders::from_parts(&[], &[]).blocked(light, DVec3::ZERO));
+    }
+
+    #[test]
+    fn within_keeps_only_what_reaches_into_the_region() {
+        let occ = Occluders::from_parts(
+            &[unit_box([1.0, 1.0, 0.0], [2.0, 2.0, 1.0])],
+            &[[
+                DVec3::new(4.0, 4.0, 2.0),
+                DVec3::new(5.0, 4.0, 2.0),
+                DVec3::new(4.0, 5.0, 2.0),
+            ]],
+        );
+        let (lo, hi) = (DVec3::new(1.5, 1.5, 0.5), DVec3::new(3.0, 3.0, 3.0));
+        let near_box = occ.within(lo, hi);
+        assert!(!near_box.is_empty());
+        // It answers like the whole set for segments inside the region.
+        for (from, to) in [
+            (DVec3::new(1.6, 1.6, 2.9), DVec3::new(1.7, 1.7, 0.6)),
+            (DVec3::new(2.9, 2.9, 2.9), DVec3::new(2.5, 2.5, 0.6)),
+        ] {
+            assert_eq!(near_box.blocked(from, to), occ.blocked(from, to));
+        }
+        assert!(near_box.blocked(DVec3::new(1.6, 1.6, 2.9), DVec3::new(1.7, 1.7, 0.6)));
+        assert!(
+            !occ.within(DVec3::new(4.2, 4.2, 1.0), DVec3::new(4.3, 4.3, 3.0))
+                .is_empty()
+        );
+        // Beside the box (touching its face is not reaching into it), and far from both.
+        assert!(
+            occ.within(DVec3::new(2.0, 0.0, 0.0), DVec3::new(3.0, 3.0, 3.0))
+                .is_empty()
+        );
+        assert!(
+            occ.within(DVec3::new(0.0, 0.0, 1.5), DVec3::new(3.0, 3.0, 1.9))
+                .is_empty()
+        );
+        assert!(
+            Occluders::from_parts(&[], &[])
+                .within(DVec3::ZERO, DVec3::ONE)
+                .is_empty()
+        );
     }
 
     #[test]

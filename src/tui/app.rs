@@ -23,7 +23,7 @@ use crate::render::DisplayMode;
 use crate::scene::save::{IfChanged, SaveError, Saved};
 use crate::scene::{self, LidSource, RoomText};
 use crate::session::budget::{self, MemoryLimit};
-use crate::session::{FrameSpec, SessionOptions, initial_lights};
+use crate::session::{FrameSpec, SessionOptions, ViewChoice, initial_lights};
 use crate::transport::plan::{PlanOptions, plan};
 use crate::tui::frame_budget::{Budget, DIVISORS, FrameBudget, FramePlan, prior_bytes_per_pixel};
 use crate::tui::luminaires::{self, LidInfo};
@@ -532,6 +532,15 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
         } else {
             DisplayMode::Photo
         },
+        view: if model.plan_view {
+            ViewChoice::Plan
+        } else {
+            ViewChoice::Camera
+        },
+        exposure: model.exposure,
+        isolux: model.isolux,
+        legend: true,
+        refit: model.display_refit,
         selected_light: model.light().map(|_| model.selected_light),
         cursor: match model.mode {
             Mode::Aim { cursor } => Some(cursor),

@@ -174,6 +174,17 @@ pub enum Action {
     Dimmer(f64),
     /// Toggle the false-colour preview.
     ToggleFalseColour,
+    /// Make the photo this many stops brighter (negative: darker); automatic exposure becomes
+    /// fixed at the room's exposure first.
+    Exposure(f64),
+    /// Switch between the fixed and the automatic photo exposure.
+    ToggleAutoExposure,
+    /// Choose the exposure and the false-colour lux range anew from the current light.
+    RefitDisplay,
+    /// Show or hide isolux lines.
+    ToggleIsolux,
+    /// Switch between the camera's view and the plan (top-down) view.
+    TogglePlanView,
     /// Enter aim mode.
     AimMode,
     /// Enter move mode.
@@ -275,6 +286,8 @@ impl Binding {
 pub const COARSE_INTENSITY_STEP: f64 = 0.05;
 /// Intensity step with Shift (fraction of the peak).
 pub const FINE_INTENSITY_STEP: f64 = 0.005;
+/// Exposure step of `e`/`E`, stops (EV).
+pub const EXPOSURE_STEP_EV: f64 = 0.5;
 /// Move-mode step, metres.
 pub const MOVE_STEP_M: f64 = 0.1;
 
@@ -333,6 +346,12 @@ pub const BINDINGS: &[Binding] = &[
     bind(Normal, &[C('u')], A::Undo, "undo", Some("undo")),
     bind(Normal, &[Ctrl('r')], A::Redo, "redo", None),
     bind(Normal, &[C('f')], A::ToggleFalseColour, "photo / false colour", None),
+    bind(Normal, &[C('e')], A::Exposure(EXPOSURE_STEP_EV), "photo ½ stop brighter", None),
+    bind(Normal, &[C('E')], A::Exposure(-EXPOSURE_STEP_EV), "photo ½ stop darker", None),
+    bind(Normal, &[C('x')], A::ToggleAutoExposure, "fixed / automatic exposure", None),
+    bind(Normal, &[C('r')], A::RefitDisplay, "refit exposure and scale", None),
+    bind(Normal, &[C('i')], A::ToggleIsolux, "isolux lines on / off", None),
+    bind(Normal, &[C('p')], A::TogglePlanView, "plan view / camera view", None),
     bind(Normal, &[C('[')], A::Orbit { yaw_deg: -5.0, pitch_deg: 0.0 }, "camera orbit left 5°", None),
     bind(Normal, &[C(']')], A::Orbit { yaw_deg: 5.0, pitch_deg: 0.0 }, "camera orbit right 5°", None),
     bind(Normal, &[C('{')], A::Orbit { yaw_deg: 0.0, pitch_deg: -5.0 }, "camera orbit down 5°", None),

@@ -10,7 +10,7 @@ use glam::DVec3;
 
 use crate::scene::{Camera, Scene};
 pub use crate::session::light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
-use crate::session::{LightStatus, RoomBounds, Series};
+use crate::session::{ExposureChoice, LightStatus, RoomBounds, Series};
 use crate::tui::history::History;
 use crate::tui::keys::ModeKind;
 use crate::tui::luminaires::LidInfos;
@@ -152,6 +152,14 @@ pub struct Model {
     pub home_camera: Camera,
     /// False-colour (illuminance scale) preview instead of the photographic one.
     pub false_colour: bool,
+    /// The plan (top-down) preview instead of the camera's.
+    pub plan_view: bool,
+    /// Isolux lines over the preview.
+    pub isolux: bool,
+    /// The photo exposure: the room's, moved in stops, or automatic.
+    pub exposure: ExposureChoice,
+    /// Bumped by the reset key: the engine chooses the exposure and the lux range anew.
+    pub display_refit: u32,
     /// Terminal size in cells (columns, rows).
     pub terminal_size: (u16, u16),
     /// One cell's size in pixels (width, height), from the terminal.
@@ -208,6 +216,10 @@ impl Model {
             camera: scene.camera,
             home_camera: scene.camera,
             false_colour: false,
+            plan_view: false,
+            isolux: false,
+            exposure: ExposureChoice::default(),
+            display_refit: 0,
             terminal_size,
             cell_px,
             preview_px: (0, 0),

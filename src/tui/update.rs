@@ -11,7 +11,7 @@ use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
 use ratatui::layout::{Position, Rect};
 
 use crate::scene::Camera;
-use crate::session::{Change as Changed, Command, LightStatus};
+use crate::session::{Change as Changed, Command, ExposureChoice, LightStatus};
 use crate::tui::camera_nav;
 use crate::tui::edits::{self, EditError};
 use crate::tui::history::Change;
@@ -272,6 +272,35 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
         Action::Dimmer(delta) => edit(model, |l, i| Ok(edits::step_dimmer(l, i, delta))),
         Action::ToggleFalseColour => {
             model.false_colour = !model.false_colour;
+            vec![Effect::Render]
+        }
+        Action::Exposure(stops) => {
+            let brighter_ev = match model.exposure {
+                ExposureChoice::Room { brighter_ev } => brighter_ev,
+                ExposureChoice::Ev100(_) | ExposureChoice::Auto => 0.0,
+            };
+            model.exposure = ExposureChoice::Room {
+                brighter_ev: brighter_ev + stops,
+            };
+            vec![Effect::Render]
+        }
+        Action::ToggleAutoExposure => {
+            model.exposure = match model.exposure {
+                ExposureChoice::Auto => ExposureChoice::default(),
+                ExposureChoice::Room { .. } | ExposureChoice::Ev100(_) => ExposureChoice::Auto,
+            };
+            vec![Effect::Render]
+        }
+        Action::RefitDisplay => {
+            model.display_refit = model.display_refit.wrapping_add(1);
+            vec![Effect::Render]
+        }
+        Action::ToggleIsolux => {
+            model.isolux = !model.isolux;
+            vec![Effect::Render]
+        }
+        Action::TogglePlanView => {
+            model.plan_view = !model.plan_view;
             vec![Effect::Render]
         }
         Action::AimMode => {

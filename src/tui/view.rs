@@ -9,7 +9,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Cell, Clear, Paragraph, Row, Table, TableState, Wrap};
 
 use crate::error::printable;
-use crate::session::LightStatus;
+use crate::session::{ExposureChoice, LightStatus};
 use crate::tui::keys::{self, ModeKind};
 use crate::tui::luminaires::{self, lid_info};
 use crate::tui::model::{LightEdit, Mode, Model};
@@ -355,6 +355,25 @@ fn format_vec_to(v: [f64; 3], decimals: usize) -> String {
     format!("{:.decimals$} {:.decimals$} {:.decimals$}", v[0], v[1], v[2])
 }
 
+/// The preview's title: the view, the display mode and the exposure.
+fn preview_title(model: &Model) -> String {
+    let view = if model.plan_view { " · plan" } else { "" };
+    let isolux = if model.isolux { " · isolux" } else { "" };
+    let shown = if model.false_colour {
+        " · false colour (lx)".to_string()
+    } else {
+        match model.exposure {
+            ExposureChoice::Room { brighter_ev } if brighter_ev != 0.0 => {
+                format!(" · exposure {brighter_ev:+.1} EV")
+            }
+            ExposureChoice::Room { .. } => String::new(),
+            ExposureChoice::Ev100(ev100) => format!(" · EV100 {ev100:.1}"),
+            ExposureChoice::Auto => " · auto exposure".to_string(),
+        }
+    };
+    format!(" preview{view}{shown}{isolux} ")
+}
+
 fn draw_preview(model: &Model, frame: &mut Frame<'_>, pane: Rect, preview: PreviewArea<'_>) {
     let (w, h) = model.preview_px;
     let title = match &model.mode {
@@ -363,8 +382,7 @@ fn draw_preview(model: &Model, frame: &mut Frame<'_>, pane: Rect, preview: Previ
             Some(light) => format!(" move: position {} m ", format_vec(light.position.to_array())),
             None => " move ".into(),
         },
-        _ if model.false_colour => " preview · false colour (lx) ".into(),
-        _ => " preview ".into(),
+        _ => preview_title(model),
     };
     let block = Block::bordered().title(title);
     let inner = block.inner(pane);

@@ -14,7 +14,7 @@ use haiko::cli::pick::{PickReport, Pixel, pick_pixel, to_json};
 use haiko::render::DisplayMode;
 use haiko::render::golden::{Golden, Tolerance, UPDATE_ENV};
 use haiko::scene::{self, Scene};
-use haiko::session::{FrameSpec, MAX_SIDE_PX, Session, SessionOptions};
+use haiko::session::{FrameSpec, MAX_SIDE_PX, Session, SessionOptions, ViewChoice};
 
 /// Size of the room goldens, pixels.
 const SNAPSHOT_SIZE: (u32, u32) = (160, 120);
@@ -42,12 +42,7 @@ fn session(scene: Scene, indirect: bool) -> Session {
 
 /// The room camera's frame at `size` in `mode`, with every light marked (none selected).
 fn spec(size: (u32, u32), mode: DisplayMode) -> FrameSpec {
-    FrameSpec {
-        size_px: size,
-        mode,
-        selected_light: None,
-        cursor: None,
-    }
+    FrameSpec::new(size, mode)
 }
 
 /// `haiko pick --direct-only` on `scene` (through a direct-light session, as the command does).
@@ -106,6 +101,26 @@ fn every_bundled_room_matches_its_golden_images() {
                 .unwrap_or_else(|e| panic!("{}", regenerate_hint(e)));
         }
     }
+}
+
+/// The office in plan view, false colour with isolux lines and the legend, at a size where the
+/// symbols and labels are legible.
+#[test]
+fn office_plan_view_with_isolux_and_legend_matches_its_golden() {
+    let mut session = session(load("office"), true);
+    let spec = FrameSpec {
+        view: ViewChoice::Plan,
+        isolux: true,
+        ..spec((480, 360), DisplayMode::FalseColor)
+    };
+    let frame = session.render(&spec).unwrap();
+    let tolerance = Tolerance {
+        channel: 2,
+        max_pixels: 64,
+    };
+    golden()
+        .check_image("office_plan_isolux", &frame.pixmap, tolerance)
+        .unwrap_or_else(|e| panic!("{}", regenerate_hint(e)));
 }
 
 #[test]
@@ -405,8 +420,10 @@ fn bad_render_and_pick_input_exits_2_with_a_message() {
     let out = dir.path().join("x.png");
     let out = out.to_str().unwrap();
     let away = room_looking_away(dir.path());
-    let cases: [(Vec<&str>, &str); 8] = [
+    let cases: [(Vec<&str>, &str); 10] = [
         (vec!["render", paper, "-o", out, "--width", "0"], "--width"),
+        (vec!["render", paper, "-o", out, "--exposure", "bright"], "bright"),
+        (vec!["render", paper, "-o", out, "--view", "top"], "top"),
         (vec!["render", paper, "-o", out, "--height", "8193"], "--height"),
         (vec!["render", paper, "-o", out, "--mode", "sepia"], "sepia"),
         (

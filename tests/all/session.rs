@@ -55,10 +55,8 @@ fn assert_fields_close(got: &[[f64; 3]], want: &[[f64; 3]]) {
 
 fn spec(size: (u32, u32)) -> FrameSpec {
     FrameSpec {
-        size_px: size,
-        mode: DisplayMode::Photo,
         selected_light: Some(0),
-        cursor: None,
+        ..FrameSpec::new(size, DisplayMode::Photo)
     }
 }
 

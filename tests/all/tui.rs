@@ -672,6 +672,62 @@ fn camera_keys_orbit_pan_dolly_and_reset() {
     assert!(m.false_colour);
 }
 
+/// The preview keys: exposure steps of ½ stop from the room's exposure, automatic exposure and
+/// back, the refit counter, isolux lines and the plan view, all carried by the frame spec; none
+/// is an edit of the room.
+#[test]
+fn preview_keys_step_the_exposure_toggle_isolux_and_the_plan_and_refit() {
+    use haiko::render::DisplayMode;
+    use haiko::session::{ExposureChoice, ViewChoice};
+    use haiko::tui::app::frame_spec;
+    let mut m = model();
+    m.preview_px = (320, 240);
+    let spec = frame_spec(&m).unwrap();
+    assert_eq!(spec.exposure, ExposureChoice::Room { brighter_ev: 0.0 });
+    assert_eq!(
+        (spec.view, spec.isolux, spec.legend, spec.mode),
+        (ViewChoice::Camera, false, true, DisplayMode::Photo)
+    );
+    for (keys, brighter_ev) in [("e", 0.5), ("ee", 1.5), ("E", 1.0), ("EEEE", -1.0)] {
+        for c in keys.chars() {
+            assert!(
+                !update(&mut m, ch(c))
+                    .iter()
+                    .any(|e| matches!(e, Effect::Engine(_)))
+            );
+        }
+        assert_eq!(
+            frame_spec(&m).unwrap().exposure,
+            ExposureChoice::Room { brighter_ev }
+        );
+    }
+    update(&mut m, ch('x'));
+    assert_eq!(frame_spec(&m).unwrap().exposure, ExposureChoice::Auto);
+    // A step from the automatic exposure starts from the room's exposure.
+    update(&mut m, ch('e'));
+    assert_eq!(
+        frame_spec(&m).unwrap().exposure,
+        ExposureChoice::Room { brighter_ev: 0.5 }
+    );
+    update(&mut m, ch('x'));
+    update(&mut m, ch('x'));
+    assert_eq!(
+        frame_spec(&m).unwrap().exposure,
+        ExposureChoice::Room { brighter_ev: 0.0 }
+    );
+    let refit = frame_spec(&m).unwrap().refit;
+    update(&mut m, ch('r'));
+    assert_eq!(frame_spec(&m).unwrap().refit, refit + 1);
+    update(&mut m, ch('i'));
+    update(&mut m, ch('p'));
+    let spec = frame_spec(&m).unwrap();
+    assert!(spec.isolux);
+    assert_eq!(spec.view, ViewChoice::Plan);
+    update(&mut m, ch('p'));
+    assert_eq!(frame_spec(&m).unwrap().view, ViewChoice::Camera);
+    assert!(!m.dirty, "preview keys do not edit the room");
+}
+
 // ---------------------------------------------------------------- update: history, quit, save
 
 /// A session touching every kind of edit on both lights.

@@ -1,0 +1,721 @@
+//! Exact direct light at every pixel of a view, kept so that an edit of one light touches only
+//! that light's term (docs/DECISIONS.md, "Per-pixel direct light").
+//!
+//! At each visible point `p` with normal `n` (from [`PixelSurfaces`]) a light at `q` with
+//! luminous radius `a` gives `E = I(γ) · cosθ / (r² + a²) · V` (the same factor as
+//! [`crate::transport::direct::geometry_factor`]), γ the angle between the light's aim and
+//! `p − q`, V the visibility (a shadow ray through [`Occluders`]).
+//!
+//! What is kept, per pixel:
+//! * shared: the [`PixelSurfaces`] (point, triangle, weights) and `others`, the direct light of
+//!   every light but the *active* one (lx, linear RGB, dimmer and colour applied);
+//! * per light: one visibility bit (only when the scene has occluders);
+//! * for the active light (the one edited last): γ (degrees), its curve coordinate
+//!   ([`super::lookup`]) and `cosθ / (r² + a²) · V`, 12 bytes.
+//!
+//! A dimmer or colour edit of the active light, or a curve edit that moves no angle, costs one
+//! interpolation per pixel; a curve edit that moves an angle re-derives the coordinates from γ;
+//! a re-aim re-computes γ; editing another light makes it active (re-summing `others` over the
+//! lights once); moving a light casts its shadow rays again. Nothing accumulates: `others` is
+//! always a fresh sum, so a room whose lights are all off is exactly 0.
+//!
+//! Shadow rays are cast per 16 × 16 tile of pixels against only the occluders that reach into
+//! the box around the light and the tile's points ([`Occluders::within`]); when none does, the
+//! whole tile sees the light without a ray.
+//!
+//! [`PixelLighting::render_into`] adds the per-vertex indirect light (Gouraud over each pixel's
+//! triangle) and shades the pixel in the same pass.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::camera::View;
+use super::lookup::{CurveLookup, acos};
+use super::shade::{DisplayShader, Shader};
+use super::surface::{NO_TRIANGLE, PixelSurfaces};
+use super::tone::{self, tone_srgb8};
+use super::{BACKGROUND_RGB, Frame};
+use crate::error::{Error, Result};
+use crate::photometry::LightState;
+use crate::scene::model::{PatchMesh, Surface};
+use crate::transport::direct::{Receiver, geometry_factor};
+use crate::transport::occlusion::Occluders;
+
+/// Shadow rays start this far above the visible point, along its normal (m): clear of the f32
+/// rounding of the stored point (≤ 5e-7 m in a room of 10 m).
+const RAY_LIFT_M: f64 = 1e-5;
+
+/// Pixels per parallel task.
+const PIXELS_PER_TASK: usize = 8192;
+
+/// A light as the per-pixel direct light sees it: where it is and what it emits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PixelLight {
+    /// Position (world, m).
+    pub position: DVec3,
+    /// Luminous radius `a` (m): near-field softening `cosθ / (r² + a²)`.
+    pub radius_m: f64,
+    /// Curve, aim, dimmer and colour.
+    pub state: LightState,
+}
+
+impl PixelLight {
+    /// A light at `position` (world, m) with luminous radius `radius_m` emitting as `state`
+    /// says, its aim scaled to unit length (kept bit for bit when already unit to rounding, so
+    /// the same light built twice compares equal).
+    pub fn new(position: DVec3, radius_m: f64, state: LightState) -> PixelLight {
+        PixelLight {
+            position,
+            radius_m,
+            state: LightState {
+                aim: unit(state.aim),
+                ..state
+            },
+        }
+    }
+}
+
+impl From<&crate::scene::Light> for PixelLight {
+    fn from(light: &crate::scene::Light) -> Self {
+        PixelLight::new(light.position, light.radius, LightState::from(light))
+    }
+}
+
+/// One light's entry: the light, its curve table and its visibility bits.
+#[derive(Debug, Clone)]
+struct Entry {
+    light: PixelLight,
+    lookup: CurveLookup,
+    /// Bit `i` set when pixel `i` sees the light unoccluded; `None` when nothing can occlude.
+    visible: Option<Vec<u64>>,
+}
+
+impl Entry {
+    #[inline]
+    fn sees(&self, i: usize) -> bool {
+        self.visible
+            .as_ref()
+            .is_none_or(|bits| bits[i / 64] >> (i % 64) & 1 == 1)
+    }
+
+    /// `(cos γ, cosθ / (r² + a²) · V)` at pixel `i` (receiver `rx`), `None` when the pixel
+    /// cannot be lit.
+    #[inline]
+    fn geometry(&self, rx: &Receiver, i: usize) -> Option<(f64, f64)> {
+        let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, rx)?;
+        self.sees(i).then(|| (self.light.state.aim.dot(dir), factor))
+    }
+
+    /// This light's direct illuminance (lx, before colour, dimmer applied) at pixel `i`
+    /// (receiver `rx`).
+    #[inline]
+    fn illuminance(&self, rx: &Receiver, i: usize) -> f64 {
+        match self.geometry(rx, i) {
+            Some((cos_gamma, factor)) => self.light.state.dimmer * self.lookup.eval_cos(cos_gamma) * factor,
+            None => 0.0,
+        }
+    }
+
+    fn is_dark(&self) -> bool {
+        let state = &self.light.state;
+        state.dimmer == 0.0 || state.color == [0.0; 3] || state.curve.peak_cd() == 0.0
+    }
+}
+
+/// The receiver (point, normal) at pixel `i`, `None` for the background.
+#[inline]
+fn receiver(surfaces: &PixelSurfaces, i: usize) -> Option<Receiver> {
+    let t = surfaces.triangle_codes()[i];
+    if t == NO_TRIANGLE {
+        return None;
+    }
+    Some(Receiver {
+        point: DVec3::from(surfaces.raw_points()[i].map(f64::from)),
+        normal: DVec3::from(surfaces.patch_normals()[(t / 2) as usize].map(f64::from)),
+    })
+}
+
+/// The active light's per-pixel cache.
+#[derive(Debug, Clone, Default)]
+struct Active {
+    index: usize,
+    /// γ per pixel (degrees).
+    gamma_deg: Vec<f32>,
+    /// The curve coordinate of γ per pixel (−1 outside the curve).
+    coordinate: Vec<f32>,
+    /// `cosθ / (r² + a²) · V` per pixel (1/m²), 0 where the light cannot reach.
+    factor: Vec<f32>,
+}
+
+/// Where a shading pass takes the illuminance from.
+enum Source<'a> {
+    /// Already composed, one value per pixel.
+    Lux(&'a [[f32; 3]]),
+    /// Composed on the fly, with this per-vertex indirect light.
+    Compose(Option<&'a [[f32; 3]]>),
+}
+
+/// Per-pixel exact direct light of every light of a scene for one view.
+#[derive(Debug, Clone)]
+pub struct PixelLighting {
+    surfaces: PixelSurfaces,
+    entries: Vec<Entry>,
+    /// Direct light of every light but the active one (lx, linear RGB).
+    others: Vec<[f32; 3]>,
+    active: Option<Active>,
+}
+
+impl PixelLighting {
+    /// Per-pixel direct light of `lights` on `surfaces`, with shadow rays through `occluders`
+    /// (none: nothing occludes). Casts one shadow ray per (light, pixel facing it).
+    pub fn new(surfaces: PixelSurfaces, lights: Vec<PixelLight>, occluders: Option<&Occluders>) -> Self {
+        let entries = lights
+            .into_iter()
+            .map(|light| Entry {
+                visible: occluders.map(|o| visibility_bits(&surfaces, &light, o)),
+                lookup: CurveLookup::new(&light.state.curve),
+                light,
+            })
+            .collect();
+        let mut lighting = PixelLighting {
+            others: Vec::new(),
+            surfaces,
+            entries,
+            active: None,
+        };
+        lighting.resum_others();
+        lighting
+    }
+
+    /// Rebuilds the surfaces for a new `view` (a camera move or resize) into `frame` (see
+    /// [`PixelSurfaces::rebuild`]) and casts every light's shadow rays again, reusing the
+    /// buffers. Errors as [`PixelSurfaces::build`].
+    pub fn set_view(
+        &mut self,
+        frame: &mut Frame,
+        mesh: &PatchMesh,
+        surfaces: &[Surface],
+        view: &View,
+        occluders: Option<&Occluders>,
+    ) -> Result<()> {
+        self.surfaces.rebuild(frame, mesh, surfaces, view)?;
+        for entry in &mut self.entries {
+            entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
+        }
+        match self.active_light() {
+            Some(i) => self.activate(i),
+            None => self.resum_others(),
+        }
+        Ok(())
+    }
+
+    /// Replaces every light (a light added or removed): each one's shadow rays are cast again,
+    /// the surfaces are kept.
+    pub fn set_lights(&mut self, lights: Vec<PixelLight>, occluders: Option<&Occluders>) {
+        self.entries = lights
+            .into_iter()
+            .map(|light| Entry {
+                visible: occluders.map(|o| visibility_bits(&self.surfaces, &light, o)),
+                lookup: CurveLookup::new(&light.state.curve),
+                light,
+            })
+            .collect();
+        self.active = None;
+        self.resum_others();
+    }
+
+    /// The surfaces the light is evaluated on.
+    pub fn surfaces(&self) -> &PixelSurfaces {
+        &self.surfaces
+    }
+
+    /// Number of lights.
+    pub fn n_lights(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Light `i` as last set.
+    pub fn light(&self, i: usize) -> &PixelLight {
+        &self.entries[i].light
+    }
+
+    /// The light edited last (whose per-pixel terms are cached), if any.
+    pub fn active_light(&self) -> Option<usize> {
+        self.active.as_ref().map(|a| a.index)
+    }
+
+    /// Sets light `i`'s curve, aim, dimmer and colour (aim normalised here). Only what changed is
+    /// recomputed: nothing cached for a curve, dimmer or colour change, γ per pixel for a re-aim;
+    /// a light other than the active one becomes active first (one pass over all lights).
+    ///
+    /// Errors (internal): `i` is not a light.
+    pub fn set_state(&mut self, i: usize, state: LightState) -> Result<()> {
+        self.check(i)?;
+        let state = PixelLight::new(DVec3::ZERO, 0.0, state).state;
+        let entry = &mut self.entries[i];
+        let re_aimed = entry.light.state.aim != state.aim;
+        let mut angles_moved = false;
+        if entry.light.state.curve != state.curve {
+            let lookup = CurveLookup::new(&state.curve);
+            angles_moved = !entry.lookup.same_angles(&lookup);
+            entry.lookup = lookup;
+        }
+        entry.light.state = state;
+        if self.active_light() != Some(i) {
+            self.activate(i);
+        } else if re_aimed {
+            self.refresh_active_gamma();
+        } else if angles_moved {
+            self.refresh_active_coordinates();
+        }
+        Ok(())
+    }
+
+    /// Moves light `i` to `position` with luminous radius `radius_m`: its shadow rays are cast
+    /// again. Errors (internal): `i` is not a light.
+    pub fn set_position(
+        &mut self,
+        i: usize,
+        position: DVec3,
+        radius_m: f64,
+        occluders: Option<&Occluders>,
+    ) -> Result<()> {
+        self.check(i)?;
+        let entry = &mut self.entries[i];
+        entry.light.position = position;
+        entry.light.radius_m = radius_m;
+        entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
+        if self.active_light() == Some(i) {
+            self.activate(i);
+        } else {
+            self.resum_others();
+        }
+        Ok(())
+    }
+
+    fn check(&self, i: usize) -> Result<()> {
+        if i < self.entries.len() {
+            Ok(())
+        } else {
+            Err(Error::internal(format!(
+                "pixel lighting: light {i} of {}",
+                self.entries.len()
+            )))
+        }
+    }
+
+    /// Makes light `i` the active one: `others` without it, its per-pixel cache built.
+    fn activate(&mut self, i: usize) {
+        let mut active = self.active.take().unwrap_or_default();
+        active.index = i;
+        let n = self.surfaces.len();
+        active.gamma_deg.resize(n, 0.0);
+        active.coordinate.resize(n, -1.0);
+        active.factor.resize(n, 0.0);
+        self.active = Some(active);
+        self.resum_others();
+        self.refresh_active_factor();
+        self.refresh_active_gamma();
+    }
+
+    /// Re-sums the direct light of every light but the active one.
+    fn resum_others(&mut self) {
+        let n = self.surfaces.len();
+        self.others.resize(n, [0.0; 3]);
+        let skip = self.active_light();
+        let lit: Vec<&Entry> = self
+            .entries
+            .iter()
+            .enumerate()
+            .filter(|&(k, e)| Some(k) != skip && !e.is_dark())
+            .map(|(_, e)| e)
+            .collect();
+        let surfaces = &self.surfaces;
+        self.others
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                let start = chunk * PIXELS_PER_TASK;
+                for (k, o) in out.iter_mut().enumerate() {
+                    let i = start + k;
+                    let mut sum = [0.0f32; 3];
+                    if let Some(rx) = receiver(surfaces, i) {
+                        for entry in &lit {
+                            let e = entry.illuminance(&rx, i);
+                            if e != 0.0 {
+                                let color = entry.light.state.color;
+                                for ch in 0..3 {
+                                    sum[ch] += (color[ch] * e) as f32;
+                                }
+                            }
+                        }
+                    }
+                    *o = sum;
+                }
+            });
+    }
+
+    /// The active light's `cosθ / (r² + a²) · V` per pixel.
+    fn refresh_active_factor(&mut self) {
+        let Some(active) = self.active.as_mut() else {
+            return;
+        };
+        let entry = &self.entries[active.index];
+        let surfaces = &self.surfaces;
+        active
+            .factor
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                let start = chunk * PIXELS_PER_TASK;
+                for (k, f) in out.iter_mut().enumerate() {
+                    *f = receiver(surfaces, start + k)
+                        .and_then(|rx| entry.geometry(&rx, start + k))
+                        .map_or(0.0, |(_, factor)| factor as f32);
+                }
+            });
+    }
+
+    /// The active light's γ per pixel for its current aim, and the curve coordinates.
+    fn refresh_active_gamma(&mut self) {
+        let Some(active) = self.active.as_mut() else {
+            return;
+        };
+        let light = &self.entries[active.index].light;
+        let (position, aim) = (light.position, light.state.aim);
+        let points = self.surfaces.raw_points();
+        active
+            .gamma_deg
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .zip(active.factor.par_chunks(PIXELS_PER_TASK))
+            .enumerate()
+            .for_each(|(chunk, (gamma, factor))| {
+                let start = chunk * PIXELS_PER_TASK;
+                for (k, (g, &f)) in gamma.iter_mut().zip(factor).enumerate() {
+                    if f == 0.0 {
+                        continue;
+                    }
+                    let d = DVec3::from(points[start + k].map(f64::from)) - position;
+                    *g = acos(aim.dot(d) / d.length()).to_degrees() as f32;
+                }
+            });
+        self.refresh_active_coordinates();
+    }
+
+    /// The active light's curve coordinate per pixel, from γ.
+    fn refresh_active_coordinates(&mut self) {
+        let Some(active) = self.active.as_mut() else {
+            return;
+        };
+        let lookup = &self.entries[active.index].lookup;
+        active
+            .coordinate
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .zip(active.gamma_deg.par_chunks(PIXELS_PER_TASK))
+            .zip(active.factor.par_chunks(PIXELS_PER_TASK))
+            .for_each(|((coordinate, gamma), factor)| {
+                for ((u, &g), &f) in coordinate.iter_mut().zip(gamma).zip(factor) {
+                    *u = if f == 0.0 {
+                        -1.0
+                    } else {
+                        lookup.coordinate_deg(f64::from(g))
+                    };
+                }
+            });
+    }
+
+    /// Direct illuminance (lx, linear RGB) of every light at every pixel into `out` (resized to
+    /// the pixel count); the background gets 0.
+    pub fn direct_into(&self, out: &mut Vec<[f32; 3]>) {
+        self.compose_into(None, out);
+    }
+
+    /// Direct plus indirect illuminance (lx, linear RGB) at every pixel into `out` (resized to
+    /// the pixel count): `indirect_lx` holds per-vertex indirect light of the mesh the surfaces
+    /// were built from, interpolated over each pixel's triangle (Gouraud). Negative sums (ringing
+    /// of a truncated indirect series) read 0 (+0, never −0); the background gets 0.
+    ///
+    /// Errors (internal): `indirect_lx` does not hold one value per vertex.
+    pub fn illuminance_into(&self, indirect_lx: &[[f32; 3]], out: &mut Vec<[f32; 3]>) -> Result<()> {
+        self.check_indirect(indirect_lx)?;
+        self.compose_into(Some(indirect_lx), out);
+        Ok(())
+    }
+
+    /// Shades every pixel of `frame` (built with the surfaces) in one pass: the illuminance of
+    /// [`PixelLighting::illuminance_into`] (direct alone when `indirect_lx` is `None`) through
+    /// `shader` (photo shaders see the luminance `ρ E / π` of the pixel's surface, false colour the
+    /// illuminance; the background gets [`BACKGROUND_RGB`]). With `lux` the illuminance is also
+    /// written there (resized), for the legend's isolux lines, picking and PFM files.
+    ///
+    /// Errors (internal): `indirect_lx` is not one value per vertex, or `frame` is not the
+    /// surfaces' size.
+    pub fn render_into(
+        &self,
+        frame: &mut Frame,
+        indirect_lx: Option<&[[f32; 3]]>,
+        shader: &DisplayShader,
+        lux: Option<&mut Vec<[f32; 3]>>,
+    ) -> Result<()> {
+        if let Some(values) = indirect_lx {
+            self.check_indirect(values)?;
+        }
+        let n = self.surfaces.len();
+        if frame.depth.len() != n {
+            return Err(Error::internal(format!(
+                "pixel lighting: a frame of {} pixels for {n} surface pixels",
+                frame.depth.len()
+            )));
+        }
+        let (pixels, _) = frame.pixmap.data_mut().as_chunks_mut::<4>();
+        match lux {
+            Some(lux) => {
+                self.compose_into(indirect_lx, lux);
+                self.shade_chunks(pixels, shader, Source::Lux(lux));
+            }
+            None => self.shade_chunks(pixels, shader, Source::Compose(indirect_lx)),
+        }
+        Ok(())
+    }
+
+    /// Calls `f(k, E)` with the illuminance of pixel `start + k`, `k < len`, from `source`.
+    #[inline]
+    fn illuminance_chunk(
+        &self,
+        source: &Source,
+        start: usize,
+        len: usize,
+        mut f: impl FnMut(usize, [f32; 3]),
+    ) {
+        match source {
+            Source::Lux(lux) => {
+                for (k, &e) in lux[start..start + len].iter().enumerate() {
+                    f(k, e);
+                }
+            }
+            Source::Compose(indirect) => self.compose_chunk(start, len, *indirect, f),
+        }
+    }
+
+    /// Shades `pixels` chunk by chunk in parallel from the illuminance `source`; the shader is
+    /// chosen once per chunk, outside the per-pixel loop.
+    fn shade_chunks(&self, pixels: &mut [[u8; 4]], shader: &DisplayShader, source: Source) {
+        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
+        let triangles = self.surfaces.triangle_codes();
+        let luminance = self.surfaces.patch_luminance_factors();
+        let table = tone::table();
+        pixels
+            .par_chunks_mut(PIXELS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, pixels)| {
+                let start = chunk * PIXELS_PER_TASK;
+                let triangles = &triangles[start..start + pixels.len()];
+                match shader {
+                    DisplayShader::Photo(photo) => {
+                        let exposure = photo.exposure() as f32;
+                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
+                            let t = triangles[k];
+                            pixels[k] = if t == NO_TRIANGLE {
+                                background
+                            } else {
+                                let f = luminance[(t >> 1) as usize];
+                                [
+                                    tone_srgb8(table, f[0] * e[0] * exposure),
+                                    tone_srgb8(table, f[1] * e[1] * exposure),
+                                    tone_srgb8(table, f[2] * e[2] * exposure),
+                                    255,
+                                ]
+                            };
+                        });
+                    }
+                    DisplayShader::FalseColor(scale) => {
+                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
+                            pixels[k] = if triangles[k] == NO_TRIANGLE {
+                                background
+                            } else {
+                                let [r, g, b] = scale.shade(e);
+                                [r, g, b, 255]
+                            };
+                        });
+                    }
+                }
+            });
+    }
+
+    /// The illuminance (lx, linear RGB) at pixel `i` alone, as [`PixelLighting::illuminance_into`]
+    /// computes it (the lux under the cursor); `None` for a pixel outside the image.
+    ///
+    /// Errors (internal): `indirect_lx` is not one value per vertex.
+    pub fn illuminance_at(&self, i: usize, indirect_lx: Option<&[[f32; 3]]>) -> Result<Option<[f32; 3]>> {
+        if let Some(values) = indirect_lx {
+            self.check_indirect(values)?;
+        }
+        if i >= self.surfaces.len() {
+            return Ok(None);
+        }
+        let mut value = [0.0; 3];
+        self.compose_chunk(i, 1, indirect_lx, |_, e| value = e);
+        Ok(Some(value))
+    }
+
+    fn check_indirect(&self, indirect_lx: &[[f32; 3]]) -> Result<()> {
+        let needed = self.surfaces.n_vertices();
+        if indirect_lx.len() == needed {
+            Ok(())
+        } else {
+            Err(Error::internal(format!(
+                "pixel lighting: {} indirect values for {needed} vertices",
+                indirect_lx.len()
+            )))
+        }
+    }
+
+    /// Calls `f(k, E)` with the illuminance `E` (lx, linear RGB, ≥ +0) of pixel `start + k` for
+    /// `k < len`: `others`, plus the active light, plus the indirect light interpolated over the
+    /// pixel's triangle. One tight loop over the chunk's slices (the editor's hot path).
+    #[inline]
+    fn compose_chunk(
+        &self,
+        start: usize,
+        len: usize,
+        indirect: Option<&[[f32; 3]]>,
+        mut f: impl FnMut(usize, [f32; 3]),
+    ) {
+        let range = start..start + len;
+        let others = &self.others[range.clone()];
+        let triangles = &self.surfaces.triangle_codes()[range.clone()];
+        let weights = &self.surfaces.raw_weights()[range.clone()];
+        let vertices = self.surfaces.patch_vertex_ids();
+        let active = self.active.as_ref().and_then(|active| {
+            let entry = &self.entries[active.index];
+            let s = &entry.light.state;
+            let scale = [0, 1, 2].map(|ch| (s.color[ch] * s.dimmer) as f32);
+            (!entry.is_dark()).then(|| {
+                (
+                    &active.factor[range.clone()],
+                    &active.coordinate[range.clone()],
+                    &entry.lookup,
+                    scale,
+                )
+            })
+        });
+        for k in 0..len {
+            let mut e = others[k];
+            if let Some((factor, coordinate, lookup, scale)) = active {
+                let g = factor[k];
+                if g != 0.0 {
+                    let intensity = lookup.at_coordinate(coordinate[k]) * g;
+                    e[0] += scale[0] * intensity;
+                    e[1] += scale[1] * intensity;
+                    e[2] += scale[2] * intensity;
+                }
+            }
+            let t = triangles[k];
+            if let Some(values) = indirect
+                && t != NO_TRIANGLE
+            {
+                let v = vertices[(t >> 1) as usize];
+                let (b, c) = if t & 1 == 0 { (v[1], v[2]) } else { (v[2], v[3]) };
+                let (va, vb, vc) = (values[v[0] as usize], values[b as usize], values[c as usize]);
+                let [wb, wc] = weights[k];
+                let wa = 1.0 - wb - wc;
+                e[0] += wa * va[0] + wb * vb[0] + wc * vc[0];
+                e[1] += wa * va[1] + wb * vb[1] + wc * vc[1];
+                e[2] += wa * va[2] + wb * vb[2] + wc * vc[2];
+            }
+            f(k, [non_negative(e[0]), non_negative(e[1]), non_negative(e[2])]);
+        }
+    }
+
+    fn compose_into(&self, indirect: Option<&[[f32; 3]]>, out: &mut Vec<[f32; 3]>) {
+        out.resize(self.surfaces.len(), [0.0; 3]);
+        out.par_chunks_mut(PIXELS_PER_TASK)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                self.compose_chunk(chunk * PIXELS_PER_TASK, out.len(), indirect, |k, e| out[k] = e);
+            });
+    }
+
+    /// Bytes held per pixel whatever the number of lights (surfaces, `others`, the active
+    /// light's cache), and per (light, pixel) (a visibility bit when something can occlude).
+    pub fn memory_per_pixel(&self) -> (f64, f64) {
+        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 12;
+        let per_light = if self.entries.iter().any(|e| e.visible.is_some()) {
+            1.0 / 8.0
+        } else {
+            0.0
+        };
+        (shared as f64, per_light)
+    }
+}
+
+/// `v` scaled to unit length; a `v` already unit to rounding is kept bit for bit, so setting the
+/// same state twice changes nothing.
+fn unit(v: DVec3) -> DVec3 {
+    if (v.length_squared() - 1.0).abs() <= 4.0 * f64::EPSILON {
+        v
+    } else {
+        v.normalize()
+    }
+}
+
+/// `x` when positive, else +0 (never −0 or NaN: a dark pixel reads 0 lx).
+#[inline]
+fn non_negative(x: f32) -> f32 {
+    if x > 0.0 { x } else { 0.0 }
+}
+
+/// Side of the square pixel tiles whose shadow rays are skipped together.
+const TILE: usize = 16;
+
+/// Visibility bits of `light` at every pixel: set where the pixel faces the light and the shadow
+/// ray from just above the point to the light is free. Tiles of [`TILE`]² pixels test only the
+/// occluders reaching into their box with the light, and none cast rays when none does.
+fn visibility_bits(surfaces: &PixelSurfaces, light: &PixelLight, occluders: &Occluders) -> Vec<u64> {
+    let (n, w) = (surfaces.len(), surfaces.width() as usize);
+    let mut visible = vec![false; n];
+    visible
+        .par_chunks_mut(TILE * w.max(1))
+        .enumerate()
+        .for_each(|(band, rows)| {
+            let first = band * TILE * w;
+            let height = rows.len() / w.max(1);
+            let mut starts: Vec<(usize, DVec3)> = Vec::with_capacity(TILE * TILE);
+            for x0 in (0..w).step_by(TILE) {
+                starts.clear();
+                let (mut lo, mut hi) = (light.position, light.position);
+                for y in 0..height {
+                    for x in x0..(x0 + TILE).min(w) {
+                        let k = y * w + x;
+                        let Some(rx) = receiver(surfaces, first + k) else {
+                            continue;
+                        };
+                        if geometry_factor(light.position, light.radius_m, &rx).is_none() {
+                            continue;
+                        }
+                        let from = rx.point + rx.normal * RAY_LIFT_M;
+                        lo = lo.min(from);
+                        hi = hi.max(from);
+                        starts.push((k, from));
+                    }
+                }
+                if starts.is_empty() {
+                    continue;
+                }
+                let near = occluders.within(lo, hi);
+                for &(k, from) in &starts {
+                    rows[k] = near.is_empty() || !near.blocked(from, light.position);
+                }
+            }
+        });
+    let mut bits = vec![0u64; n.div_ceil(64)];
+    bits.par_iter_mut()
+        .zip(visible.par_chunks(64))
+        .for_each(|(word, flags)| {
+            *word = flags
+                .iter()
+                .enumerate()
+                .fold(0, |acc, (b, &on)| acc | (u64::from(on) << b));
+        });
+    bits
+}
