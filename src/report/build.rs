@@ -2,20 +2,18 @@
 //! rendered through the session, its design numbers, the luminaire schedule of the current
 //! lights and the accuracy settings of its bake, put into [`crate::report::html`].
 //!
-//! Views, in order: the plan (see [`plan_camera`]), the room's camera in photo mode and in false
-//! colour (with the legend of the false-colour scale). The plan is the one place to change when
-//! the renderer gains an orthographic plan view with isolux lines: [`plan_image`] renders it.
+//! Views, in order: the plan (the session's orthographic plan view in false colour, with isolux
+//! lines, luminaire symbols and the legend: [`plan_image`]), the room's camera in photo mode and
+//! in false colour (with the legend of the false-colour scale).
 
 use std::fmt::Write as _;
-
-use glam::DVec3;
 
 use crate::error::{Error, Result};
 use crate::metrics::{SourceStatus, luminaire_schedule};
 use crate::render::{DisplayMode, DisplayShader};
 use crate::report::html::{ReportImage, ReportInput, html};
 use crate::scene::{Camera, DirectMode};
-use crate::session::{Command, DesignNumbers, FrameSpec, LightStatus, Session};
+use crate::session::{Command, DesignNumbers, FrameSpec, LightStatus, Session, ViewChoice};
 
 /// Size of the report's views, pixels: wide enough for print at 180 mm, small enough that the
 /// file stays a few hundred kilobytes.
@@ -36,27 +34,6 @@ impl Default for ReportOptions {
     }
 }
 
-/// How far above the room the plan's eye stands, in multiples of the room's larger side: far
-/// enough that the walls, seen almost edge-on, are thin bands (the view is nearly parallel).
-const PLAN_EYE_DISTANCE: f64 = 20.0;
-/// Margin around the footprint in the plan, as a fraction of each side.
-const PLAN_MARGIN: f64 = 0.04;
-
-/// The camera of the interim plan view: straight down from far above the centre of the room,
-/// x to the right and y up in the image, the footprint filling an image of `aspect`
-/// (width / height) with a margin. The ceiling faces away from it and is culled, so the floor,
-/// the furniture tops and the walls' top edges show.
-pub(crate) fn plan_camera(room_size: DVec3, aspect: f64) -> Camera {
-    let centre = DVec3::new(0.5 * room_size.x, 0.5 * room_size.y, 0.0);
-    let distance = PLAN_EYE_DISTANCE * room_size.x.max(room_size.y) + room_size.z;
-    let half_height = 0.5 * (1.0 + 2.0 * PLAN_MARGIN) * room_size.y.max(room_size.x / aspect);
-    Camera {
-        eye: centre + DVec3::Z * distance,
-        target: centre,
-        fov_deg: 2.0 * (half_height / distance).atan().to_degrees(),
-    }
-}
-
 /// Renders one view of the session through `camera` in `mode` as PNG bytes.
 fn view_png(
     session: &mut Session,
@@ -67,19 +44,31 @@ fn view_png(
     session
         .apply(Command::SetCamera(camera))
         .map_err(|e| Error::internal(format!("report: {e}")))?;
-    let spec = FrameSpec::new((options.width_px, options.height_px), mode);
+    png(
+        session,
+        &FrameSpec::new((options.width_px, options.height_px), mode),
+    )
+}
+
+/// The plan view as PNG bytes: straight down onto the floor with a parallel projection, in false
+/// colour on the scale of the perspective rendered before it, with isolux lines at round values,
+/// the luminaire symbols and their aim, and the legend.
+pub(crate) fn plan_image(session: &mut Session, options: &ReportOptions) -> Result<Vec<u8>> {
+    let spec = FrameSpec {
+        view: ViewChoice::Plan,
+        isolux: true,
+        ..FrameSpec::new((options.width_px, options.height_px), DisplayMode::FalseColor)
+    };
+    png(session, &spec)
+}
+
+/// The frame `spec` of the session as PNG bytes.
+fn png(session: &mut Session, spec: &FrameSpec) -> Result<Vec<u8>> {
     session
-        .render(&spec)?
+        .render(spec)?
         .pixmap
         .encode_png()
         .map_err(|e| Error::internal(format!("report: PNG encoding failed: {e}")))
-}
-
-/// The plan view as PNG bytes: for now a false-colour view through [`plan_camera`].
-pub(crate) fn plan_image(session: &mut Session, options: &ReportOptions) -> Result<Vec<u8>> {
-    let aspect = f64::from(options.width_px) / f64::from(options.height_px);
-    let camera = plan_camera(session.scene().room_size, aspect);
-    view_png(session, camera, DisplayMode::FalseColor, options)
 }
 
 /// The accuracy settings of the session as (setting, value) rows.
@@ -232,7 +221,7 @@ pub fn report_html(session: &mut Session, room_file: &str, options: &ReportOptio
     }))
 }
 
-/// The three views, rendered through the plan camera and `home`.
+/// The three views: the plan, and the perspective through `home`.
 fn render_views(session: &mut Session, home: Camera, options: &ReportOptions) -> Result<[Vec<u8>; 3]> {
     // The false-colour scale is fitted at the first false-colour frame: the room's camera first,
     // so the plan and the perspective share the scale of the view the user knows.
