@@ -436,7 +436,8 @@ fn note_read(path: &Path, metadata: &fs::Metadata) {
 }
 
 /// Refuses to write `output` when it is one of the command's inputs (the same file, by device
-/// and inode): one of `inputs`, or any file this process has read through [`read_bytes`]. Bad
+/// and inode): one of `inputs`, or any file this process has read through [`read_bytes`] whose
+/// path still names it. Bad
 /// input naming the output and the input (exit code 2).
 pub(crate) fn check_not_an_input(output: &Path, inputs: &[&Path]) -> Result<()> {
     let Some(output_id) = FileId::of_path(output) else {
@@ -448,8 +449,10 @@ pub(crate) fn check_not_an_input(output: &Path, inputs: &[&Path]) -> Result<()> 
         .map(|p| p.to_path_buf())
         .find(|input| FileId::of_path(input).as_ref() == Some(&output_id))
         .or_else(|| {
+            // A file read earlier counts while its path still names that file: once it is
+            // deleted, its inode may be reused by an unrelated file.
             read.iter()
-                .find(|(id, _)| *id == output_id)
+                .find(|(id, path)| *id == output_id && FileId::of_path(path).as_ref() == Some(id))
                 .map(|(_, p)| p.clone())
         });
     match input {
