@@ -699,14 +699,7 @@ impl Session {
     /// [`Session::watched`] recomputes only the lights changed since. Returns its handle.
     pub fn watch(&mut self, receivers: Vec<Receiver>) -> WatchId {
         let occluders = self.occluders();
-        let set = ReceiverSet::new(
-            &self.scene,
-            receivers,
-            self.lights.len(),
-            self.has_indirect(),
-            DirectMode::Exact,
-            occluders.as_deref(),
-        );
+        let set = self.exact_receiver_set(receivers, occluders.as_deref());
         let id = WatchId(self.next_watch);
         self.next_watch += 1;
         self.watches.push((id, set));
@@ -742,6 +735,19 @@ impl Session {
         self.bake
             .as_ref()
             .is_some_and(|b| b.lights.iter().any(|l| l.has_indirect()))
+    }
+
+    /// A receiver set at `receivers` for this session's lights, as the numbers use it: exact
+    /// direct light, plus the gathered indirect light when the session has a bake.
+    fn exact_receiver_set(&self, receivers: Vec<Receiver>, occluders: Option<&Occluders>) -> ReceiverSet {
+        ReceiverSet::new(
+            &self.scene,
+            receivers,
+            self.lights.len(),
+            self.has_indirect(),
+            DirectMode::Exact,
+            occluders,
+        )
     }
 
     /// The furniture that casts shadows: the bake's, else the scene's built once.

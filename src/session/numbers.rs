@@ -8,7 +8,6 @@
 use crate::metrics::{
     CalcGrid, ObserverGlare, SurfaceResult, eye_receivers, glare_with, surface_grids, surface_results,
 };
-use crate::scene::DirectMode;
 use crate::session::Session;
 use crate::session::receivers::ReceiverSet;
 use crate::transport::direct::Receiver;
@@ -49,14 +48,7 @@ impl Session {
                     grids.iter().flat_map(|g| g.receivers.iter().copied()).collect();
                 let n_grid = receivers.len();
                 receivers.extend(eye_receivers(&self.scene));
-                let set = ReceiverSet::new(
-                    &self.scene,
-                    receivers,
-                    self.lights.len(),
-                    self.has_indirect(),
-                    DirectMode::Exact,
-                    occluders.as_deref(),
-                );
+                let set = self.exact_receiver_set(receivers, occluders.as_deref());
                 DesignWatch { grids, n_grid, set }
             }
         };
