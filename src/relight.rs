@@ -73,6 +73,9 @@ struct LitLight {
     cache: DirectCache,
     /// The baked basis (None without a bake).
     basis: Option<LightBasis>,
+    /// Indirect irradiance per fine vertex (lx, per channel, colour not applied) given by the
+    /// hierarchical engine ([`Relighter::set_indirect`]); used instead of the basis when set.
+    given_indirect: Option<Vec<[f64; 3]>>,
     /// Direct illuminance (lx) at each fine vertex, dimmer applied, colour not.
     direct: Vec<f64>,
     /// Contribution to every fine vertex (lx, linear RGB, colour applied).
@@ -147,6 +150,7 @@ impl Relighter {
             radius_m: light.radius,
             cache: self.direct_cache(light.position, light.radius),
             basis,
+            given_indirect: None,
             direct: vec![0.0; self.receivers.len()],
             contribution: vec![[0.0; 3]; self.receivers.len()],
         }
@@ -171,11 +175,20 @@ impl Relighter {
         self.lights.len()
     }
 
-    /// True when indirect light from a bake is included.
+    /// True when indirect light from a bake (or given by the hierarchical engine) is included.
     pub fn has_indirect(&self) -> bool {
-        self.lights
-            .iter()
-            .any(|l| l.basis.as_ref().is_some_and(|b| b.baked.has_indirect()))
+        self.lights.iter().any(|l| {
+            l.given_indirect.is_some() || l.basis.as_ref().is_some_and(|b| b.baked.has_indirect())
+        })
+    }
+
+    /// Gives light `i`'s indirect irradiance per fine vertex (lx, per channel, colour not
+    /// applied; from the hierarchical engine, [`crate::transport::indirect`]): it replaces the
+    /// baked basis's indirect light from the light's next recomputation on (the caller follows
+    /// with [`Self::set_light`] or another setter).
+    pub fn give_indirect(&mut self, i: usize, indirect: Vec<[f64; 3]>) {
+        assert_eq!(indirect.len(), self.receivers.len(), "one value per fine vertex");
+        self.lights[i].given_indirect = Some(indirect);
     }
 
     /// Total illuminance per fine vertex (lx, linear RGB).
@@ -406,7 +419,7 @@ impl Relighter {
                 ),
             }
         }
-        let indirect = if has_basis {
+        let indirect = if has_basis && self.lights[i].given_indirect.is_none() {
             self.blend_indirect(i, &coeffs)
         } else {
             None
@@ -415,6 +428,7 @@ impl Relighter {
         let light = &mut self.lights[i];
         let color = light.state.color;
         let direct = &light.direct;
+        let given = light.given_indirect.as_deref();
         light
             .contribution
             .par_iter_mut()
@@ -423,9 +437,11 @@ impl Relighter {
             .with_min_len(MIN_VERTICES_PER_TASK)
             .for_each(|(v, (out, total))| {
                 for ch in 0..3 {
-                    let ind = indirect.as_ref().map_or(0.0, |(values, channels)| {
-                        values[v * channels + ch.min(channels - 1)]
-                    });
+                    let ind = match (given, &indirect) {
+                        (Some(g), _) => g[v][ch],
+                        (None, Some((values, channels))) => values[v * channels + ch.min(channels - 1)],
+                        (None, None) => 0.0,
+                    };
                     let new = color[ch] * (direct[v] + ind);
                     if update_total {
                         total[ch] += new - out[ch];

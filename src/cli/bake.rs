@@ -34,6 +34,14 @@ pub(crate) fn format_plan(p: &Plan) -> String {
         on(p.direct_basis.on),
         p.direct_basis.reason
     ));
+    s.push_str(&format!(
+        "hierarchical     {}  {}\n",
+        on(p.hierarchical.on),
+        p.hierarchical.reason
+    ));
+    for note in &p.refinement {
+        s.push_str(&format!("refinement       {}\n", printable(note)));
+    }
     for l in &p.lights {
         s.push_str(&format!(
             "light {:<10} order {:>2} ({} columns): {}\n    window {}: {}\n    mask: {}\n",

@@ -39,7 +39,7 @@ pub use command::{Applied, Change, Command, CommandError, RoomBounds};
 pub use frame::{ExposureChoice, FrameSpec, MAX_SIDE_PX, PixelHit, ViewChoice};
 pub use light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
 pub use numbers::DesignNumbers;
-pub use receivers::{LightInput, ReceiverSet};
+pub use receivers::{IndirectSource, LightInput, ReceiverSet};
 pub use series::Series;
 
 use crate::error::{Error, Result};
@@ -47,9 +47,13 @@ use crate::photometry::IncrementalWeights;
 use crate::relight::Relighter;
 use crate::render;
 use crate::scene::{Camera, DirectMode, Scene};
-use crate::transport::bake::{Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake};
+use crate::transport::bake::{
+    Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake, plan_without_basis,
+};
 use crate::transport::cache::BakeCache;
 use crate::transport::direct::Receiver;
+use crate::transport::indirect::HierarchicalIndirect;
+use crate::transport::interreflection::InterreflectionOptions;
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{Plan, plan_light};
 use frame::FrameBuffers;
@@ -122,6 +126,8 @@ struct LightSlot {
     /// Bumped whenever anything the light's illuminance depends on changes (its state, its
     /// position, its installed bake): receiver sets recompute a light whose version moved.
     version: u64,
+    /// The version the hierarchical engine last solved the light for.
+    solved: u64,
 }
 
 /// Re-bakes one light: runs on any thread, then goes back to [`Session::finish_bake`].
@@ -188,6 +194,11 @@ pub struct Session {
     bounds: RoomBounds,
     options: SessionOptions,
     bake: Option<Bake>,
+    /// The hierarchical indirect engine with every light solved, when the plan chose it
+    /// (docs/DECISIONS.md "Interreflection").
+    hierarchical: Option<HierarchicalIndirect>,
+    /// A failed solve of the hierarchical engine, reported by the next render or query.
+    indirect_failure: Option<Error>,
     relighter: Option<Relighter>,
     /// Bumped whenever the fine-vertex illuminance changes.
     illuminance_version: u64,
@@ -217,6 +228,7 @@ fn light_inputs<'a>(
     lights: &'a [LightEdit],
     slots: &'a [LightSlot],
     bake: Option<&'a Bake>,
+    hierarchical: Option<&'a HierarchicalIndirect>,
 ) -> Vec<LightInput<'a>> {
     lights
         .iter()
@@ -226,6 +238,7 @@ fn light_inputs<'a>(
             light,
             weights: slot.weights.weights(),
             baked: bake.map(|b| &b.lights[i]),
+            radiosity: hierarchical.map(|h| h.light_radiosity(i)),
             version: slot.version,
         })
         .collect()
@@ -253,17 +266,42 @@ impl Session {
         Session::new(crate::scene::load(path)?, options, progress)
     }
 
-    /// Plans `scene` and, unless `options.indirect` is false, bakes it (from the cache when
-    /// valid), reporting progress. The relighter is built on first need.
+    /// Plans `scene` and, unless `options.indirect` is false, computes its indirect light: with
+    /// the hierarchical engine when the plan chose it (every light solved now), else by baking
+    /// the SH basis (from the cache when valid), reporting progress. The relighter is built on
+    /// first need.
     ///
     /// Errors: the interreflection solve failing (internal).
     pub fn new(scene: Scene, options: SessionOptions, progress: &mut dyn FnMut(Progress)) -> Result<Session> {
-        let (bake, plan) = if options.indirect {
+        let planned = crate::transport::plan::plan(&scene, options.bake.plan);
+        let mut hierarchical = None;
+        let (bake, plan) = if options.indirect && planned.hierarchical.on {
+            let bake = plan_without_basis(&scene, &options.bake);
+            progress(Progress {
+                stage: "interreflection engine",
+                done: 0,
+                total: 1,
+            });
+            hierarchical = Some(HierarchicalIndirect::build(
+                &scene,
+                &scene.lights,
+                planned.channels,
+                planned.visibility.on,
+                options.bake.tolerance.unwrap_or(scene.settings.tolerance),
+                &InterreflectionOptions::default(),
+            )?);
+            progress(Progress {
+                stage: "interreflection engine",
+                done: 1,
+                total: 1,
+            });
+            (Some(bake), planned)
+        } else if options.indirect {
             let bake = bake(&scene, &options.bake, progress)?;
             let plan = bake.plan.clone();
             (Some(bake), plan)
         } else {
-            (None, crate::transport::plan::plan(&scene, options.bake.plan))
+            (None, planned)
         };
         let lights = initial_lights(&scene, &plan);
         let slots = lights
@@ -276,6 +314,7 @@ impl Session {
                 generation: 0,
                 installed: 0,
                 version: 1,
+                solved: 1,
                 key: bake.as_ref().map(|b| {
                     b.transport
                         .light_key(&LightBakeSpec::new(&scene.lights[i], &b.plan.lights[i]))
@@ -292,6 +331,8 @@ impl Session {
             slots,
             options,
             bake,
+            hierarchical,
+            indirect_failure: None,
             relighter: None,
             illuminance_version: 0,
             jobs: Vec::new(),
@@ -398,8 +439,9 @@ impl Session {
     }
 
     /// Queues a bake of light `i` for its current position and order (replacing a queued one).
+    /// The hierarchical engine needs none: it re-solves the light at the next relight.
     fn queue_bake(&mut self, i: usize) {
-        let Some(bake) = &self.bake else {
+        let Some(bake) = self.bake.as_ref().filter(|_| self.hierarchical.is_none()) else {
             return;
         };
         let light = self.lights[i].to_light();
@@ -433,8 +475,20 @@ impl Session {
                 installed: 0,
                 key: None,
                 version: 1,
+                // Solved below (or never, without the hierarchical engine).
+                solved: 1,
             },
         );
+        if let Some(h) = &mut self.hierarchical
+            && h.insert_light(at, &light.to_light()).is_err()
+        {
+            // Added without indirect light: the next relight solves it again.
+            self.slots[at].solved = 0;
+        }
+        if self.hierarchical.is_some() {
+            // The relighter gets its indirect light at the next relight.
+            self.slots[at].dirty.state = true;
+        }
         let scene_light = light.to_light();
         if let Some(bake) = &mut self.bake {
             let lp = plan_light(&self.scene, &scene_light, self.options.bake.plan);
@@ -454,6 +508,9 @@ impl Session {
         let slot = self.slots.remove(at);
         self.each_receiver_set(|set| set.remove_light(at));
         self.jobs.retain(|j| j.light != slot.id);
+        if let Some(h) = &mut self.hierarchical {
+            h.remove_light(at);
+        }
         if let Some(bake) = &mut self.bake {
             bake.lights.remove(at);
             bake.plan.lights.remove(at);
@@ -541,9 +598,36 @@ impl Session {
         &self.scene
     }
 
+    /// Re-solves, with the hierarchical engine, every light changed since its last solve.
+    ///
+    /// Errors: a solve failed (internal); that light keeps its previous indirect light and is
+    /// tried again at the next call.
+    fn solve_indirect(&mut self) -> Result<()> {
+        let Some(h) = &mut self.hierarchical else {
+            return Ok(());
+        };
+        for (i, (slot, light)) in self.slots.iter_mut().zip(&self.lights).enumerate() {
+            if slot.solved != slot.version {
+                h.set_light(i, &light.to_light())?;
+                slot.solved = slot.version;
+            }
+        }
+        Ok(())
+    }
+
+    /// [`Session::solve_indirect`], keeping a failure for the next render or query.
+    pub(crate) fn solve_indirect_or_keep(&mut self) {
+        if let Err(e) = self.solve_indirect() {
+            self.indirect_failure = Some(e);
+        }
+    }
+
     /// Recomputes the lights that commands changed (building the relighter on first use);
-    /// returns their indices.
+    /// returns their indices. A failed solve of the hierarchical engine leaves that light's
+    /// indirect light as it was; the next [`Session::render`] or [`Session::illuminance_at`]
+    /// returns the error.
     pub fn relight(&mut self) -> Vec<usize> {
+        self.solve_indirect_or_keep();
         if self.relighter.is_none() {
             self.synced_scene();
             let relighter = match &self.bake {
@@ -551,8 +635,11 @@ impl Session {
                 None => Relighter::new(&self.scene),
             };
             self.relighter = Some(relighter);
+            let given = self.hierarchical.is_some();
             for slot in &mut self.slots {
                 slot.dirty.moved = false;
+                // The hierarchical engine's indirect light is given to the new relighter below.
+                slot.dirty.state |= given;
             }
         }
         let Some(relighter) = self.relighter.as_mut() else {
@@ -562,6 +649,9 @@ impl Session {
         for (i, (slot, light)) in self.slots.iter_mut().zip(&self.lights).enumerate() {
             if slot.dirty.moved {
                 relighter.move_light(i, light.position);
+            }
+            if let Some(h) = self.hierarchical.as_ref().filter(|_| slot.dirty.state || slot.dirty.moved) {
+                relighter.give_indirect(i, h.vertex_indirect(i));
             }
             if slot.dirty.state || slot.dirty.moved {
                 relighter.set_light(
@@ -582,6 +672,11 @@ impl Session {
         relit
     }
 
+    /// The error of a failed solve since the last call, if any.
+    fn take_indirect_failure(&mut self) -> Result<()> {
+        self.indirect_failure.take().map_or(Ok(()), Err)
+    }
+
     /// Total illuminance per fine vertex (lx, linear RGB), recomputed first if commands changed
     /// a light.
     pub fn vertex_illuminance(&mut self) -> &[[f64; 3]] {
@@ -595,6 +690,7 @@ impl Session {
     /// Errors: a bad size (bad input naming `width`/`height`), an internal render failure.
     pub fn render(&mut self, spec: &FrameSpec) -> Result<&render::Frame> {
         self.relight();
+        self.take_indirect_failure()?;
         let relighter = self
             .relighter
             .as_ref()
@@ -677,6 +773,7 @@ impl Session {
                 "basis mode needs the bake: drop --direct-only",
             ));
         }
+        self.solve_indirect()?;
         let occluders = self.occluders();
         let mut lux = Vec::with_capacity(receivers.len());
         for chunk in receivers.chunks(RECEIVERS_PER_CHUNK) {
@@ -684,7 +781,7 @@ impl Session {
                 &self.scene,
                 chunk.to_vec(),
                 self.lights.len(),
-                indirect,
+                if indirect { self.indirect_source() } else { IndirectSource::None },
                 mode,
                 occluders.as_deref(),
             );
@@ -710,6 +807,7 @@ impl Session {
     /// [`Session::unwatch`]ed).
     pub fn watched(&mut self, id: WatchId) -> Option<&ReceiverSet> {
         let k = self.watches.iter().position(|(w, _)| *w == id)?;
+        self.solve_indirect_or_keep();
         let occluders = self.occluders();
         let mut set = self.watches.swap_remove(k).1;
         set.update(&self.light_inputs(), occluders.as_deref());
@@ -730,11 +828,28 @@ impl Session {
         }
     }
 
-    /// True when the session has indirect light to gather (a bake with an indirect basis).
+    /// True when the session has indirect light to gather (the hierarchical engine, or a bake
+    /// with an indirect basis).
     fn has_indirect(&self) -> bool {
-        self.bake
-            .as_ref()
-            .is_some_and(|b| b.lights.iter().any(|l| l.has_indirect()))
+        self.hierarchical.is_some()
+            || self
+                .bake
+                .as_ref()
+                .is_some_and(|b| b.lights.iter().any(|l| l.has_indirect()))
+    }
+
+    /// Where receiver sets gather indirect light from.
+    fn indirect_source(&self) -> IndirectSource {
+        match &self.hierarchical {
+            Some(h) => IndirectSource::Leaves(Arc::clone(h.engine())),
+            None if self.has_indirect() => IndirectSource::Basis,
+            None => IndirectSource::None,
+        }
+    }
+
+    /// The hierarchical indirect engine, when the plan chose it.
+    pub fn hierarchical(&self) -> Option<&HierarchicalIndirect> {
+        self.hierarchical.as_ref()
     }
 
     /// A receiver set at `receivers` for this session's lights, as the numbers use it: exact
@@ -744,7 +859,7 @@ impl Session {
             &self.scene,
             receivers,
             self.lights.len(),
-            self.has_indirect(),
+            self.indirect_source(),
             DirectMode::Exact,
             occluders,
         )
@@ -764,7 +879,7 @@ impl Session {
 
     /// What a receiver set needs of each light, in order.
     fn light_inputs(&self) -> Vec<LightInput<'_>> {
-        light_inputs(&self.lights, &self.slots, self.bake.as_ref())
+        light_inputs(&self.lights, &self.slots, self.bake.as_ref(), self.hierarchical.as_ref())
     }
 
     /// Light `i`'s series as the polar diagram shows it: its order-N series windowed as the

@@ -52,7 +52,13 @@ impl Session {
                 DesignWatch { grids, n_grid, set }
             }
         };
-        let inputs = super::light_inputs(&self.lights, &self.slots, self.bake.as_ref());
+        self.solve_indirect_or_keep();
+        let inputs = super::light_inputs(
+            &self.lights,
+            &self.slots,
+            self.bake.as_ref(),
+            self.hierarchical.as_ref(),
+        );
         design.set.update(&inputs, occluders.as_deref());
         let n_grid = design.n_grid;
         let grids = design.grids.clone();

@@ -9,6 +9,8 @@
 //! over the stored gather factors: no rays. The numbers are those of `haiko probe` at the same
 //! points — `Session::illuminance_at` goes through this type too.
 
+use std::sync::Arc;
+
 use glam::DVec3;
 
 use crate::photometry::{LightState, ShBasis, ZonalWeights, coefficients_from_weights, sh_count};
@@ -17,6 +19,7 @@ use crate::session::light::LightEdit;
 use crate::transport::bake::{BakedLight, patch_reflectance};
 use crate::transport::direct::{DirectCache, Receiver, luminance_weight};
 use crate::transport::gather::{GatherOperator, light_patch_irradiance};
+use crate::transport::interreflection::Interreflection;
 use crate::transport::occlusion::Occluders;
 use crate::transport::visibility::Visibility;
 
@@ -29,6 +32,9 @@ pub struct LightInput<'a> {
     pub weights: &'a ZonalWeights,
     /// Its baked basis, if the session has a bake.
     pub baked: Option<&'a BakedLight>,
+    /// Its leaf radiosity (lm/m², linear RGB, colour applied) when the hierarchical engine
+    /// carries the indirect light.
+    pub radiosity: Option<&'a [[f64; 3]]>,
     /// A number that changes whenever anything above changes (the set recomputes the light
     /// when it differs from the one it last saw).
     pub version: u64,
@@ -43,9 +49,28 @@ struct SetLight {
     cache: DirectCache,
     /// Direct illuminance at each receiver (lx, photopic: colour weighted).
     direct: Vec<f64>,
-    /// Irradiance of every coarse patch (lx, linear RGB, colour applied); empty without the
-    /// gather.
+    /// Irradiance of every coarse patch (lx, linear RGB, colour applied) for the basis gather,
+    /// or radiosity of every leaf (lm/m², linear RGB, colour applied) for the leaves' gather;
+    /// empty without the gather.
     irradiance: Vec<[f64; 3]>,
+}
+
+/// Where a receiver set's indirect light comes from.
+#[derive(Debug, Clone)]
+pub enum IndirectSource {
+    /// None: direct light only.
+    None,
+    /// Gathered from the coarse patches, their radiosity blended from each light's baked basis.
+    Basis,
+    /// Gathered from the leaves of the hierarchical engine (each light's leaf radiosity).
+    Leaves(Arc<Interreflection>),
+}
+
+/// The gather a set holds.
+#[derive(Debug, Clone)]
+enum Gather {
+    Coarse(GatherOperator),
+    Leaves(Arc<Interreflection>),
 }
 
 /// Illuminance at fixed receivers for the lights' current states.
@@ -53,8 +78,8 @@ struct SetLight {
 pub struct ReceiverSet {
     receivers: Vec<Receiver>,
     mode: DirectMode,
-    /// The gather from the coarse patches; `None` for direct light only.
-    gather: Option<GatherOperator>,
+    /// The gather; `None` for direct light only.
+    gather: Option<Gather>,
     /// Coarse patch reflectance per channel (for `B = ρ H`).
     reflectance: [Vec<f64>; 3],
     /// Per light; `None` until first computed (a new set, an inserted light).
@@ -69,19 +94,24 @@ pub struct ReceiverSet {
 
 impl ReceiverSet {
     /// A set for `receivers` in `scene` with `n_lights` lights (computed at the first
-    /// [`Self::update`]). With `indirect`, the gather from the coarse patches is built here
-    /// (four visibility rays per receiver and patch against `occluders`); `mode` chooses how
+    /// [`Self::update`]). With the basis as `indirect` source, the gather from the coarse
+    /// patches is built here (four visibility rays per receiver and patch against `occluders`);
+    /// with the leaves, each update gathers from the summed leaf radiosity. `mode` chooses how
     /// direct light is evaluated (exact, or from each light's SH series as in paper mode).
     pub fn new(
         scene: &Scene,
         receivers: Vec<Receiver>,
         n_lights: usize,
-        indirect: bool,
+        indirect: IndirectSource,
         mode: DirectMode,
         occluders: Option<&Occluders>,
     ) -> Self {
-        let gather = indirect.then(|| GatherOperator::build(scene, occluders, &receivers));
-        let reflectance = if indirect {
+        let gather = match indirect {
+            IndirectSource::None => None,
+            IndirectSource::Basis => Some(Gather::Coarse(GatherOperator::build(scene, occluders, &receivers))),
+            IndirectSource::Leaves(engine) => Some(Gather::Leaves(engine)),
+        };
+        let reflectance = if matches!(gather, Some(Gather::Coarse(_))) {
             [0, 1, 2].map(|ch| patch_reflectance(scene, &scene.coarse, ch))
         } else {
             Default::default()
@@ -152,7 +182,7 @@ impl ReceiverSet {
                 direct: vec![0.0; self.receivers.len()],
                 irradiance: Vec::new(),
             };
-            compute_light(&mut computed, input, self.mode, self.gather.is_some());
+            compute_light(&mut computed, input, self.mode, self.gather.as_ref());
             *slot = Some(computed);
             self.stale = true;
         }
@@ -169,21 +199,31 @@ impl ReceiverSet {
         for (r, total) in self.total.iter_mut().enumerate() {
             *total = lights.iter().map(|l| l.direct[r]).sum();
         }
-        let Some(gather) = &self.gather else {
-            self.indirect.fill(0.0);
-            return;
+        let n_patches = match &self.gather {
+            None => {
+                self.indirect.fill(0.0);
+                return;
+            }
+            Some(Gather::Coarse(_)) => self.reflectance[0].len(),
+            Some(Gather::Leaves(engine)) => engine.n_leaves(),
         };
-        let n_patches = self.reflectance[0].len();
+        // Summed irradiance per coarse patch (times ρ below), or summed leaf radiosity.
         let mut radiosity = vec![[0.0; 3]; n_patches];
         for light in lights.iter().filter(|l| l.irradiance.len() == n_patches) {
             for (b, h) in radiosity.iter_mut().zip(&light.irradiance) {
                 (0..3).for_each(|ch| b[ch] += h[ch]);
             }
         }
-        for (p, b) in radiosity.iter_mut().enumerate() {
-            (0..3).for_each(|ch| b[ch] *= self.reflectance[ch][p]);
-        }
-        let gathered = gather.apply(&radiosity);
+        let gathered = match &self.gather {
+            Some(Gather::Coarse(gather)) => {
+                for (p, b) in radiosity.iter_mut().enumerate() {
+                    (0..3).for_each(|ch| b[ch] *= self.reflectance[ch][p]);
+                }
+                gather.apply(&radiosity)
+            }
+            Some(Gather::Leaves(engine)) => engine.gather(&radiosity, &self.receivers),
+            None => return,
+        };
         for ((total, indirect), e) in self.total.iter_mut().zip(&mut self.indirect).zip(gathered) {
             *indirect = luminance_weight(e);
             *total += *indirect;
@@ -192,7 +232,7 @@ impl ReceiverSet {
 }
 
 /// Fills `out.direct` (and, with the gather, `out.irradiance`) for the light's current state.
-fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, gather: bool) {
+fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, gather: Option<&Gather>) {
     let light = input.light;
     let state = LightState {
         curve: light.curve.clone(),
@@ -230,7 +270,11 @@ fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, g
     if weight != 1.0 {
         out.direct.iter_mut().for_each(|e| *e *= weight);
     }
-    if let (true, Some((_, coeffs, baked))) = (gather, &series) {
-        light_patch_irradiance(baked, coeffs, light.color, &mut out.irradiance);
+    match (gather, &series, input.radiosity) {
+        (Some(Gather::Coarse(_)), Some((_, coeffs, baked)), _) => {
+            light_patch_irradiance(baked, coeffs, light.color, &mut out.irradiance);
+        }
+        (Some(Gather::Leaves(_)), _, Some(radiosity)) => out.irradiance = radiosity.to_vec(),
+        _ => {}
     }
 }

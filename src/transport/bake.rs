@@ -592,3 +592,31 @@ pub fn bake(scene: &Scene, options: &BakeOptions, progress: &mut dyn FnMut(Progr
         form_factor_bytes,
     })
 }
+
+/// Plans `scene` and sets up its transport without baking any basis: every light gets
+/// [`BakedLight::without_indirect`] (the hierarchical engine carries the indirect light,
+/// [`crate::transport::indirect`]).
+pub fn plan_without_basis(scene: &Scene, options: &BakeOptions) -> Bake {
+    let t = Instant::now();
+    let plan = plan(scene, options.plan);
+    let plan_s = t.elapsed().as_secs_f64();
+    let transport = Arc::new(Transport::new(
+        scene,
+        &plan,
+        options,
+        Occluders::of_scene(scene).map(Arc::new),
+    ));
+    let lights = plan.lights.iter().map(BakedLight::without_indirect).collect();
+    Bake {
+        plan,
+        transport,
+        lights,
+        timings: BakeTimings {
+            plan_s,
+            ..BakeTimings::default()
+        },
+        notices: Vec::new(),
+        form_factor_rays: 0,
+        form_factor_bytes: 0,
+    }
+}

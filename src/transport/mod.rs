@@ -7,6 +7,7 @@ pub mod direct;
 pub mod formfactor;
 pub mod gather;
 pub mod hierarchy;
+pub mod indirect;
 pub mod interpolate;
 pub mod interreflection;
 pub mod links;

@@ -5,6 +5,7 @@
 use glam::DVec3;
 use serde::Serialize;
 
+use crate::transport::refine::{RefineOptions, refine};
 use crate::error::printable;
 use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
 use crate::scene::{DirectMode, Scene};
@@ -68,7 +69,27 @@ pub struct PlanOptions {
     pub force_rgb: bool,
     /// Add this to every order the plan chooses (orders fixed by the room file are the user's).
     pub order_boost: usize,
+    /// Which indirect engine to use (automatic by default).
+    pub engine: EngineChoice,
 }
+
+/// Which engine carries the indirect light (docs/DECISIONS.md "Interreflection").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum EngineChoice {
+    /// The hierarchical engine unless the room file asks for paper mode or its graded mesh has
+    /// more than [`HIERARCHICAL_MAX_LEAVES`] leaves.
+    #[default]
+    Auto,
+    /// The SH basis bake (the seed's engine), e.g. for side-by-side tables.
+    Basis,
+    /// The hierarchical engine whatever its size (not in paper mode).
+    Hierarchical,
+}
+
+/// Most leaves the automatic plan gives the hierarchical engine: its link build and per-edit
+/// solve grow with them (docs/DECISIONS.md "Interreflection", measured: 1 355 leaves build in
+/// 2 s and re-solve in 0.2 s, 11 184 leaves in 27 s and 4 s, debug build on a shared machine).
+pub const HIERARCHICAL_MAX_LEAVES: usize = 8000;
 
 /// The plan for a scene.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -83,6 +104,13 @@ pub struct Plan {
     pub channels_reason: String,
     /// Direct light from the basis (paper mode) instead of exact per edit.
     pub direct_basis: Decision,
+    /// The indirect engine: on = the hierarchical engine (graded leaves, exact patch direct light
+    /// per edit, clustered gather), off = the SH basis bake.
+    pub hierarchical: Decision,
+    /// Leaves of the graded solver mesh (0 without interreflection).
+    pub leaves: usize,
+    /// One sentence per refinement of the solver mesh; empty when the scene calls for none.
+    pub refinement: Vec<String>,
     /// Per light.
     pub lights: Vec<LightPlan>,
     /// Fine vertices (display mesh).
@@ -173,6 +201,13 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
         .iter()
         .map(|l| plan_light(scene, l, options))
         .collect();
+    let (leaves, refinement) = if interreflection.on {
+        let solver = refine(scene, &RefineOptions::default());
+        (solver.mesh.patches.len(), solver.notes(scene))
+    } else {
+        (0, Vec::new())
+    };
+    let hierarchical = engine_decision(options.engine, interreflection.on, paper, leaves);
     let n_coarse = scene.coarse.patches.len();
     let per_channel: usize = lights.iter().map(|l| l.columns).sum();
     let columns = per_channel * channels;
@@ -194,8 +229,34 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
         channels,
         channels_reason,
         direct_basis,
+        hierarchical,
+        leaves,
+        refinement,
         lights,
     }
+}
+
+/// Whether the hierarchical engine carries the indirect light, and why.
+fn engine_decision(choice: EngineChoice, interreflection: bool, paper: bool, leaves: usize) -> Decision {
+    let (on, reason) = if !interreflection {
+        (false, "no interreflection to solve".to_string())
+    } else if paper {
+        (false, "paper mode: the SH basis carries direct and indirect light".into())
+    } else {
+        match choice {
+            EngineChoice::Basis => (false, "forced to the SH basis bake".into()),
+            EngineChoice::Hierarchical => (true, format!("forced on: {leaves} leaves")),
+            EngineChoice::Auto if leaves <= HIERARCHICAL_MAX_LEAVES => (
+                true,
+                format!("{leaves} leaves: exact patch direct light per edit, solved and gathered from the leaves"),
+            ),
+            EngineChoice::Auto => (
+                false,
+                format!("{leaves} leaves exceed {HIERARCHICAL_MAX_LEAVES}: the SH basis bake is used"),
+            ),
+        }
+    };
+    Decision { on, reason }
 }
 
 /// The plan of one light of `scene` (its order — the room file's, or the lowest that meets the

@@ -367,6 +367,7 @@ fn the_plan_changes_no_answer_on_the_bundled_rooms() {
                 force_visibility: true,
                 force_rgb: true,
                 order_boost: 4,
+                ..PlanOptions::default()
             },
             ..BakeOptions::default()
         };

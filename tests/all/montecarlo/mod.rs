@@ -6,6 +6,7 @@
 
 pub mod engine;
 pub mod references;
+pub mod session;
 pub mod tracer;
 
 use std::path::Path;

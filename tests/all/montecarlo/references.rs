@@ -654,3 +654,89 @@ fn print_open_plan_costs() {
         all.len()
     );
 }
+
+/// Measures what an edit costs with the interreflection engine on the rooms named by
+/// `HAIKO_COST_ROOMS` (comma-separated paths relative to the crate; `rooms/paper.toml` and
+/// `rooms/office.toml` by default): build, leaves, every light's direct cache, cold solves, a
+/// curve edit of light 0 (patch direct light, warm-started solve) and the gather to every fine
+/// vertex (a study, not a check).
+#[test]
+#[ignore = "a study: prints the engine's build and per-edit costs on rooms"]
+fn print_engine_edit_costs() {
+    use haiko::photometry::{Curve, LightState};
+    use std::time::Instant;
+    let rooms =
+        std::env::var("HAIKO_COST_ROOMS").unwrap_or_else(|_| "rooms/paper.toml,rooms/office.toml".into());
+    for name in rooms.split(',') {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(name.trim());
+        let scene = load(&path).expect("the room loads");
+        let p = plan(&scene, PlanOptions::default());
+        let tolerance = scene.settings.tolerance;
+        let t = Instant::now();
+        let engine = Interreflection::build(
+            &scene,
+            p.channels,
+            p.visibility.on,
+            &InterreflectionOptions::default(),
+        );
+        let build_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let caches: Vec<_> = scene.lights.iter().map(|l| engine.direct_cache(l)).collect();
+        let caches_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let _ = engine.direct_cache(&scene.lights[0]);
+        let one_cache_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let mut solutions = Vec::new();
+        for (light, cache) in scene.lights.iter().zip(&caches) {
+            solutions.push(
+                engine
+                    .solve_light(cache, &LightState::from(light), None, tolerance)
+                    .expect("solves"),
+            );
+        }
+        let cold_s = t.elapsed().as_secs_f64();
+        let mut state = LightState::from(&scene.lights[0]);
+        let points: Vec<(f64, f64)> = state
+            .curve
+            .points()
+            .map(|(g, i)| (g, if g > 20.0 { 0.7 * i } else { i }))
+            .collect();
+        state.curve = Curve::new(&points).expect("a curve");
+        let mut e = vec![0.0; engine.n_leaves()];
+        let t = Instant::now();
+        caches[0].irradiance_into(&state.curve, state.aim, state.dimmer, &mut e);
+        let patch_direct_s = t.elapsed().as_secs_f64();
+        let x0: Vec<_> = solutions[0].iter().map(|s| s.radiosity.clone()).collect();
+        let t = Instant::now();
+        let warm = engine
+            .solve_light(&caches[0], &state, Some(&x0), tolerance)
+            .expect("solves");
+        let warm_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let _ = engine.operator.apply_block(&e, 1);
+        let apply_s = t.elapsed().as_secs_f64();
+        let b = engine.scene_radiosity(&scene, tolerance).expect("solves");
+        let receivers = haiko::relight::fine_receivers(&scene);
+        let t = Instant::now();
+        let _ = engine.gather(&b, &receivers);
+        let gather_s = t.elapsed().as_secs_f64();
+        println!(
+            "{name}: {} lights, {} coarse → {} leaves, {} links, build {build_s:.3} s \
+             (refine {:.3}, links {:.3}, balance {:.3}); direct caches {caches_s:.3} s (one {one_cache_s:.4} s); \
+             cold solves {cold_s:.3} s ({} iterations light 0); curve edit: patch direct {patch_direct_s:.5} s, \
+             warm solve {warm_s:.4} s ({} iterations), one operator application {apply_s:.5} s; \
+             gather to {} fine vertices {gather_s:.3} s",
+            scene.lights.len(),
+            engine.stats.coarse_patches,
+            engine.stats.leaves,
+            engine.stats.links,
+            engine.stats.refine_s,
+            engine.stats.links_s,
+            engine.stats.balance_s,
+            solutions[0][0].columns[0].iterations,
+            warm[0].columns[0].iterations,
+            receivers.len(),
+        );
+    }
+}

@@ -1,0 +1,251 @@
+//! The lights' indirect light through the interreflection engine (docs/DECISIONS.md
+//! "Interreflection", "Wired into the session"): per light its exact patch direct light on the
+//! engine's leaves ([`PatchDirectCache`], rebuilt only when the light moves), its solved leaf
+//! irradiance and radiosity, and from those its indirect light at the fine vertices (interpolated
+//! within each surface, for the display) and at any receiver (the clustered gather, for the
+//! numbers).
+//!
+//! A light's state change (curve, aim, dimmer, colour) costs its patch direct light (one curve
+//! evaluation per cached sample) and a solve warm-started from its previous radiosity; all lights
+//! of a new scene are solved as one block.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::error::Result;
+use crate::photometry::LightState;
+use crate::scene::{Light, Scene};
+use crate::transport::direct::Receiver;
+use crate::transport::interpolate::InterpolationWeights;
+use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
+use crate::transport::patchdirect::PatchDirectCache;
+use crate::transport::radiosity::{PatchColumns, Solution};
+
+/// One light as the engine keeps it.
+#[derive(Debug, Clone)]
+struct SolvedLight {
+    position: DVec3,
+    radius_m: f64,
+    cache: Arc<PatchDirectCache>,
+    /// Per solved channel, the leaf radiosity of the state last solved (for warm starts).
+    radiosity: Vec<PatchColumns>,
+    /// Leaf radiosity (lm/m², linear RGB, colour applied).
+    leaf_radiosity: Vec<[f64; 3]>,
+    /// Leaf indirect irradiance `H − E` (lx) per solved channel, colour not applied.
+    leaf_indirect: Vec<Vec<f64>>,
+}
+
+/// The indirect light of a scene's lights through one shared [`Interreflection`] engine.
+#[derive(Debug, Clone)]
+pub struct HierarchicalIndirect {
+    engine: Arc<Interreflection>,
+    /// Leaves → fine vertices, within each surface.
+    interp: Arc<InterpolationWeights>,
+    tolerance: f64,
+    lights: Vec<SolvedLight>,
+}
+
+impl HierarchicalIndirect {
+    /// Builds the engine for `scene` (`channels` 1 or 3, visibility rays when `visibility`) and
+    /// solves every light of `lights` (their current states) in one block per channel, to the
+    /// certified relative `tolerance`.
+    ///
+    /// Errors: the solve failing (internal).
+    pub fn build(
+        scene: &Scene,
+        lights: &[Light],
+        channels: usize,
+        visibility: bool,
+        tolerance: f64,
+        options: &InterreflectionOptions,
+    ) -> Result<Self> {
+        let engine = Arc::new(Interreflection::build(scene, channels, visibility, options));
+        let interp = Arc::new(InterpolationWeights::new(&engine.solver.mesh, &scene.fine));
+        let caches: Vec<Arc<PatchDirectCache>> = lights.iter().map(|l| Arc::new(engine.direct_cache(l))).collect();
+        let n = engine.n_leaves();
+        let k = lights.len();
+        let mut emission = PatchColumns::zeros(n, k);
+        let mut e = vec![0.0; n];
+        for (c, (light, cache)) in lights.iter().zip(&caches).enumerate() {
+            cache.irradiance_into(&light.curve, light.aim.normalize(), light.dimmer, &mut e);
+            for (p, v) in e.iter().enumerate() {
+                emission.values[p * k + c] = *v;
+            }
+        }
+        let solutions = if k > 0 {
+            engine.solve(&emission, None, tolerance)?
+        } else {
+            Vec::new()
+        };
+        let mut indirect = HierarchicalIndirect {
+            engine,
+            interp,
+            tolerance,
+            lights: Vec::with_capacity(k),
+        };
+        for (c, (light, cache)) in lights.iter().zip(caches).enumerate() {
+            let column = |block: &PatchColumns| PatchColumns::from_columns(n, &[block.column(c)]);
+            let per_channel: Vec<Solution> = solutions
+                .iter()
+                .map(|s| Solution {
+                    irradiance: column(&s.irradiance),
+                    radiosity: column(&s.radiosity),
+                    columns: vec![s.columns[c]],
+                    contraction: s.contraction,
+                    max_row_sum: s.max_row_sum,
+                })
+                .collect();
+            let direct: Vec<f64> = (0..n).map(|p| emission.get(p, c)).collect();
+            let mut solved = SolvedLight {
+                position: light.position,
+                radius_m: light.radius,
+                cache,
+                radiosity: Vec::new(),
+                leaf_radiosity: Vec::new(),
+                leaf_indirect: Vec::new(),
+            };
+            store(&mut solved, &per_channel, &direct, light.color);
+            indirect.lights.push(solved);
+        }
+        Ok(indirect)
+    }
+
+    /// The shared engine (leaves, operator, stats).
+    pub fn engine(&self) -> &Arc<Interreflection> {
+        &self.engine
+    }
+
+    /// Number of lights.
+    pub fn n_lights(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// Solves light `i` for its current state `light`: the direct sample cache is rebuilt first
+    /// when its position or radius changed; the solve starts from its previous radiosity.
+    ///
+    /// Errors: the solve failing (internal); the light keeps its previous result.
+    pub fn set_light(&mut self, i: usize, light: &Light) -> Result<()> {
+        let moved = {
+            let old = &self.lights[i];
+            old.position != light.position || old.radius_m != light.radius
+        };
+        let cache = if moved {
+            Arc::new(self.engine.direct_cache(light))
+        } else {
+            Arc::clone(&self.lights[i].cache)
+        };
+        let (solutions, direct) = self.solve_one(&cache, light, Some(&self.lights[i].radiosity))?;
+        let solved = &mut self.lights[i];
+        solved.position = light.position;
+        solved.radius_m = light.radius;
+        solved.cache = cache;
+        store(solved, &solutions, &direct, light.color);
+        Ok(())
+    }
+
+    /// Adds `light` at index `at` (≤ [`Self::n_lights`]), solved cold.
+    ///
+    /// Errors: the solve failing (internal); the light is added without indirect light.
+    pub fn insert_light(&mut self, at: usize, light: &Light) -> Result<()> {
+        let n = self.engine.n_leaves();
+        let channels = self.engine.channels();
+        self.lights.insert(
+            at,
+            SolvedLight {
+                position: light.position,
+                radius_m: light.radius,
+                cache: Arc::new(self.engine.direct_cache(light)),
+                radiosity: Vec::new(),
+                leaf_radiosity: vec![[0.0; 3]; n],
+                leaf_indirect: vec![vec![0.0; n]; channels],
+            },
+        );
+        let cache = Arc::clone(&self.lights[at].cache);
+        let (solutions, direct) = self.solve_one(&cache, light, None)?;
+        store(&mut self.lights[at], &solutions, &direct, light.color);
+        Ok(())
+    }
+
+    /// Removes light `i`.
+    pub fn remove_light(&mut self, i: usize) {
+        self.lights.remove(i);
+    }
+
+    fn solve_one(
+        &self,
+        cache: &PatchDirectCache,
+        light: &Light,
+        initial: Option<&[PatchColumns]>,
+    ) -> Result<(Vec<Solution>, Vec<f64>)> {
+        let state = LightState::from(light);
+        let mut direct = vec![0.0; self.engine.n_leaves()];
+        cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
+        let emission = PatchColumns {
+            n_patches: direct.len(),
+            n_columns: 1,
+            values: direct.clone(),
+        };
+        let initial = initial.filter(|x| x.len() == self.engine.channels());
+        Ok((self.engine.solve(&emission, initial, self.tolerance)?, direct))
+    }
+
+    /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied).
+    pub fn light_radiosity(&self, i: usize) -> &[[f64; 3]] {
+        &self.lights[i].leaf_radiosity
+    }
+
+    /// Light `i`'s indirect irradiance at the fine vertices (lx, one value per channel 0..3 per
+    /// vertex, colour not applied), interpolated from its leaves within each surface.
+    pub fn vertex_indirect(&self, i: usize) -> Vec<[f64; 3]> {
+        let light = &self.lights[i];
+        let channels = light.leaf_indirect.len();
+        let columns: Vec<f64> = (0..self.engine.n_leaves())
+            .flat_map(|p| light.leaf_indirect.iter().map(move |c| c[p]))
+            .collect();
+        let values = self.interp.apply_columns(&columns, channels);
+        values
+            .chunks_exact(channels)
+            .map(|v| [0, 1, 2].map(|ch| v[ch.min(channels - 1)]))
+            .collect()
+    }
+
+    /// Indirect illuminance (lx, linear RGB) at `receivers` from the summed leaf radiosity
+    /// `radiosity` (lm/m², linear RGB per leaf) through the engine's clustered gather.
+    pub fn gather(&self, radiosity: &[[f64; 3]], receivers: &[Receiver]) -> Vec<[f64; 3]> {
+        self.engine.gather(radiosity, receivers)
+    }
+
+    /// Number of leaves.
+    pub fn n_leaves(&self) -> usize {
+        self.engine.n_leaves()
+    }
+
+    /// Bytes held by the lights' direct caches and solved values.
+    pub fn light_bytes(&self) -> usize {
+        self.lights
+            .iter()
+            .map(|l| {
+                l.cache.bytes()
+                    + 8 * (l.radiosity.iter().map(|r| r.values.len()).sum::<usize>()
+                        + 3 * l.leaf_radiosity.len()
+                        + l.leaf_indirect.iter().map(Vec::len).sum::<usize>())
+            })
+            .sum()
+    }
+}
+
+/// Keeps what a light's solve gives: the radiosity for warm starts, the coloured leaf radiosity,
+/// the leaf indirect irradiance `H − E` per channel.
+fn store(light: &mut SolvedLight, solutions: &[Solution], direct: &[f64], color: [f64; 3]) {
+    let n = direct.len();
+    light.radiosity = solutions.iter().map(|s| s.radiosity.clone()).collect();
+    light.leaf_indirect = solutions
+        .iter()
+        .map(|s| (0..n).map(|p| s.irradiance.get(p, 0) - direct[p]).collect())
+        .collect();
+    let last = solutions.len().saturating_sub(1);
+    light.leaf_radiosity = (0..n)
+        .map(|p| [0, 1, 2].map(|ch| solutions.get(ch.min(last)).map_or(0.0, |s| color[ch] * s.radiosity.get(p, 0))))
+        .collect();
+}
