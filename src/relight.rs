@@ -177,9 +177,9 @@ impl Relighter {
 
     /// True when indirect light from a bake (or given by the hierarchical engine) is included.
     pub fn has_indirect(&self) -> bool {
-        self.lights.iter().any(|l| {
-            l.given_indirect.is_some() || l.basis.as_ref().is_some_and(|b| b.baked.has_indirect())
-        })
+        self.lights
+            .iter()
+            .any(|l| l.given_indirect.is_some() || l.basis.as_ref().is_some_and(|b| b.baked.has_indirect()))
     }
 
     /// Gives light `i`'s indirect irradiance per fine vertex (lx, per channel, colour not

@@ -199,6 +199,9 @@ pub struct Session {
     hierarchical: Option<HierarchicalIndirect>,
     /// A failed solve of the hierarchical engine, reported by the next render or query.
     indirect_failure: Option<Error>,
+    /// A light was added or removed: the hierarchical engine's grading is checked at the next
+    /// solve.
+    regrade: bool,
     relighter: Option<Relighter>,
     /// Bumped whenever the fine-vertex illuminance changes.
     illuminance_version: u64,
@@ -333,6 +336,7 @@ impl Session {
             bake,
             hierarchical,
             indirect_failure: None,
+            regrade: false,
             relighter: None,
             illuminance_version: 0,
             jobs: Vec::new(),
@@ -479,15 +483,13 @@ impl Session {
                 solved: 1,
             },
         );
-        if let Some(h) = &mut self.hierarchical
-            && h.insert_light(at, &light.to_light()).is_err()
-        {
-            // Added without indirect light: the next relight solves it again.
+        if let Some(h) = &mut self.hierarchical {
+            // Solved (or the engine regraded) at the next solve; the relighter gets its
+            // indirect light at the next relight.
+            h.insert_light(at, &light.to_light());
             self.slots[at].solved = 0;
-        }
-        if self.hierarchical.is_some() {
-            // The relighter gets its indirect light at the next relight.
             self.slots[at].dirty.state = true;
+            self.regrade = true;
         }
         let scene_light = light.to_light();
         if let Some(bake) = &mut self.bake {
@@ -510,6 +512,7 @@ impl Session {
         self.jobs.retain(|j| j.light != slot.id);
         if let Some(h) = &mut self.hierarchical {
             h.remove_light(at);
+            self.regrade = true;
         }
         if let Some(bake) = &mut self.bake {
             bake.lights.remove(at);
@@ -603,6 +606,20 @@ impl Session {
     /// Errors: a solve failed (internal); that light keeps its previous indirect light and is
     /// tried again at the next call.
     fn solve_indirect(&mut self) -> Result<()> {
+        let Some(h) = &self.hierarchical else {
+            return Ok(());
+        };
+        let placed = |i: usize, l: &LightEdit| h.light_is_at(i, l.position, l.radius_m);
+        let moved = self.regrade || !self.lights.iter().enumerate().all(|(i, l)| placed(i, l));
+        if moved {
+            self.regrade = false;
+            self.synced_scene();
+            let h = self.hierarchical.as_ref().expect("checked above");
+            if !h.grading_matches(&self.scene) {
+                self.rebuild_hierarchical()?;
+                return Ok(());
+            }
+        }
         let Some(h) = &mut self.hierarchical else {
             return Ok(());
         };
@@ -611,6 +628,38 @@ impl Session {
                 h.set_light(i, &light.to_light())?;
                 slot.solved = slot.version;
             }
+        }
+        Ok(())
+    }
+
+    /// Rebuilds the hierarchical engine for the current lights (its graded mesh follows where
+    /// they are) and solves every light cold; the relighter takes every light's new indirect
+    /// light at the next relight.
+    ///
+    /// Errors: the solve failing (internal).
+    fn rebuild_hierarchical(&mut self) -> Result<()> {
+        let (channels, visibility) = match &self.bake {
+            Some(b) => (b.plan.channels, b.plan.visibility.on),
+            None => return Ok(()),
+        };
+        let options = self
+            .hierarchical
+            .as_ref()
+            .map_or_else(InterreflectionOptions::default, |h| *h.engine().options());
+        let tolerance = self
+            .options
+            .bake
+            .tolerance
+            .unwrap_or(self.scene.settings.tolerance);
+        let scene = self.synced_scene();
+        let rebuilt =
+            HierarchicalIndirect::build(scene, &scene.lights, channels, visibility, tolerance, &options)?;
+        self.hierarchical = Some(rebuilt);
+        for slot in &mut self.slots {
+            // Every light's indirect light changed: receiver sets recompute them all.
+            slot.version += 1;
+            slot.solved = slot.version;
+            slot.dirty.state = true;
         }
         Ok(())
     }
@@ -650,7 +699,11 @@ impl Session {
             if slot.dirty.moved {
                 relighter.move_light(i, light.position);
             }
-            if let Some(h) = self.hierarchical.as_ref().filter(|_| slot.dirty.state || slot.dirty.moved) {
+            if let Some(h) = self
+                .hierarchical
+                .as_ref()
+                .filter(|_| slot.dirty.state || slot.dirty.moved)
+            {
                 relighter.give_indirect(i, h.vertex_indirect(i));
             }
             if slot.dirty.state || slot.dirty.moved {
@@ -781,7 +834,11 @@ impl Session {
                 &self.scene,
                 chunk.to_vec(),
                 self.lights.len(),
-                if indirect { self.indirect_source() } else { IndirectSource::None },
+                if indirect {
+                    self.indirect_source()
+                } else {
+                    IndirectSource::None
+                },
                 mode,
                 occluders.as_deref(),
             );
@@ -879,7 +936,12 @@ impl Session {
 
     /// What a receiver set needs of each light, in order.
     fn light_inputs(&self) -> Vec<LightInput<'_>> {
-        light_inputs(&self.lights, &self.slots, self.bake.as_ref(), self.hierarchical.as_ref())
+        light_inputs(
+            &self.lights,
+            &self.slots,
+            self.bake.as_ref(),
+            self.hierarchical.as_ref(),
+        )
     }
 
     /// Light `i`'s series as the polar diagram shows it: its order-N series windowed as the

@@ -108,7 +108,9 @@ impl ReceiverSet {
     ) -> Self {
         let gather = match indirect {
             IndirectSource::None => None,
-            IndirectSource::Basis => Some(Gather::Coarse(GatherOperator::build(scene, occluders, &receivers))),
+            IndirectSource::Basis => Some(Gather::Coarse(GatherOperator::build(
+                scene, occluders, &receivers,
+            ))),
             IndirectSource::Leaves(engine) => Some(Gather::Leaves(engine)),
         };
         let reflectance = if matches!(gather, Some(Gather::Coarse(_))) {

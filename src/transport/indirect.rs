@@ -21,6 +21,7 @@ use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
 use crate::transport::patchdirect::PatchDirectCache;
 use crate::transport::radiosity::{PatchColumns, Solution};
+use crate::transport::refine::refine;
 
 /// One light as the engine keeps it.
 #[derive(Debug, Clone)]
@@ -62,7 +63,8 @@ impl HierarchicalIndirect {
     ) -> Result<Self> {
         let engine = Arc::new(Interreflection::build(scene, channels, visibility, options));
         let interp = Arc::new(InterpolationWeights::new(&engine.solver.mesh, &scene.fine));
-        let caches: Vec<Arc<PatchDirectCache>> = lights.iter().map(|l| Arc::new(engine.direct_cache(l))).collect();
+        let caches: Vec<Arc<PatchDirectCache>> =
+            lights.iter().map(|l| Arc::new(engine.direct_cache(l))).collect();
         let n = engine.n_leaves();
         let k = lights.len();
         let mut emission = PatchColumns::zeros(n, k);
@@ -116,6 +118,22 @@ impl HierarchicalIndirect {
         &self.engine
     }
 
+    /// True when the graded mesh `scene` calls for (its lights where they are now) is the
+    /// engine's: a light that moved or was added or removed can change the refinement near
+    /// lamps, and then the engine must be rebuilt to stay as exact as a fresh one.
+    pub fn grading_matches(&self, scene: &Scene) -> bool {
+        let graded = refine(scene, &self.engine.options().refine);
+        let mesh = &self.engine.solver.mesh;
+        graded.mesh.patches.len() == mesh.patches.len() && graded.mesh.positions == mesh.positions
+    }
+
+    /// Whether light `i` sits at `position` with luminous radius `radius_m` in the engine.
+    pub fn light_is_at(&self, i: usize, position: DVec3, radius_m: f64) -> bool {
+        self.lights
+            .get(i)
+            .is_some_and(|l| l.position == position && l.radius_m == radius_m)
+    }
+
     /// Number of lights.
     pub fn n_lights(&self) -> usize {
         self.lights.len()
@@ -144,12 +162,10 @@ impl HierarchicalIndirect {
         Ok(())
     }
 
-    /// Adds `light` at index `at` (≤ [`Self::n_lights`]), solved cold.
-    ///
-    /// Errors: the solve failing (internal); the light is added without indirect light.
-    pub fn insert_light(&mut self, at: usize, light: &Light) -> Result<()> {
+    /// Adds `light` at index `at` (≤ [`Self::n_lights`]) without indirect light until the next
+    /// [`Self::set_light`] solves it.
+    pub fn insert_light(&mut self, at: usize, light: &Light) {
         let n = self.engine.n_leaves();
-        let channels = self.engine.channels();
         self.lights.insert(
             at,
             SolvedLight {
@@ -158,13 +174,9 @@ impl HierarchicalIndirect {
                 cache: Arc::new(self.engine.direct_cache(light)),
                 radiosity: Vec::new(),
                 leaf_radiosity: vec![[0.0; 3]; n],
-                leaf_indirect: vec![vec![0.0; n]; channels],
+                leaf_indirect: vec![vec![0.0; n]; self.engine.channels()],
             },
         );
-        let cache = Arc::clone(&self.lights[at].cache);
-        let (solutions, direct) = self.solve_one(&cache, light, None)?;
-        store(&mut self.lights[at], &solutions, &direct, light.color);
-        Ok(())
     }
 
     /// Removes light `i`.
@@ -246,6 +258,12 @@ fn store(light: &mut SolvedLight, solutions: &[Solution], direct: &[f64], color:
         .collect();
     let last = solutions.len().saturating_sub(1);
     light.leaf_radiosity = (0..n)
-        .map(|p| [0, 1, 2].map(|ch| solutions.get(ch.min(last)).map_or(0.0, |s| color[ch] * s.radiosity.get(p, 0))))
+        .map(|p| {
+            [0, 1, 2].map(|ch| {
+                solutions
+                    .get(ch.min(last))
+                    .map_or(0.0, |s| color[ch] * s.radiosity.get(p, 0))
+            })
+        })
         .collect();
 }

@@ -164,6 +164,11 @@ impl Interreflection {
         }
     }
 
+    /// The knobs it was built with.
+    pub fn options(&self) -> &InterreflectionOptions {
+        &self.options
+    }
+
     /// Number of leaves (solver patches).
     pub fn n_leaves(&self) -> usize {
         self.solver.mesh.patches.len()

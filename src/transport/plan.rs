@@ -5,11 +5,11 @@
 use glam::DVec3;
 use serde::Serialize;
 
-use crate::transport::refine::{RefineOptions, refine};
 use crate::error::printable;
 use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
 use crate::scene::{DirectMode, Scene};
 use crate::transport::formfactor::FormFactorOptions;
+use crate::transport::refine::{RefineOptions, refine};
 
 /// Target relative L2 error of a curve's SH series when the basis carries only indirect light
 /// (hybrid mode): indirect light is a smooth average of the emission, so a coarse series suffices.
@@ -241,14 +241,19 @@ fn engine_decision(choice: EngineChoice, interreflection: bool, paper: bool, lea
     let (on, reason) = if !interreflection {
         (false, "no interreflection to solve".to_string())
     } else if paper {
-        (false, "paper mode: the SH basis carries direct and indirect light".into())
+        (
+            false,
+            "paper mode: the SH basis carries direct and indirect light".into(),
+        )
     } else {
         match choice {
             EngineChoice::Basis => (false, "forced to the SH basis bake".into()),
             EngineChoice::Hierarchical => (true, format!("forced on: {leaves} leaves")),
             EngineChoice::Auto if leaves <= HIERARCHICAL_MAX_LEAVES => (
                 true,
-                format!("{leaves} leaves: exact patch direct light per edit, solved and gathered from the leaves"),
+                format!(
+                    "{leaves} leaves: exact patch direct light per edit, solved and gathered from the leaves"
+                ),
             ),
             EngineChoice::Auto => (
                 false,

@@ -37,7 +37,12 @@ fn haiko_probe_meets_the_hotspot_box_references() {
     let plan = String::from_utf8_lossy(&plan.stdout).into_owned();
     assert!(plan.contains("hierarchical     on "), "{plan}");
     let out = Command::new(env!("CARGO_BIN_EXE_haiko"))
-        .args(["probe", room_file.to_str().unwrap(), "--points", points.to_str().unwrap()])
+        .args([
+            "probe",
+            room_file.to_str().unwrap(),
+            "--points",
+            points.to_str().unwrap(),
+        ])
         .env("HAIKO_CACHE_DIR", tmp.path().join("cache"))
         .output()
         .unwrap();
@@ -74,8 +79,13 @@ fn session_numbers_meet_the_wall_washer_references() {
         })
         .collect();
     let mut session = Session::new(room(name), SessionOptions::default(), &mut |_| {}).unwrap();
-    assert!(session.hierarchical().is_some(), "the plan chose the hierarchical engine");
-    let lux = session.illuminance_at(&receivers, false, DirectMode::Exact).unwrap();
+    assert!(
+        session.hierarchical().is_some(),
+        "the plan chose the hierarchical engine"
+    );
+    let lux = session
+        .illuminance_at(&receivers, false, DirectMode::Exact)
+        .unwrap();
     let e = summarize(name, &refs, &lux);
     assert!(
         e.median <= MEDIAN && e.worst <= 0.02,
