@@ -9,6 +9,7 @@ use crate::error::{Error, Result, check_finite, printable};
 use crate::scene;
 use crate::session::budget::{Estimate, LimitSource, MemoryLimit};
 use crate::transport::bake::{Bake, Progress};
+use crate::transport::indirect::{EditCosts, IndirectStats};
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
 /// Formats a plan with its reasons.
@@ -203,17 +204,144 @@ pub(crate) fn format_bake(b: &Bake) -> String {
     s
 }
 
-/// Runs `haiko bake`.
-pub(crate) fn run_bake(room: &Path, limit: &MemoryLimit) -> Result<()> {
+/// Runs `haiko bake`: the plan, then the bake (or the hierarchical engine with its measured
+/// per-edit costs); `json` prints one JSON document instead.
+pub(crate) fn run_bake(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     // Refused before the plan is printed: the one line on standard error is all that shows.
     limit.check(room, &Estimate::of(&p, true))?;
-    print!("{}", format_plan(&p));
+    if !json {
+        print!("{}", format_plan(&p));
+    }
     let session = open_session(scene, true, limit)?;
     let b = session
         .bake()
         .ok_or_else(|| Error::internal("bake: the session has no bake"))?;
-    print!("{}", format_bake(b));
+    let plan_s = b.timings.plan_s;
+    let engine = match session.hierarchical() {
+        Some(h) => {
+            let costs = if session.scene().lights.is_empty() {
+                None
+            } else {
+                Some(h.measure_edits(session.scene(), 0)?)
+            };
+            Some((h.stats(), costs))
+        }
+        None => None,
+    };
+    let b = session
+        .bake()
+        .ok_or_else(|| Error::internal("bake: the session has no bake"))?;
+    match (json, engine) {
+        (true, engine) => {
+            let json_error = |e: serde_json::Error| Error::internal(e.to_string());
+            let doc = bake_json(b, plan_s, engine.as_ref());
+            println!("{}", serde_json::to_string_pretty(&doc).map_err(json_error)?);
+        }
+        (false, Some((stats, costs))) => print!("{}", format_hierarchical(&stats, costs.as_ref())),
+        (false, None) => print!("{}", format_bake(b)),
+    }
     Ok(())
+}
+
+/// Formats the hierarchical engine's sizes, memory by part, times by stage and per-edit costs.
+fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> String {
+    let e = &stats.engine;
+    let mb = |b: usize| b as f64 / 1e6;
+    let mut s = format!(
+        "hierarchical engine: {} coarse patches → {} leaves, {} nodes, {} links ({} between leaves), {} visibility rays\n",
+        e.coarse_patches, e.leaves, e.nodes, e.links, e.near_links, e.rays
+    );
+    s.push_str(&format!(
+        "memory: operator {:.2} MB, node geometry {:.2} MB, lights {:.2} MB, interpolation {:.2} MB; {:.2} MB in all\n",
+        mb(e.operator_bytes),
+        mb(e.geometry_bytes),
+        mb(stats.light_bytes),
+        mb(stats.interpolation_bytes),
+        mb(stats.total_bytes())
+    ));
+    s.push_str(&format!(
+        "time: refinement {:.1} ms, links {:.1} ms, balancing {:.1} ms, direct caches {:.1} ms, solve {:.1} ms\n",
+        e.refine_s * 1e3,
+        e.links_s * 1e3,
+        e.balance_s * 1e3,
+        stats.direct_caches_s * 1e3,
+        stats.solve_s * 1e3
+    ));
+    if let Some(c) = costs {
+        s.push_str(&format!(
+            "per edit of the first light: curve {:.1} ms, re-aim {:.1} ms, dimmer {:.1} ms, 0.1 m move {:.1} ms{}\n",
+            c.curve_s * 1e3,
+            c.aim_s * 1e3,
+            c.dimmer_s * 1e3,
+            c.move_s * 1e3,
+            if c.move_rebuilt { " (the move regrades: engine rebuilt)" } else { "" }
+        ));
+    }
+    s
+}
+
+/// The JSON document of `haiko bake --json`: the engine, and for the hierarchical one its
+/// counts, memory by part (with the total), time by stage and per-edit costs (seconds).
+fn bake_json(
+    b: &Bake,
+    plan_s: f64,
+    engine: Option<&(IndirectStats, Option<EditCosts>)>,
+) -> serde_json::Value {
+    let Some((stats, costs)) = engine else {
+        let t = &b.timings;
+        return serde_json::json!({
+            "engine": "basis",
+            "coarse_patches": b.plan.coarse_patches,
+            "columns": b.plan.columns,
+            "memory_bytes": {
+                "form_factors": b.form_factor_bytes,
+                "basis": b.lights.iter().map(|l| (l.direct.len() + l.indirect.iter().map(Vec::len).sum::<usize>()) * 4).sum::<usize>(),
+            },
+            "time_s": {
+                "plan": t.plan_s,
+                "cache_read": t.cache_read_s,
+                "form_factors": t.form_factors_s,
+                "basis_direct": t.basis_direct_s,
+                "solve": t.solve_s,
+                "cache_write": t.cache_write_s,
+            },
+        });
+    };
+    let e = &stats.engine;
+    let mut doc = serde_json::json!({
+        "engine": "hierarchical",
+        "coarse_patches": e.coarse_patches,
+        "leaves": e.leaves,
+        "nodes": e.nodes,
+        "links": e.links,
+        "near_links": e.near_links,
+        "rays": e.rays,
+        "memory_bytes": {
+            "operator": e.operator_bytes,
+            "node_geometry": e.geometry_bytes,
+            "lights": stats.light_bytes,
+            "interpolation": stats.interpolation_bytes,
+            "total": stats.total_bytes(),
+        },
+        "time_s": {
+            "plan": plan_s,
+            "refine": e.refine_s,
+            "links": e.links_s,
+            "balance": e.balance_s,
+            "direct_caches": stats.direct_caches_s,
+            "solve": stats.solve_s,
+        },
+    });
+    if let Some(c) = costs {
+        doc["edit_s"] = serde_json::json!({
+            "curve": c.curve_s,
+            "aim": c.aim_s,
+            "dimmer": c.dimmer_s,
+            "move": c.move_s,
+            "move_rebuilt": c.move_rebuilt,
+        });
+    }
+    doc
 }

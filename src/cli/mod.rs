@@ -101,6 +101,9 @@ pub enum Command {
     Bake {
         /// The room file.
         room: PathBuf,
+        /// Print JSON (the hierarchical engine's sizes, memory, times and per-edit costs).
+        #[arg(long)]
+        json: bool,
         #[command(flatten)]
         memory: MemoryArg,
     },
@@ -391,7 +394,7 @@ pub fn run(cli: Cli) -> Result<()> {
             json,
         } => lid::run(&source, order, window.map(Window::from), json),
         Command::Plan { room, json, memory } => bake::run_plan(&room, json, &memory.limit()),
-        Command::Bake { room, memory } => bake::run_bake(&room, &memory.limit()),
+        Command::Bake { room, json, memory } => bake::run_bake(&room, json, &memory.limit()),
         Command::Probe {
             room,
             points,

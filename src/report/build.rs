@@ -93,8 +93,33 @@ pub(crate) fn accuracy_rows(session: &Session) -> Vec<(String, String)> {
             format!("{} m ({} vertices)", settings.patch_size, scene.fine.n_vertices()),
         ),
     ];
-    match session.bake() {
-        Some(bake) if bake.lights.iter().any(|l| l.has_indirect()) => {
+    match (session.bake(), session.hierarchical()) {
+        (Some(bake), Some(h)) => {
+            let stats = h.stats().engine;
+            rows.push((
+                "Interreflection".to_string(),
+                format!(
+                    "hierarchical engine: {} leaves graded from {} patches of {} m, {} links, {} channel(s), solved to a certified relative error of {:.0e}",
+                    stats.leaves,
+                    stats.coarse_patches,
+                    settings.solver_patch_size,
+                    stats.links,
+                    bake.plan.channels,
+                    settings.tolerance
+                ),
+            ));
+            let refinement = if bake.plan.refinement.is_empty() {
+                "none: no lamp near a surface, no box contact".to_string()
+            } else {
+                bake.plan.refinement.join("; ")
+            };
+            rows.push(("Indirect engine refinement".to_string(), refinement));
+            rows.push((
+                "Indirect light at the grid points".to_string(),
+                "gathered from the leaves' radiosity (clustered, with visibility)".to_string(),
+            ));
+        }
+        (Some(bake), None) if bake.lights.iter().any(|l| l.has_indirect()) => {
             rows.push((
                 "Interreflection".to_string(),
                 format!(
@@ -118,11 +143,11 @@ pub(crate) fn accuracy_rows(session: &Session) -> Vec<(String, String)> {
                 "gathered from the patches' radiosity (form factors with visibility)".to_string(),
             ));
         }
-        Some(_) => rows.push((
+        (Some(_), None) => rows.push((
             "Interreflection".to_string(),
             "none: the plan found no surface that reflects".to_string(),
         )),
-        None => rows.push((
+        (None, _) => rows.push((
             "Interreflection".to_string(),
             "not computed (direct light only)".to_string(),
         )),

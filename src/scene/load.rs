@@ -19,12 +19,13 @@ use crate::photometry::{Curve, LuminousShape, read_lid_file};
 use crate::scene::design::Design;
 use crate::scene::mesher::{self, Geometry, Shape, TriangleSurface};
 use crate::scene::model::{
-    Aabb, AimSpec, Camera, DirectMode, LidSource, Light, Reflectance, Scene, Settings, Surface, SurfaceKind,
+    Aabb, AimSpec, Camera, DirectMode, EngineChoice, LidSource, Light, Reflectance, Scene, Settings, Surface,
+    SurfaceKind,
 };
 use crate::scene::obj::{self, Placement};
 use crate::scene::room_file::{
-    self, BoxSpec, CameraSpec, DirectSpec, LightSpec, MeshSpec, ReflectanceSpec, RoomFile, SettingsSpec,
-    Vec3Spec,
+    self, BoxSpec, CameraSpec, DirectSpec, IndirectSpec, LightSpec, MeshSpec, ReflectanceSpec, RoomFile,
+    SettingsSpec, Vec3Spec,
 };
 
 mod design;
@@ -776,6 +777,12 @@ impl Loader<'_> {
                 Bounds::closed(MIN_TOLERANCE, 0.5),
                 defaults.tolerance,
             )?,
+            indirect: match spec.indirect {
+                Some(IndirectSpec::Auto) => EngineChoice::Auto,
+                Some(IndirectSpec::Basis) => EngineChoice::Basis,
+                Some(IndirectSpec::Hierarchical) => EngineChoice::Hierarchical,
+                None => defaults.indirect,
+            },
         })
     }
 

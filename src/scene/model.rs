@@ -199,6 +199,19 @@ pub enum DirectMode {
     Basis,
 }
 
+/// Which engine carries the indirect light (docs/DECISIONS.md "Interreflection").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum EngineChoice {
+    /// The hierarchical engine unless the room is in paper mode or its graded mesh is above the
+    /// plan's leaf budget.
+    #[default]
+    Auto,
+    /// The SH basis bake (the seed's engine), e.g. for side-by-side tables.
+    Basis,
+    /// The hierarchical engine whatever its size (not in paper mode).
+    Hierarchical,
+}
+
 /// `[settings]` of the room file, with defaults filled in.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
@@ -210,6 +223,8 @@ pub struct Settings {
     pub direct: DirectMode,
     /// Certified relative error of the interreflection solve. Default 1e-3.
     pub tolerance: f64,
+    /// The indirect-light engine. Default automatic.
+    pub indirect: EngineChoice,
 }
 
 impl Default for Settings {
@@ -219,6 +234,7 @@ impl Default for Settings {
             solver_patch_size: 0.5,
             direct: DirectMode::Exact,
             tolerance: 1e-3,
+            indirect: EngineChoice::Auto,
         }
     }
 }

@@ -161,6 +161,18 @@ pub(crate) enum DirectSpec {
     Basis,
 }
 
+/// The indirect-light engine, as written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum IndirectSpec {
+    /// Chosen by the plan.
+    Auto,
+    /// The SH basis bake.
+    Basis,
+    /// The hierarchical engine.
+    Hierarchical,
+}
+
 /// `[settings]`, all optional.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -173,6 +185,8 @@ pub(crate) struct SettingsSpec {
     pub direct: Option<DirectSpec>,
     /// Relative tolerance of the interreflection solve, in (0, 0.5].
     pub tolerance: Option<Spanned<f64>>,
+    /// The indirect-light engine.
+    pub indirect: Option<IndirectSpec>,
     /// Maintained / new illuminance, in (0, 1]. Default 0.8.
     pub maintenance_factor: Option<Spanned<f64>>,
 }

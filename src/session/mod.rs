@@ -654,7 +654,9 @@ impl Session {
         let scene = self.synced_scene();
         let rebuilt =
             HierarchicalIndirect::build(scene, &scene.lights, channels, visibility, tolerance, &options)?;
+        let engine = Arc::clone(rebuilt.engine());
         self.hierarchical = Some(rebuilt);
+        self.each_receiver_set(|set| set.use_engine(Arc::clone(&engine)));
         for slot in &mut self.slots {
             // Every light's indirect light changed: receiver sets recompute them all.
             slot.version += 1;

@@ -146,6 +146,16 @@ impl ReceiverSet {
         &self.indirect
     }
 
+    /// The hierarchical engine was rebuilt (its leaves changed): gather from `engine` from now
+    /// on; every light is recomputed at the next update.
+    pub fn use_engine(&mut self, engine: Arc<Interreflection>) {
+        if matches!(self.gather, Some(Gather::Leaves(_))) {
+            self.gather = Some(Gather::Leaves(engine));
+            self.lights.iter_mut().for_each(|l| *l = None);
+            self.stale = true;
+        }
+    }
+
     /// A light was inserted at `at`: computed at the next update.
     pub fn insert_light(&mut self, at: usize) {
         self.lights.insert(at, None);

@@ -10,15 +10,16 @@
 //! of a new scene are solved as one block.
 
 use std::sync::Arc;
+use std::time::Instant;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 use crate::error::Result;
-use crate::photometry::LightState;
+use crate::photometry::{Curve, LightState};
 use crate::scene::{Light, Scene};
 use crate::transport::direct::Receiver;
 use crate::transport::interpolate::InterpolationWeights;
-use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
+use crate::transport::interreflection::{Interreflection, InterreflectionOptions, InterreflectionStats};
 use crate::transport::patchdirect::PatchDirectCache;
 use crate::transport::radiosity::{PatchColumns, Solution};
 use crate::transport::refine::refine;
@@ -45,6 +46,47 @@ pub struct HierarchicalIndirect {
     interp: Arc<InterpolationWeights>,
     tolerance: f64,
     lights: Vec<SolvedLight>,
+    /// Wall time (s) of the lights' direct caches and of their block solve at build.
+    direct_caches_s: f64,
+    solve_s: f64,
+}
+
+/// Sizes, memory and build times of a [`HierarchicalIndirect`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IndirectStats {
+    /// The engine's sizes and build times (refinement, links, balancing).
+    pub engine: InterreflectionStats,
+    /// Wall time (s) of every light's direct sample cache, and of the first block solve.
+    pub direct_caches_s: f64,
+    pub solve_s: f64,
+    /// Bytes of the lights' direct caches and solved values.
+    pub light_bytes: usize,
+    /// Bytes of the leaves → fine vertices interpolation.
+    pub interpolation_bytes: usize,
+}
+
+impl IndirectStats {
+    /// Bytes in all: operator, node geometry, lights, interpolation.
+    pub fn total_bytes(&self) -> usize {
+        self.engine.operator_bytes + self.engine.geometry_bytes + self.light_bytes + self.interpolation_bytes
+    }
+}
+
+/// What one edit of a light costs with the engine (wall seconds, measured on a copy): its new
+/// patch direct light and warm-started solve, plus the interpolation to the fine vertices.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EditCosts {
+    /// A curve edit (the curve scaled by 0.7 beyond 20°).
+    pub curve_s: f64,
+    /// A re-aim by 10°.
+    pub aim_s: f64,
+    /// A dimmer change to 0.8 of the current value.
+    pub dimmer_s: f64,
+    /// A 0.1 m move: the grading check, then the new direct cache and solve, or the whole
+    /// engine rebuilt when the move changes the refinement.
+    pub move_s: f64,
+    /// True when the measured move needed the rebuild.
+    pub move_rebuilt: bool,
 }
 
 impl HierarchicalIndirect {
@@ -63,8 +105,11 @@ impl HierarchicalIndirect {
     ) -> Result<Self> {
         let engine = Arc::new(Interreflection::build(scene, channels, visibility, options));
         let interp = Arc::new(InterpolationWeights::new(&engine.solver.mesh, &scene.fine));
+        let t = Instant::now();
         let caches: Vec<Arc<PatchDirectCache>> =
             lights.iter().map(|l| Arc::new(engine.direct_cache(l))).collect();
+        let direct_caches_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
         let n = engine.n_leaves();
         let k = lights.len();
         let mut emission = PatchColumns::zeros(n, k);
@@ -85,6 +130,8 @@ impl HierarchicalIndirect {
             interp,
             tolerance,
             lights: Vec::with_capacity(k),
+            direct_caches_s,
+            solve_s: t.elapsed().as_secs_f64(),
         };
         for (c, (light, cache)) in lights.iter().zip(caches).enumerate() {
             let column = |block: &PatchColumns| PatchColumns::from_columns(n, &[block.column(c)]);
@@ -231,6 +278,84 @@ impl HierarchicalIndirect {
     /// Number of leaves.
     pub fn n_leaves(&self) -> usize {
         self.engine.n_leaves()
+    }
+
+    /// Sizes, memory by part and build times.
+    pub fn stats(&self) -> IndirectStats {
+        IndirectStats {
+            engine: self.engine.stats,
+            direct_caches_s: self.direct_caches_s,
+            solve_s: self.solve_s,
+            light_bytes: self.light_bytes(),
+            interpolation_bytes: self.interp.bytes(),
+        }
+    }
+
+    /// Measures, on a copy, what a curve edit, a re-aim, a dimmer change and a 0.1 m move (along
+    /// x, or back when that leaves the room) of light `i` of `scene` cost, each from the light's
+    /// current state, including the interpolation of its indirect light to the fine vertices.
+    ///
+    /// Errors: a solve failing (internal).
+    pub fn measure_edits(&self, scene: &Scene, i: usize) -> Result<EditCosts> {
+        let light = &scene.lights[i];
+        let timed = |edited: &Light| -> Result<f64> {
+            let mut copy = self.clone();
+            let t = Instant::now();
+            copy.set_light(i, edited)?;
+            let _ = copy.vertex_indirect(i);
+            Ok(t.elapsed().as_secs_f64())
+        };
+        let points: Vec<(f64, f64)> = light
+            .curve
+            .points()
+            .map(|(g, c)| (g, if g > 20.0 { 0.7 * c } else { c }))
+            .collect();
+        let curve = Light {
+            curve: Curve::new(&points).unwrap_or_else(|_| light.curve.clone()),
+            ..light.clone()
+        };
+        let axis = light.aim.any_orthonormal_vector();
+        let aim = Light {
+            aim: DQuat::from_axis_angle(axis, 10f64.to_radians()) * light.aim,
+            ..light.clone()
+        };
+        let dimmer = Light {
+            dimmer: 0.8 * light.dimmer,
+            ..light.clone()
+        };
+        let (curve_s, aim_s, dimmer_s) = (timed(&curve)?, timed(&aim)?, timed(&dimmer)?);
+        let step = if light.position.x + 0.1 < scene.room_size.x {
+            0.1
+        } else {
+            -0.1
+        };
+        let mut moved_scene = scene.clone();
+        moved_scene.lights[i].position.x += step;
+        let t = Instant::now();
+        let move_rebuilt = !self.grading_matches(&moved_scene);
+        if move_rebuilt {
+            let rebuilt = HierarchicalIndirect::build(
+                &moved_scene,
+                &moved_scene.lights,
+                self.engine.channels(),
+                self.engine.occluders.is_some(),
+                self.tolerance,
+                self.engine.options(),
+            )?;
+            let _ = rebuilt.vertex_indirect(i);
+        } else {
+            let mut copy = self.clone();
+            copy.set_light(i, &moved_scene.lights[i])?;
+            let _ = copy.vertex_indirect(i);
+        }
+        let move_s = t.elapsed().as_secs_f64();
+        Ok(EditCosts {
+            curve_s,
+            aim_s,
+            dimmer_s,
+            move_s,
+            move_rebuilt,
+        })
     }
 
     /// Bytes held by the lights' direct caches and solved values.

@@ -73,6 +73,14 @@ impl InterpolationWeights {
         }
     }
 
+    /// Bytes held by the weights.
+    pub fn bytes(&self) -> usize {
+        self.nodal_offsets.len() * std::mem::size_of::<usize>()
+            + self.nodal_terms.len() * std::mem::size_of::<(u32, f64)>()
+            + self.fine_terms.len() * std::mem::size_of::<[(u32, f64); 4]>()
+            + self.fine_len.len()
+    }
+
     /// Number of fine vertices.
     pub fn n_fine_vertices(&self) -> usize {
         self.fine_terms.len()

@@ -69,22 +69,12 @@ pub struct PlanOptions {
     pub force_rgb: bool,
     /// Add this to every order the plan chooses (orders fixed by the room file are the user's).
     pub order_boost: usize,
-    /// Which indirect engine to use (automatic by default).
+    /// Which indirect engine to use; `Auto` follows the room file's `indirect` setting (itself
+    /// automatic by default: [`HIERARCHICAL_MAX_LEAVES`]).
     pub engine: EngineChoice,
 }
 
-/// Which engine carries the indirect light (docs/DECISIONS.md "Interreflection").
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum EngineChoice {
-    /// The hierarchical engine unless the room file asks for paper mode or its graded mesh has
-    /// more than [`HIERARCHICAL_MAX_LEAVES`] leaves.
-    #[default]
-    Auto,
-    /// The SH basis bake (the seed's engine), e.g. for side-by-side tables.
-    Basis,
-    /// The hierarchical engine whatever its size (not in paper mode).
-    Hierarchical,
-}
+pub use crate::scene::EngineChoice;
 
 /// Most leaves the automatic plan gives the hierarchical engine: its link build and per-edit
 /// solve grow with them (docs/DECISIONS.md "Interreflection", measured: 1 355 leaves build in
@@ -207,7 +197,11 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
     } else {
         (0, Vec::new())
     };
-    let hierarchical = engine_decision(options.engine, interreflection.on, paper, leaves);
+    let choice = match options.engine {
+        EngineChoice::Auto => scene.settings.indirect,
+        forced => forced,
+    };
+    let hierarchical = engine_decision(choice, interreflection.on, paper, leaves);
     let n_coarse = scene.coarse.patches.len();
     let per_channel: usize = lights.iter().map(|l| l.columns).sum();
     let columns = per_channel * channels;

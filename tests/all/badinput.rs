@@ -857,7 +857,12 @@ fn names_are_escaped_wherever_they_are_printed() {
 fn a_fifo_named_like_a_cache_file_is_never_opened() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    write(d, "room.toml", &grey_room());
+    // The SH basis engine: the one the bake cache serves.
+    write(
+        d,
+        "room.toml",
+        &grey_room().replacen("[settings]\n", "[settings]\nindirect = \"basis\"\n", 1),
+    );
     write(d, "p.csv", "x,y,z,nx,ny,nz\n2,2,0,0,0,1\n");
     let first = haiko(d, &["probe", "room.toml", "--points", "p.csv"]);
     assert_eq!(first.code, Some(0), "{}", first.stderr);

@@ -24,6 +24,20 @@ fn haiko(cache: &Path, args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
+/// `rooms/paper.toml` copied into `dir` with the SH basis engine forced (`indirect = "basis"`):
+/// the engine the bake cache serves.
+fn paper_with_basis(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo("rooms/paper.toml")).unwrap();
+    assert!(text.contains("[settings]\n"));
+    let path = dir.join("paper.toml");
+    std::fs::write(
+        &path,
+        text.replace("[settings]\n", "[settings]\nindirect = \"basis\"\n"),
+    )
+    .unwrap();
+    path
+}
+
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
@@ -395,14 +409,38 @@ fn area_integrated_direct_light_equals_the_flux_in_a_closed_room() {
 #[test]
 fn plan_and_bake_commands_report_their_decisions() {
     let cache = tempfile::tempdir().unwrap();
-    let paper = repo("rooms/paper.toml");
-    let o = haiko(cache.path(), &["plan", paper.to_str().unwrap(), "--json"]);
+    let rooms = tempfile::tempdir().unwrap();
+    let o = haiko(
+        cache.path(),
+        &["plan", repo("rooms/paper.toml").to_str().unwrap(), "--json"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(v["visibility"]["on"], false);
     assert_eq!(v["interreflection"]["on"], true);
     assert_eq!(v["channels"], 1);
     assert_eq!(v["lights"].as_array().unwrap().len(), 2);
+    assert_eq!(v["hierarchical"]["on"], true);
+    // Both lamps hang 0.1 m under the ceiling (one sentence each); the accent light, 0.3 m from
+    // two walls, also grades the room's edges next to it (one sentence).
+    let notes: Vec<&str> = v["refinement"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert_eq!(notes.len(), 3, "{notes:?}");
+    for name in ["centre", "accent"] {
+        let near = format!("refined near light {name}: 0.10 m from the ceiling");
+        assert!(notes.iter().any(|n| n.starts_with(&near)), "{notes:?}");
+    }
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("graded along 3 box contact edges")),
+        "{notes:?}"
+    );
+    let paper = paper_with_basis(rooms.path());
     for run in 0..2 {
         let o = haiko(cache.path(), &["bake", paper.to_str().unwrap()]);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -418,7 +456,8 @@ fn plan_and_bake_commands_report_their_decisions() {
 #[test]
 fn cache_lists_and_clears_the_bake_entries() {
     let cache = tempfile::tempdir().unwrap();
-    let paper = repo("rooms/paper.toml");
+    let rooms = tempfile::tempdir().unwrap();
+    let paper = paper_with_basis(rooms.path());
     let o = haiko(cache.path(), &["cache"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains(": 0 entries"), "{}", stdout(&o));
@@ -458,4 +497,61 @@ fn bad_room_files_fail_before_anything_else() {
         assert_bad_input(&o, "bad.toml");
         assert!(stderr(&o).contains("line"), "{}", stderr(&o));
     }
+}
+
+/// `haiko bake --json` on the paper room (the hierarchical engine): leaf, node and link counts
+/// above zero, more leaves than coarse patches (the lamps 0.1 m under the ceiling refine it),
+/// memory parts that sum to the total, stage times and the four per-edit costs measured (finite,
+/// positive). A room whose light hangs far from every surface, with nothing on the floor, gets no
+/// refinement: `haiko plan` prints no refinement line and its JSON lists none.
+#[test]
+fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
+    let cache = tempfile::tempdir().unwrap();
+    let o = haiko(
+        cache.path(),
+        &["bake", repo("rooms/paper.toml").to_str().unwrap(), "--json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["engine"], "hierarchical");
+    let count = |k: &str| v[k].as_u64().unwrap_or_else(|| panic!("{k}: {v}"));
+    assert!(
+        count("leaves") > count("coarse_patches") && count("coarse_patches") > 0,
+        "{v}"
+    );
+    assert!(count("nodes") >= count("leaves") && count("links") > 0, "{v}");
+    let memory = v["memory_bytes"].as_object().unwrap();
+    let parts: u64 = ["operator", "node_geometry", "lights", "interpolation"]
+        .iter()
+        .map(|k| memory[*k].as_u64().unwrap())
+        .sum();
+    assert!(memory.values().all(|b| b.as_u64().unwrap() > 0), "{v}");
+    assert_eq!(parts, memory["total"].as_u64().unwrap());
+    for stage in ["plan", "refine", "links", "balance", "direct_caches", "solve"] {
+        let t = v["time_s"][stage].as_f64().unwrap();
+        assert!(t.is_finite() && t >= 0.0, "{stage}: {t}");
+    }
+    for edit in ["curve", "aim", "dimmer", "move"] {
+        let t = v["edit_s"][edit].as_f64().unwrap();
+        assert!(t.is_finite() && t > 0.0, "{edit}: {t}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let room = dir.path().join("plain.toml");
+    std::fs::write(
+        &room,
+        "version = 1\n[room]\nsize = [4.0, 4.0, 3.0]\n[room.reflectance]\nfloor = 0.2\nwalls = 0.5\n\
+         ceiling = 0.7\n[[light]]\nname = \"l\"\nposition = [2.0, 2.0, 1.5]\nlid = [[0, 1000], [180, 1000]]\n",
+    )
+    .unwrap();
+    let o = haiko(cache.path(), &["plan", room.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("hierarchical     on ") && !text.contains("refinement"),
+        "{text}"
+    );
+    let o = haiko(cache.path(), &["plan", room.to_str().unwrap(), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["refinement"].as_array().unwrap().len(), 0, "{v}");
+    assert_eq!(v["leaves"], v["coarse_patches"]);
 }

@@ -13,6 +13,7 @@ use haiko::session::{Command, Session, SessionOptions, WindowChoice};
 use haiko::transport::bake::BakeOptions;
 use haiko::transport::cache::BakeCache;
 use haiko::transport::gather::illuminance_at_receivers;
+use haiko::transport::plan::{EngineChoice, PlanOptions};
 
 /// A small grey room with a desk (a box that shadows and reflects) and two lights, quick to
 /// bake; desks as task areas and two observers.
@@ -74,10 +75,15 @@ fn write_room(dir: &Path) -> PathBuf {
     path
 }
 
-fn cached_session(scene: Scene, cache: &Path) -> Session {
+/// A session with a bake cache in `cache` and the indirect engine `engine`.
+fn cached_session(scene: Scene, cache: &Path, engine: EngineChoice) -> Session {
     let options = SessionOptions {
         bake: BakeOptions {
             cache: Some(BakeCache::in_dir(cache)),
+            plan: PlanOptions {
+                engine,
+                ..PlanOptions::default()
+            },
             ..BakeOptions::default()
         },
         indirect: true,
@@ -116,7 +122,8 @@ fn assert_close(got: &[f64], want: &[f64], tol: f64, what: &str) {
 fn probe_points_equal_the_transport_reference_gather() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene::load(&write_room(dir.path())).unwrap();
-    let mut session = cached_session(scene.clone(), dir.path());
+    // The transport's reference gather is the SH basis engine's.
+    let mut session = cached_session(scene.clone(), dir.path(), EngineChoice::Basis);
     let bake = session.bake().cloned().expect("a bake");
     let rx = receivers();
     for mode in [DirectMode::Exact, DirectMode::Basis] {
@@ -140,7 +147,7 @@ fn probe_points_equal_the_transport_reference_gather() {
 fn watched_points_follow_every_kind_of_edit() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene::load(&write_room(dir.path())).unwrap();
-    let mut session = cached_session(scene, dir.path());
+    let mut session = cached_session(scene, dir.path(), EngineChoice::Auto);
     let rx = receivers();
     let id = session.watch(rx.clone());
     let before = session.watched(id).unwrap().lux().to_vec();
@@ -218,7 +225,7 @@ lid = [[0, 1000], [180, 1000]]
 ";
     let path = dir.path().join("black.toml");
     std::fs::write(&path, text).unwrap();
-    let mut session = cached_session(scene::load(&path).unwrap(), dir.path());
+    let mut session = cached_session(scene::load(&path).unwrap(), dir.path(), EngineChoice::Auto);
     // Straight below at 2 m: 1000/4 = 250 lx; 1 m aside: 1000·2/5^1.5 = 178.885 lx.
     let rx = vec![
         Receiver {
@@ -251,7 +258,7 @@ lid = [[0, 1000], [180, 1000]]
 fn design_numbers_are_the_probe_values_at_the_grid_points() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene::load(&write_room(dir.path())).unwrap();
-    let mut session = cached_session(scene, dir.path());
+    let mut session = cached_session(scene, dir.path(), EngineChoice::Auto);
     for round in 0..2 {
         let numbers = session.design_numbers();
         assert_eq!(numbers.surfaces.len(), 2);
@@ -496,7 +503,7 @@ fn report_command_writes_one_self_contained_file() {
         "<h2>Glare (UGR, CIE 117)</h2>",
         "east chair",
         "<h2>Luminaire schedule</h2>",
-        "SH order per light",
+        "Indirect engine refinement",
         "False colour, new illuminance",
     ] {
         assert!(html.contains(needle), "no `{needle}`");

@@ -253,7 +253,14 @@ fn edit_aim_save_and_quit_in_tmux() {
 #[test]
 fn a_move_in_tmux_finishes_its_bake_and_keeps_one_cache_entry_per_light() {
     let dir = tempfile::tempdir().unwrap();
-    let (session, room, exit_file, _) = start_editor(dir.path());
+    // The SH basis engine: the one that bakes moved lights in the background and caches them.
+    let room = dir.path().join("paper.toml");
+    std::fs::write(
+        &room,
+        paper_room().replacen("[settings]\n", "[settings]\nindirect = \"basis\"\n", 1),
+    )
+    .unwrap();
+    let (session, exit_file) = start_editor_on(dir.path(), &room);
     session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
     session.send("m");
     session.wait_for("move mode", |s| status_line(s).contains("MOVE"));
