@@ -36,6 +36,8 @@ struct SolvedLight {
     leaf_radiosity: Vec<[f64; 3]>,
     /// Leaf indirect irradiance `H − E` (lx) per solved channel, colour not applied.
     leaf_indirect: Vec<Vec<f64>>,
+    /// The curve, aim and dimmer the values above are for (`None` before the first solve).
+    solved_for: Option<(Curve, DVec3, f64)>,
 }
 
 /// The indirect light of a scene's lights through one shared [`Interreflection`] engine.
@@ -153,8 +155,9 @@ impl HierarchicalIndirect {
                 radiosity: Vec::new(),
                 leaf_radiosity: Vec::new(),
                 leaf_indirect: Vec::new(),
+                solved_for: None,
             };
-            store(&mut solved, &per_channel, &direct, light.color);
+            store(&mut solved, &per_channel, &direct, light);
             indirect.lights.push(solved);
         }
         Ok(indirect)
@@ -195,6 +198,25 @@ impl HierarchicalIndirect {
             let old = &self.lights[i];
             old.position != light.position || old.radius_m != light.radius
         };
+        // The solve is linear in the emission: a dimmer or colour change only scales it.
+        if let Some((curve, aim, dimmer)) = &self.lights[i].solved_for
+            && !moved
+            && *curve == light.curve
+            && *aim == light.aim
+            && *dimmer > 0.0
+        {
+            let factor = light.dimmer / dimmer;
+            let solved = &mut self.lights[i];
+            for channel in &mut solved.radiosity {
+                channel.values.iter_mut().for_each(|v| *v *= factor);
+            }
+            for channel in &mut solved.leaf_indirect {
+                channel.iter_mut().for_each(|v| *v *= factor);
+            }
+            solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
+            solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
+            return Ok(());
+        }
         let cache = if moved {
             Arc::new(self.engine.direct_cache(light))
         } else {
@@ -205,7 +227,7 @@ impl HierarchicalIndirect {
         solved.position = light.position;
         solved.radius_m = light.radius;
         solved.cache = cache;
-        store(solved, &solutions, &direct, light.color);
+        store(solved, &solutions, &direct, light);
         Ok(())
     }
 
@@ -222,6 +244,7 @@ impl HierarchicalIndirect {
                 radiosity: Vec::new(),
                 leaf_radiosity: vec![[0.0; 3]; n],
                 leaf_indirect: vec![vec![0.0; n]; self.engine.channels()],
+                solved_for: None,
             },
         );
     }
@@ -372,23 +395,107 @@ impl HierarchicalIndirect {
     }
 }
 
-/// Keeps what a light's solve gives: the radiosity for warm starts, the coloured leaf radiosity,
-/// the leaf indirect irradiance `H − E` per channel.
-fn store(light: &mut SolvedLight, solutions: &[Solution], direct: &[f64], color: [f64; 3]) {
+/// Keeps what a light's solve for `light` gives: the radiosity for warm starts, the coloured
+/// leaf radiosity, the leaf indirect irradiance `H − E` per channel.
+fn store(solved: &mut SolvedLight, solutions: &[Solution], direct: &[f64], light: &Light) {
     let n = direct.len();
-    light.radiosity = solutions.iter().map(|s| s.radiosity.clone()).collect();
-    light.leaf_indirect = solutions
+    solved.radiosity = solutions.iter().map(|s| s.radiosity.clone()).collect();
+    solved.leaf_indirect = solutions
         .iter()
         .map(|s| (0..n).map(|p| s.irradiance.get(p, 0) - direct[p]).collect())
         .collect();
-    let last = solutions.len().saturating_sub(1);
-    light.leaf_radiosity = (0..n)
-        .map(|p| {
-            [0, 1, 2].map(|ch| {
-                solutions
-                    .get(ch.min(last))
-                    .map_or(0.0, |s| color[ch] * s.radiosity.get(p, 0))
-            })
-        })
-        .collect();
+    solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
+    solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
+}
+
+/// Leaf radiosity (linear RGB) from the per-channel radiosity (one column each) and `color`.
+fn coloured(radiosity: &[PatchColumns], color: [f64; 3]) -> Vec<[f64; 3]> {
+    let Some(last) = radiosity.len().checked_sub(1) else {
+        return Vec::new();
+    };
+    (0..radiosity[0].n_patches)
+        .map(|p| [0, 1, 2].map(|ch| color[ch] * radiosity[ch.min(last)].get(p, 0)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn room() -> Scene {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        let path = dir.path().join("room.toml");
+        let text = r#"version = 1
+[room]
+size = [4.0, 3.0, 2.5]
+[room.reflectance]
+floor = 0.3
+walls = 0.6
+ceiling = 0.8
+[[light]]
+name = "l"
+position = [2.1, 1.4, 1.7]
+lid = [[0, 800], [60, 500], [120, 300], [180, 100]]
+[[light]]
+name = "m"
+position = [1.0, 1.0, 1.5]
+lid = [[0, 300], [90, 300], [180, 0]]
+[settings]
+solver_patch_size = 0.5
+"#;
+        std::fs::write(&path, text).expect("the room file is written");
+        crate::scene::load(&path).expect("the test room is valid")
+    }
+
+    fn build(scene: &Scene) -> HierarchicalIndirect {
+        HierarchicalIndirect::build(
+            scene,
+            &scene.lights,
+            1,
+            false,
+            1e-6,
+            &InterreflectionOptions::default(),
+        )
+        .expect("solves")
+    }
+
+    fn peak_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x[0] - y[0]).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// The block solve at build equals solving each light alone; a dimmer change scales the
+    /// light's radiosity exactly (no solve: the solve is linear); a curve edit re-solved from the
+    /// previous radiosity equals a fresh engine of the edited room within the tolerance.
+    #[test]
+    fn edits_match_fresh_engines() {
+        let scene = room();
+        let engine = build(&scene);
+        let mut alone = scene.clone();
+        alone.lights.truncate(1);
+        let first = build(&alone);
+        let peak = engine.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
+        assert!(peak > 0.0);
+        assert!(peak_difference(engine.light_radiosity(0), first.light_radiosity(0)) < 1e-5 * peak);
+
+        let mut edited = engine.clone();
+        let dimmed = Light {
+            dimmer: 0.25,
+            ..scene.lights[1].clone()
+        };
+        edited.set_light(1, &dimmed).expect("scales");
+        for (d, b) in edited.light_radiosity(1).iter().zip(engine.light_radiosity(1)) {
+            assert!((d[0] - 0.25 * b[0]).abs() <= 1e-12 * b[0].abs(), "{d:?} vs {b:?}");
+        }
+
+        let curve = Curve::new(&[(0.0, 2000.0), (30.0, 1500.0), (60.0, 0.0)]).expect("a curve");
+        let mut changed = scene.clone();
+        changed.lights[0].curve = curve;
+        edited.set_light(0, &changed.lights[0]).expect("solves");
+        let fresh = build(&changed);
+        let peak = fresh.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
+        assert!(peak_difference(edited.light_radiosity(0), fresh.light_radiosity(0)) < 1e-5 * peak);
+    }
 }
