@@ -48,7 +48,7 @@ use crate::relight::Relighter;
 use crate::render;
 use crate::scene::{Camera, DirectMode, Scene};
 use crate::transport::bake::{
-    Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake, plan_without_basis,
+    Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake_planned, plan_without_basis,
 };
 use crate::transport::cache::BakeCache;
 use crate::transport::direct::Receiver;
@@ -276,10 +276,12 @@ impl Session {
     ///
     /// Errors: the interreflection solve failing (internal).
     pub fn new(scene: Scene, options: SessionOptions, progress: &mut dyn FnMut(Progress)) -> Result<Session> {
+        let t = std::time::Instant::now();
         let planned = crate::transport::plan::plan(&scene, options.bake.plan);
+        let plan_s = t.elapsed().as_secs_f64();
         let mut hierarchical = None;
         let (bake, plan) = if options.indirect && planned.hierarchical.on {
-            let bake = plan_without_basis(&scene, &options.bake);
+            let bake = plan_without_basis(&scene, planned.clone(), plan_s, &options.bake);
             progress(Progress {
                 stage: "interreflection engine",
                 done: 0,
@@ -300,7 +302,8 @@ impl Session {
             });
             (Some(bake), planned)
         } else if options.indirect {
-            let bake = bake(&scene, &options.bake, progress)?;
+            let mut bake = bake_planned(&scene, planned, &options.bake, progress)?;
+            bake.timings.plan_s = plan_s;
             let plan = bake.plan.clone();
             (Some(bake), plan)
         } else {

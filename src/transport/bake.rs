@@ -565,6 +565,22 @@ pub fn bake(scene: &Scene, options: &BakeOptions, progress: &mut dyn FnMut(Progr
     let t = Instant::now();
     let plan = plan(scene, options.plan);
     let plan_s = t.elapsed().as_secs_f64();
+    let mut baked = bake_planned(scene, plan, options, progress)?;
+    baked.timings.plan_s = plan_s;
+    Ok(baked)
+}
+
+/// Bakes every light of `scene` (or loads it from the cache) as `plan` (made by
+/// [`crate::transport::plan::plan`] for this scene and `options.plan`) says; `timings.plan_s`
+/// is left 0.
+///
+/// Errors: the interreflection solve failing (internal).
+pub fn bake_planned(
+    scene: &Scene,
+    plan: Plan,
+    options: &BakeOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Bake> {
     let transport = Arc::new(Transport::new(
         scene,
         &plan,
@@ -583,23 +599,17 @@ pub fn bake(scene: &Scene, options: &BakeOptions, progress: &mut dyn FnMut(Progr
         plan,
         transport,
         lights,
-        timings: BakeTimings {
-            plan_s,
-            ..report.timings
-        },
+        timings: report.timings,
         notices: report.notices,
         form_factor_rays,
         form_factor_bytes,
     })
 }
 
-/// Plans `scene` and sets up its transport without baking any basis: every light gets
+/// Sets up the transport of `scene` under `plan` without baking any basis: every light gets
 /// [`BakedLight::without_indirect`] (the hierarchical engine carries the indirect light,
-/// [`crate::transport::indirect`]).
-pub fn plan_without_basis(scene: &Scene, options: &BakeOptions) -> Bake {
-    let t = Instant::now();
-    let plan = plan(scene, options.plan);
-    let plan_s = t.elapsed().as_secs_f64();
+/// [`crate::transport::indirect`]); `plan_s` is the time the plan took.
+pub fn plan_without_basis(scene: &Scene, plan: Plan, plan_s: f64, options: &BakeOptions) -> Bake {
     let transport = Arc::new(Transport::new(
         scene,
         &plan,

@@ -191,15 +191,16 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
         .iter()
         .map(|l| plan_light(scene, l, options))
         .collect();
-    let (leaves, refinement) = if interreflection.on {
+    let choice = match options.engine {
+        EngineChoice::Auto => scene.settings.indirect,
+        forced => forced,
+    };
+    // The graded mesh only matters to the hierarchical engine.
+    let (leaves, refinement) = if interreflection.on && !paper && choice != EngineChoice::Basis {
         let solver = refine(scene, &RefineOptions::default());
         (solver.mesh.patches.len(), solver.notes(scene))
     } else {
         (0, Vec::new())
-    };
-    let choice = match options.engine {
-        EngineChoice::Auto => scene.settings.indirect,
-        forced => forced,
     };
     let hierarchical = engine_decision(choice, interreflection.on, paper, leaves);
     let n_coarse = scene.coarse.patches.len();
