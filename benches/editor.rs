@@ -52,7 +52,9 @@ fn key(code: KeyCode) -> Msg {
 fn editor(name: &str) -> (Model, Session, FrameSpec) {
     let scene = room(name);
     let model = Model::new(&scene, TERMINAL, FONT);
-    let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+    // The editor's engine choice (no interreflection solve on the key path).
+    let options = SessionOptions::default().interactive(&scene);
+    let mut session = Session::new(scene, options, &mut |_| {}).expect("bake");
     let spec = FrameSpec {
         selected_light: Some(0),
         ..FrameSpec::new(SIZE, DisplayMode::Photo)
@@ -157,7 +159,9 @@ fn light_move(c: &mut Criterion) {
     for name in ["paper", "office"] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("rooms/{name}.toml"));
         let scene = haiko::scene::load(&path).expect("a bundled room loads");
-        let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+        // The editor's engine choice (no interreflection solve on the key path).
+        let options = SessionOptions::default().interactive(&scene);
+        let mut session = Session::new(scene, options, &mut |_| {}).expect("bake");
         session.relight();
         let start = session.lights()[0].position;
         let mut forth = true;
@@ -199,7 +203,9 @@ fn allocations_per_key(_: &mut Criterion) {
 fn bytes_per_frame(c: &mut Criterion) {
     let scene = paper();
     let model = Model::new(&scene, TERMINAL, FONT);
-    let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
+    // The editor's engine choice (no interreflection solve on the key path).
+    let options = SessionOptions::default().interactive(&scene);
+    let mut session = Session::new(scene, options, &mut |_| {}).expect("bake");
     let spec = frame_spec(&model).expect("the preview has pixels");
     let pixmap = session.render(&spec).expect("the frame renders").pixmap.clone();
     let area = preview_rect(Rect::new(0, 0, TERMINAL.0, TERMINAL.1));

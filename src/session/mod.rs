@@ -46,7 +46,7 @@ use crate::error::{Error, Result};
 use crate::photometry::IncrementalWeights;
 use crate::relight::Relighter;
 use crate::render;
-use crate::scene::{Camera, DirectMode, Scene};
+use crate::scene::{Camera, DirectMode, EngineChoice, Scene};
 use crate::transport::bake::{
     Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake_planned, plan_without_basis,
 };
@@ -77,6 +77,17 @@ impl Default for SessionOptions {
 }
 
 impl SessionOptions {
+    /// For the editor: the SH basis engine unless `scene`'s room file asks for an engine
+    /// (`indirect` other than `"auto"`), so that no interreflection solve sits on the key path
+    /// (the hierarchical engine re-solves an edited light synchronously: 88 ms per curve edit in
+    /// the paper room, docs/BENCHMARKS.md "Hierarchical engine").
+    pub fn interactive(mut self, scene: &Scene) -> Self {
+        if scene.settings.indirect == EngineChoice::Auto && self.bake.plan.engine == EngineChoice::Auto {
+            self.bake.plan.engine = EngineChoice::Basis;
+        }
+        self
+    }
+
     /// Indirect light, with the user's bake cache ([`BakeCache::user`]).
     pub fn with_user_cache() -> Self {
         SessionOptions {

@@ -190,7 +190,8 @@ impl App {
         }
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
-        let engine = spawn_engine(scene, SessionOptions::with_user_cache(), sender.clone());
+        let engine_options = SessionOptions::with_user_cache().interactive(&scene);
+        let engine = spawn_engine(scene, engine_options, sender.clone());
         let encode_jobs = spawn_encode_worker(setup, sender.clone());
         let pending = PendingEdits::default();
         signals::watch(room.to_path_buf(), pending.clone())
@@ -462,7 +463,8 @@ impl App {
         self.model = fresh;
         self.loaded = loaded;
         self.edits_changed = true;
-        self.engine = spawn_engine(scene, SessionOptions::with_user_cache(), self.sender.clone());
+        let engine_options = SessionOptions::with_user_cache().interactive(&scene);
+        self.engine = spawn_engine(scene, engine_options, self.sender.clone());
         self.frame_changed = true;
     }
 
