@@ -42,6 +42,15 @@ impl Quality {
         chroma_step: 1.5,
     };
 
+    /// The grid of dithered full frames ([`quantise_dithered`]): 1.5 % luma steps. Dithering
+    /// between levels leaves no visible step at any luma step, while the bytes follow the number
+    /// of levels a gradient crosses (measured on the office frame at 940 × 640: 102 KB at 1 %,
+    /// 82 KB at 1.5 %, 71 KB at 2 %, where the row pattern starts to show; 66 KB flat at 1 %).
+    pub const DITHERED: Quality = Quality {
+        luma_step: 1.5,
+        chroma_step: 1.5,
+    };
+
     /// The quality of a frame rendered at 1 / `divisor` of the full resolution: interactive
     /// frames are coarser in colour too, since sixel's bytes follow the colour changes more than
     /// the pixel count (1: [`Quality::FINE`]; 2: 1.5 % luma; 3 and more: 2 %).
@@ -154,8 +163,9 @@ pub fn row_thresholds(band: usize) -> [f64; 6] {
 /// Like [`quantise`], but a pixel between two luma levels of the grid takes the lower or the
 /// upper one by an ordered threshold that depends on its row only ([`row_thresholds`]): the
 /// average over a band matches the pixel's luma (no banding), while a column's sixels stay the
-/// same along a row of equal colours (long runs). The palette colours sit exactly on their luma
-/// levels.
+/// same along a row of equal colours (long runs). The levels sit on whole percents of luma
+/// ([`dither_level`]), so a grey stays grey in sixel's precision; the palette colours sit
+/// exactly on their levels.
 pub fn quantise_dithered(rgba: &[u8], width: usize, height: usize, quality: Quality) -> Indexed {
     debug_assert_eq!(rgba.len(), width * height * 4);
     let (table, runs) = count_colours(rgba);
@@ -164,13 +174,21 @@ pub fn quantise_dithered(rgba: &[u8], width: usize, height: usize, quality: Qual
     let mut levels: Vec<(f64, usize, usize)> = Vec::with_capacity(table.colours.len());
     for id in 0..table.colours.len() {
         let rgb = unpack(table.colours[id]).map(f64::from);
-        let luma = luma_chroma(rgb)[0] * 100.0 / 255.0 / quality.luma_step;
-        let (lower, f) = (luma.floor(), luma - luma.floor());
+        let luma = luma_chroma(rgb)[0] * 100.0 / 255.0;
+        let mut lower = (luma / quality.luma_step).floor();
+        if dither_level(lower, quality) > luma {
+            lower -= 1.0;
+        }
+        if dither_level(lower + 1.0, quality) <= luma {
+            lower += 1.0;
+        }
+        let (low, high) = (dither_level(lower, quality), dither_level(lower + 1.0, quality));
+        let f = (luma - low) / (high - low);
         let [_, cb, cr] = quality.cell(unpack(table.colours[id]));
         let count = f64::from(table.counts[id]);
         let mut push = |level: f64, weight: f64| {
             // The colour moved onto the level: the same shift on every channel moves luma by it.
-            let shift = (level - luma) * quality.luma_step * 255.0 / 100.0;
+            let shift = (dither_level(level, quality) - luma) * 255.0 / 100.0;
             contributions.push(Contribution {
                 cell: [level as i32, cb, cr],
                 weight: count * weight,
@@ -261,6 +279,14 @@ fn build_palette(contributions: &[Contribution], quality: Quality) -> (Vec<[u8; 
         means.iter().map(|&m| quality.cell(m)).collect(),
         entry_of,
     )
+}
+
+/// The luma of dither level `k` at `quality`, percent: `k` luma steps rounded to a whole
+/// percent. A grey on a level is a whole-percent grey, which sixel shows exactly; with 1.5 %
+/// steps the levels are 0, 2, 3, 5, 6, … percent, and dithering between uneven neighbours keeps
+/// the averages right.
+pub fn dither_level(k: f64, quality: Quality) -> f64 {
+    (k * quality.luma_step).round()
 }
 
 /// The palette index of every pixel from the runs of colour ids. Most runs are short: each is
