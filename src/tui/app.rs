@@ -195,6 +195,12 @@ impl App {
         let pending = PendingEdits::default();
         signals::watch(room.to_path_buf(), pending.clone())
             .map_err(|e| Error::internal(format!("cannot watch for signals: {e}")))?;
+        let suspend = sender.clone();
+        signals::watch_suspend(move || {
+            // The app gone means the editor is ending anyway.
+            let _ = suspend.send(AppEvent::Suspend);
+        })
+        .map_err(|e| Error::internal(format!("cannot watch for signals: {e}")))?;
         Ok(App {
             model,
             room: room.to_path_buf(),
@@ -305,6 +311,10 @@ impl App {
                 Err(Error::internal(format!("reading the terminal: {message}")))
             }
             AppEvent::Msg(msg) => self.dispatch(msg),
+            AppEvent::Suspend => {
+                self.suspend = true;
+                Ok(())
+            }
             AppEvent::Rendered(frame) => self.on_rendered(frame),
             AppEvent::Encoded(encoded) => {
                 let EncodedFrame {

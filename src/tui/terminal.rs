@@ -78,6 +78,7 @@ impl TerminalSession {
     pub fn suspend(&mut self) -> Result<()> {
         let failed = |e: std::io::Error| Error::internal(format!("suspending: {e}"));
         execute!(stdout(), DisableMouseCapture).map_err(failed)?;
+        self.terminal.show_cursor().map_err(failed)?;
         ratatui::restore();
         signals::stop_self().map_err(failed)?;
         // A new terminal has empty buffers: the next draw writes every cell. (Terminal::clear
