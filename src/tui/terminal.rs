@@ -98,6 +98,12 @@ impl TerminalSession {
         Ok((size.width, size.height))
     }
 
+    /// Forgets what the screen shows: the next [`TerminalSession::draw`] writes every cell that
+    /// is not blank, images included (no clear, so no flash).
+    pub fn forget_screen(&mut self) {
+        self.terminal.swap_buffers();
+    }
+
     /// Draws one frame inside a synchronized update, so the terminal shows it at once.
     ///
     /// Errors (internal): writing to the terminal failed.

@@ -196,6 +196,17 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
     }
 }
 
+/// True when `model` shows a dialog over the panes (the help or a prompt, drawn by [`view`]).
+/// When one closes, an image protocol that paints pixels over skipped cells (sixel, iTerm2)
+/// must send the preview again: the cells under the dialog are skipped, so the terminal would
+/// keep the dialog's text over the image (docs/DECISIONS.md "Terminal graphics").
+pub fn dialog_shown(model: &Model) -> bool {
+    matches!(
+        model.mode,
+        Mode::Help | Mode::ConfirmQuit | Mode::SaveConflict { .. } | Mode::SaveAs { .. } | Mode::ConfirmSave
+    )
+}
+
 /// The C-planes' spread of `light`'s file while its curve is still the file's.
 fn spread_samples(model: &Model, light: &LightEdit) -> Option<Vec<(f64, f64, f64)>> {
     lid_info(model, light)

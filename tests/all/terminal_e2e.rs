@@ -239,10 +239,7 @@ fn suspend_and_resume(session: &TmuxSession, dir: &Path, round: usize, suspend: 
         status_line(s).contains("relight") && s.contains("1050.0") && s.contains("unsaved")
     });
     assert!(half_block_cells(&screen) > PREVIEW_CELLS / 4, "{screen}");
-    assert_eq!(
-        pane_flags(session, "#{alternate_on} #{mouse_any_flag}"),
-        "1 1"
-    );
+    assert_eq!(pane_flags(session, "#{alternate_on} #{mouse_any_flag}"), "1 1");
 }
 
 #[test]
