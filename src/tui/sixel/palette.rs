@@ -12,6 +12,8 @@
 //! largest squared error, chroma weighted by [`CHROMA_WEIGHT`], is cut where the halves' errors
 //! are smallest), each box showing its mean.
 
+use rayon::prelude::*;
+
 use super::histogram::{Run, count_colours, unpack};
 
 /// Most colours in a sixel palette (colour registers the editor uses).
@@ -202,24 +204,36 @@ pub fn quantise_dithered(rgba: &[u8], width: usize, height: usize, quality: Qual
         levels.push((f, below, above));
     }
     let (palette, cells, entry_of) = build_palette(&contributions, quality);
-    let thresholds: Vec<f64> = (0..height).map(|y| row_thresholds(y / 6)[y % 6]).collect();
-    let mut indices = Vec::with_capacity(width * height);
-    let mut x = 0;
-    for &(id, n) in &runs {
-        let (f, below, above) = levels[usize::from(id)];
-        let mut left = n as usize;
-        while left > 0 {
-            let take = left.min(width - x);
-            let entry = if f > thresholds[indices.len() / width] {
-                above
-            } else {
-                below
-            };
-            indices.extend(std::iter::repeat_n(entry_of[entry], take));
-            left -= take;
-            x = (x + take) % width;
-        }
+    // Per pixel: its lower and upper level's entries and its fraction between them (in 1/255),
+    // each written run by run; then each row takes the upper entry where the fraction passes the
+    // row's threshold.
+    let n = levels.len();
+    let (mut lower_of, mut upper_of, mut fraction_of) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for &(f, below, above) in &levels {
+        lower_of.push(entry_of[below]);
+        upper_of.push(entry_of[above]);
+        fraction_of.push((f * 255.0).round() as u8);
     }
+    let pixels = width * height;
+    let mut indices = expand(&runs, &lower_of, pixels);
+    let upper = expand(&runs, &upper_of, pixels);
+    let fraction = expand(&runs, &fraction_of, pixels);
+    indices
+        .par_chunks_mut(width)
+        .zip(upper.par_chunks(width).zip(fraction.par_chunks(width)))
+        .enumerate()
+        .for_each(|(y, (row, (upper, fraction)))| {
+            let threshold = (row_thresholds(y / 6)[y % 6] * 255.0).round() as u8;
+            for ((entry, &up), &f) in row.iter_mut().zip(upper).zip(fraction) {
+                if f > threshold {
+                    *entry = up;
+                }
+            }
+        });
     Indexed {
         width,
         height,
