@@ -119,6 +119,17 @@ impl Scratch {
                 previous.push(self.entries.len() - 1);
                 continue;
             }
+            // The same colours as the column before (which was not uniform): its entries grow.
+            if x > 0
+                && !self.uniform[x - 1]
+                && (0..rows).all(|r| band[r * width + x] == band[r * width + x - 1])
+            {
+                for &i in &previous {
+                    self.entries[i].len += 1;
+                }
+                x += 1;
+                continue;
+            }
             let mut column: [(u8, u8); 6] = [(0, 0); 6];
             let mut n = 0;
             for r in 0..rows {
