@@ -16,12 +16,12 @@ use tiny_skia::Pixmap;
 use crate::error::Result;
 use crate::relight::Relighter;
 use crate::render::exposure::room_ev100;
-use crate::render::plan::{PlanLight, draw_plan_lights, plan_view};
+use crate::render::plan::{PlanLight, draw_plan_lights, plan_view_beside};
 use crate::render::shade::luma;
 use crate::render::{
     self, DisplayMode, DisplayShader, FalseColor, LightMarker, LuxScale, Photo, PixelLight, PixelLighting,
-    PixelSurfaces, View, draw_crosshair, draw_isolux, draw_legend, draw_lights, luma_values, round_levels,
-    vertex_attributes_into,
+    PixelSurfaces, View, draw_crosshair, draw_isolux, draw_legend, draw_lights, legend_width, luma_values,
+    round_levels, vertex_attributes_into,
 };
 use crate::scene::{AimSpec, Camera, DirectMode, Scene};
 use crate::session::light::LightEdit;
@@ -40,7 +40,8 @@ pub enum ViewChoice {
     #[default]
     Camera,
     /// The plan: straight down onto the floor with a parallel projection, the room's footprint
-    /// filling the image, luminaire symbols with their aim ([`crate::render::plan`]).
+    /// filling the image (left of the legend when one is drawn), luminaire symbols with their
+    /// aim ([`crate::render::plan`]).
     Plan,
 }
 
@@ -129,6 +130,8 @@ struct ViewKey {
     camera: Camera,
     size_px: (u32, u32),
     view: ViewChoice,
+    /// Pixels at the right edge a plan keeps free for the legend.
+    free_right_px: u32,
 }
 
 /// The 3D image without overlays is reused while these stay the same.
@@ -236,8 +239,13 @@ impl FrameBuffers {
         }
         let paper_mode = scene.settings.direct == DirectMode::Basis;
         self.sync_vertex_light(relighter, illuminance_version, paper_mode);
-        self.sync_pixels(scene, camera, spec, lights, paper_mode)?;
         let shader = self.shader(scene, relighter, spec)?;
+        // A plan's footprint stands left of the legend, not under it.
+        let free_right_px = match (spec.view, spec.legend, shader) {
+            (ViewChoice::Plan, true, DisplayShader::FalseColor(scale)) => legend_width(width, height, &scale),
+            _ => 0,
+        };
+        self.sync_pixels(scene, camera, spec, lights, paper_mode, free_right_px)?;
         let pixel = self
             .pixel
             .as_ref()
@@ -342,12 +350,14 @@ impl FrameBuffers {
         spec: &FrameSpec,
         lights: &[LightEdit],
         paper_mode: bool,
+        free_right_px: u32,
     ) -> Result<()> {
         let (width, height) = spec.size_px;
         let key = ViewKey {
             camera,
             size_px: spec.size_px,
             view: spec.view,
+            free_right_px,
         };
         let occluders = self
             .occluders
@@ -366,7 +376,7 @@ impl FrameBuffers {
         if stale {
             let view = match spec.view {
                 ViewChoice::Camera => View::new(camera, width, height)?,
-                ViewChoice::Plan => plan_view(scene.room_size, width, height)?,
+                ViewChoice::Plan => plan_view_beside(scene.room_size, width, height, free_right_px)?,
             };
             match &mut self.pixel {
                 // The lights' own changes follow below, with those of an unchanged view.

@@ -103,6 +103,60 @@ fn every_bundled_room_matches_its_golden_images() {
     }
 }
 
+/// The plan's footprint stands left of the legend: the room's right wall projects left of the
+/// legend panel, its left wall near the left edge, and a plan without the legend (photo mode)
+/// is centred on the footprint again.
+#[test]
+fn the_plan_footprint_stands_left_of_the_legend() {
+    let mut session = session(load("office"), false);
+    let size = (480, 360);
+    let room = session.scene().room_size;
+    let false_colour = FrameSpec {
+        view: ViewChoice::Plan,
+        ..spec(size, DisplayMode::FalseColor)
+    };
+    session.render(&false_colour).unwrap();
+    let Some(haiko::render::DisplayShader::FalseColor(scale)) =
+        session.fitted_shader(DisplayMode::FalseColor)
+    else {
+        panic!("a false-colour frame fits a lux range");
+    };
+    let legend = haiko::render::legend_width(size.0, size.1, &scale);
+    assert!(legend > 40, "the legend takes {legend} px");
+    let (_, view) = session.latest_frame().unwrap();
+    let right = view.project(DVec3::new(room.x, 0.5 * room.y, 0.0)).unwrap().x;
+    let left = view.project(DVec3::new(0.0, 0.5 * room.y, 0.0)).unwrap().x;
+    let free_from = f64::from(size.0 - legend);
+    assert!(
+        right < free_from,
+        "right wall at x = {right}, legend from {free_from}"
+    );
+    // The footprint (with its margin) fills the width left of the legend, or the height.
+    let margin = haiko::render::plan::PLAN_MARGIN * room.x.max(room.y);
+    let px_per_m = (right - left) / room.x;
+    let used_w = (room.x + 2.0 * margin) * px_per_m;
+    let used_h = (room.y + 2.0 * margin) * px_per_m;
+    assert!(
+        (used_w - free_from).abs() < 1.0 || (used_h - f64::from(size.1)).abs() < 1.0,
+        "footprint {used_w} × {used_h} px in {free_from} × {} px",
+        size.1
+    );
+    assert!(
+        (left - margin * px_per_m).abs() < 1.0 || used_w < free_from,
+        "left wall at {left}"
+    );
+    // Photo mode draws no legend: the footprint is centred in the whole image.
+    session
+        .render(&FrameSpec {
+            view: ViewChoice::Plan,
+            ..spec(size, DisplayMode::Photo)
+        })
+        .unwrap();
+    let (_, view) = session.latest_frame().unwrap();
+    let centre = view.project(DVec3::new(0.5 * room.x, 0.5 * room.y, 0.0)).unwrap();
+    assert!((centre.x - 240.0).abs() < 0.5, "centre at {}", centre.x);
+}
+
 /// The office in plan view, false colour with isolux lines and the legend, at a size where the
 /// symbols and labels are legible.
 #[test]
