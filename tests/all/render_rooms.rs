@@ -157,6 +157,52 @@ fn the_plan_footprint_stands_left_of_the_legend() {
     assert!((centre.x - 240.0).abs() < 0.5, "centre at {}", centre.x);
 }
 
+/// The work plane's plan shows what the numbers give at the same point of the plane (the
+/// session's `illuminance_at`, which `haiko probe` and `haiko grid` use): direct light alone to
+/// f32 rounding (both exact, shadows of the boxes included), and with the indirect light within
+/// 2 % (the plan interpolates between the plane's vertices, 0.15 m apart, the indirect light
+/// the numbers gather at the point itself).
+#[test]
+fn the_work_plane_plan_shows_the_work_plane_numbers() {
+    for indirect in [false, true] {
+        let mut session = session(load("office"), indirect);
+        let height = haiko::session::work_plane_height(session.scene());
+        assert_eq!(height, 0.8, "the office's design keeps the default work plane");
+        let plan = FrameSpec {
+            view: ViewChoice::WorkPlane,
+            ..spec((320, 240), DisplayMode::FalseColor)
+        };
+        session.render(&plan).unwrap();
+        let mut checked = 0;
+        for y in (20..240).step_by(37) {
+            for x in (20..260).step_by(41) {
+                // Cells inside boxes are left out of the plane.
+                let Some(hit) = session.pick((x, y)) else {
+                    continue;
+                };
+                assert!((hit.point.z - height).abs() < 1e-6, "{hit:?}");
+                assert!(hit.normal.z > 0.999, "the plane faces up: {hit:?}");
+                let receiver = haiko::scene::Receiver {
+                    point: hit.point,
+                    normal: DVec3::Z,
+                };
+                let want = session
+                    .illuminance_at(&[receiver], !indirect, haiko::scene::DirectMode::Exact)
+                    .unwrap()[0];
+                let tolerance = if indirect { 0.02 } else { 1e-4 };
+                assert!(
+                    (hit.lux - want).abs() <= tolerance * want,
+                    "indirect {indirect}, pixel ({x}, {y}) at {}: plan {} lx, numbers {want} lx",
+                    hit.point,
+                    hit.lux
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked >= 25, "{checked} pixels on the plane");
+    }
+}
+
 /// The office in plan view, false colour with isolux lines and the legend, at a size where the
 /// symbols and labels are legible.
 #[test]
