@@ -105,8 +105,12 @@ impl Entry {
     /// cannot be lit.
     #[inline]
     fn geometry(&self, rx: &Receiver, i: usize) -> Option<(f64, f64)> {
+        // The visibility bit first: an occluded pixel costs no geometry.
+        if !self.sees(i) {
+            return None;
+        }
         let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, rx)?;
-        self.sees(i).then(|| (self.light.state.aim.dot(dir), factor))
+        Some((self.light.state.aim.dot(dir), factor))
     }
 
     /// This light's direct illuminance (lx, before colour, dimmer applied) at pixel `i`

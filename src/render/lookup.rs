@@ -123,7 +123,7 @@ impl CurveLookup {
 
     /// `None` outside the curve; else the first point `i` with `γ_i ≥ γ` and, unless γ is on a
     /// point (or before the first), the fraction `t` along the segment `i − 1 → i`.
-    #[inline]
+    #[inline(always)]
     fn segment(&self, gamma_deg: f64) -> Option<(usize, Option<f64>)> {
         let g = &self.gamma_deg;
         let last = g.len() - 1;
