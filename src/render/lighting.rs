@@ -11,7 +11,7 @@
 //!   every light but the *active* one (lx, linear RGB, dimmer and colour applied);
 //! * per light: one visibility bit (only when the scene has occluders);
 //! * for the active light (the one edited last): γ (degrees), its curve coordinate
-//!   ([`super::lookup`]) and `cosθ / (r² + a²) · V`, 12 bytes.
+//!   ([`super::lookup`]: segment and fraction) and `cosθ / (r² + a²) · V`, 16 bytes.
 //!
 //! A dimmer or colour edit of the active light, or a curve edit that moves no angle, costs one
 //! interpolation per pixel; a curve edit that moves an angle re-derives the coordinates from γ;
@@ -33,7 +33,7 @@ use super::camera::View;
 use super::lookup::{CurveLookup, acos};
 use super::shade::{DisplayShader, Shader};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
-use super::tone::{self, tone_srgb8};
+use super::tone::{self, tone_srgb8_lit};
 use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::photometry::LightState;
@@ -47,6 +47,9 @@ const RAY_LIFT_M: f64 = 1e-5;
 
 /// Pixels per parallel task.
 const PIXELS_PER_TASK: usize = 8192;
+
+/// Pixels composed and shaded together (a scratch block of 3 KiB on the stack).
+const BLOCK: usize = 256;
 
 /// A light as the per-pixel direct light sees it: where it is and what it emits.
 #[derive(Debug, Clone, PartialEq)]
@@ -102,8 +105,12 @@ impl Entry {
     /// cannot be lit.
     #[inline]
     fn geometry(&self, rx: &Receiver, i: usize) -> Option<(f64, f64)> {
+        // The visibility bit first: an occluded pixel costs no geometry.
+        if !self.sees(i) {
+            return None;
+        }
         let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, rx)?;
-        self.sees(i).then(|| (self.light.state.aim.dot(dir), factor))
+        Some((self.light.state.aim.dot(dir), factor))
     }
 
     /// This light's direct illuminance (lx, before colour, dimmer applied) at pixel `i`
@@ -141,8 +148,11 @@ struct Active {
     index: usize,
     /// γ per pixel (degrees).
     gamma_deg: Vec<f32>,
-    /// The curve coordinate of γ per pixel (−1 outside the curve).
-    coordinate: Vec<f32>,
+    /// The curve coordinate of γ per pixel: the segment ([`CurveLookup::outside`] where the
+    /// light does not reach or γ is outside the curve) …
+    segment: Vec<u32>,
+    /// … and the fraction along it.
+    fraction: Vec<f32>,
     /// `cosθ / (r² + a²) · V` per pixel (1/m²), 0 where the light cannot reach.
     factor: Vec<f32>,
 }
@@ -310,7 +320,8 @@ impl PixelLighting {
         active.index = i;
         let n = self.surfaces.len();
         active.gamma_deg.resize(n, 0.0);
-        active.coordinate.resize(n, -1.0);
+        active.segment.resize(n, 0);
+        active.fraction.resize(n, 0.0);
         active.factor.resize(n, 0.0);
         self.active = Some(active);
         self.resum_others();
@@ -408,15 +419,17 @@ impl PixelLighting {
             return;
         };
         let lookup = &self.entries[active.index].lookup;
+        let outside = lookup.outside();
         active
-            .coordinate
+            .segment
             .par_chunks_mut(PIXELS_PER_TASK)
+            .zip(active.fraction.par_chunks_mut(PIXELS_PER_TASK))
             .zip(active.gamma_deg.par_chunks(PIXELS_PER_TASK))
             .zip(active.factor.par_chunks(PIXELS_PER_TASK))
-            .for_each(|((coordinate, gamma), factor)| {
-                for ((u, &g), &f) in coordinate.iter_mut().zip(gamma).zip(factor) {
-                    *u = if f == 0.0 {
-                        -1.0
+            .for_each(|(((segment, fraction), gamma), factor)| {
+                for (((k, t), &g), &f) in segment.iter_mut().zip(fraction.iter_mut()).zip(gamma).zip(factor) {
+                    (*k, *t) = if f == 0.0 {
+                        (outside, 0.0)
                     } else {
                         lookup.coordinate_deg(f64::from(g))
                     };
@@ -478,68 +491,72 @@ impl PixelLighting {
         Ok(())
     }
 
-    /// Calls `f(k, E)` with the illuminance of pixel `start + k`, `k < len`, from `source`.
-    #[inline]
-    fn illuminance_chunk(
-        &self,
-        source: &Source,
-        start: usize,
-        len: usize,
-        mut f: impl FnMut(usize, [f32; 3]),
-    ) {
-        match source {
-            Source::Lux(lux) => {
-                for (k, &e) in lux[start..start + len].iter().enumerate() {
-                    f(k, e);
-                }
-            }
-            Source::Compose(indirect) => self.compose_chunk(start, len, *indirect, f),
-        }
-    }
-
-    /// Shades `pixels` chunk by chunk in parallel from the illuminance `source`; the shader is
-    /// chosen once per chunk, outside the per-pixel loop.
+    /// Shades `pixels` in parallel chunks of [`PIXELS_PER_TASK`], each in blocks of [`BLOCK`]:
+    /// the block's illuminance is taken from `source` (composed into a scratch block on the
+    /// stack when it is not composed yet), then shaded in a loop of its own.
     fn shade_chunks(&self, pixels: &mut [[u8; 4]], shader: &DisplayShader, source: Source) {
-        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
-        let triangles = self.surfaces.triangle_codes();
-        let luminance = self.surfaces.patch_luminance_factors();
-        let table = tone::table();
         pixels
             .par_chunks_mut(PIXELS_PER_TASK)
             .enumerate()
             .for_each(|(chunk, pixels)| {
-                let start = chunk * PIXELS_PER_TASK;
-                let triangles = &triangles[start..start + pixels.len()];
-                match shader {
-                    DisplayShader::Photo(photo) => {
-                        let exposure = photo.exposure() as f32;
-                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
-                            let t = triangles[k];
-                            pixels[k] = if t == NO_TRIANGLE {
-                                background
-                            } else {
-                                let f = luminance[(t >> 1) as usize];
-                                [
-                                    tone_srgb8(table, f[0] * e[0] * exposure),
-                                    tone_srgb8(table, f[1] * e[1] * exposure),
-                                    tone_srgb8(table, f[2] * e[2] * exposure),
-                                    255,
-                                ]
-                            };
-                        });
-                    }
-                    DisplayShader::FalseColor(scale) => {
-                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
-                            pixels[k] = if triangles[k] == NO_TRIANGLE {
-                                background
-                            } else {
-                                let [r, g, b] = scale.shade(e);
-                                [r, g, b, 255]
-                            };
-                        });
-                    }
+                let mut scratch = [[0.0f32; 3]; BLOCK];
+                for (b, pixels) in pixels.chunks_mut(BLOCK).enumerate() {
+                    let start = chunk * PIXELS_PER_TASK + b * BLOCK;
+                    let e: &[[f32; 3]] = match source {
+                        Source::Lux(lux) => &lux[start..start + pixels.len()],
+                        Source::Compose(indirect) => {
+                            let e = &mut scratch[..pixels.len()];
+                            self.compose_block(start, indirect, e);
+                            e
+                        }
+                    };
+                    self.shade_block(start, e, pixels, shader);
                 }
             });
+    }
+
+    /// Shades pixels `start..start + pixels.len()` whose illuminance is `e` (lx, linear RGB):
+    /// photo shaders see the luminance `ρ E / π` of the pixel's surface, false colour the
+    /// illuminance; the background gets [`BACKGROUND_RGB`]. The shader is matched once, outside
+    /// the per-pixel loop.
+    #[inline]
+    fn shade_block(&self, start: usize, e: &[[f32; 3]], pixels: &mut [[u8; 4]], shader: &DisplayShader) {
+        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
+        let triangles = &self.surfaces.triangle_codes()[start..start + pixels.len()];
+        match shader {
+            DisplayShader::Photo(photo) => {
+                let luminance = self.surfaces.patch_luminance_factors();
+                let table = tone::table();
+                let exposure = photo.exposure() as f32;
+                let (mut last, mut f) = (NO_TRIANGLE, [0.0f32; 3]);
+                for ((pixel, &t), e) in pixels.iter_mut().zip(triangles).zip(e) {
+                    *pixel = if t == NO_TRIANGLE {
+                        background
+                    } else {
+                        if t != last {
+                            f = luminance[(t >> 1) as usize].map(|x| x * exposure);
+                            last = t;
+                        }
+                        [
+                            tone_srgb8_lit(table, f[0] * e[0]),
+                            tone_srgb8_lit(table, f[1] * e[1]),
+                            tone_srgb8_lit(table, f[2] * e[2]),
+                            255,
+                        ]
+                    };
+                }
+            }
+            DisplayShader::FalseColor(scale) => {
+                for ((pixel, &t), &e) in pixels.iter_mut().zip(triangles).zip(e) {
+                    *pixel = if t == NO_TRIANGLE {
+                        background
+                    } else {
+                        let [r, g, b] = scale.shade(e);
+                        [r, g, b, 255]
+                    };
+                }
+            }
+        }
     }
 
     /// The illuminance (lx, linear RGB) at pixel `i` alone, as [`PixelLighting::illuminance_into`]
@@ -553,9 +570,9 @@ impl PixelLighting {
         if i >= self.surfaces.len() {
             return Ok(None);
         }
-        let mut value = [0.0; 3];
-        self.compose_chunk(i, 1, indirect_lx, |_, e| value = e);
-        Ok(Some(value))
+        let mut value = [[0.0; 3]];
+        self.compose_block(i, indirect_lx, &mut value);
+        Ok(Some(value[0]))
     }
 
     fn check_indirect(&self, indirect_lx: &[[f32; 3]]) -> Result<()> {
@@ -570,60 +587,72 @@ impl PixelLighting {
         }
     }
 
-    /// Calls `f(k, E)` with the illuminance `E` (lx, linear RGB, ≥ +0) of pixel `start + k` for
-    /// `k < len`: `others`, plus the active light, plus the indirect light interpolated over the
-    /// pixel's triangle. One tight loop over the chunk's slices (the editor's hot path).
+    /// The illuminance `E` (lx, linear RGB, ≥ +0) of pixels `start..start + out.len()` into
+    /// `out`: `others`, plus the active light, plus the indirect light interpolated over the
+    /// pixel's triangle. The editor's hot path, as one short loop per term (no calls, no
+    /// branch on the light: an unlit pixel has factor 0 and the segment of zeros), so the loads
+    /// of many pixels are in flight at once.
     #[inline]
-    fn compose_chunk(
-        &self,
-        start: usize,
-        len: usize,
-        indirect: Option<&[[f32; 3]]>,
-        mut f: impl FnMut(usize, [f32; 3]),
-    ) {
-        let range = start..start + len;
+    fn compose_block(&self, start: usize, indirect: Option<&[[f32; 3]]>, out: &mut [[f32; 3]]) {
+        let range = start..start + out.len();
         let others = &self.others[range.clone()];
-        let triangles = &self.surfaces.triangle_codes()[range.clone()];
-        let weights = &self.surfaces.raw_weights()[range.clone()];
-        let vertices = self.surfaces.patch_vertex_ids();
         let active = self.active.as_ref().and_then(|active| {
             let entry = &self.entries[active.index];
-            let s = &entry.light.state;
-            let scale = [0, 1, 2].map(|ch| (s.color[ch] * s.dimmer) as f32);
-            (!entry.is_dark()).then(|| {
-                (
-                    &active.factor[range.clone()],
-                    &active.coordinate[range.clone()],
-                    &entry.lookup,
-                    scale,
-                )
-            })
+            (!entry.is_dark()).then_some((active, entry))
         });
-        for k in 0..len {
-            let mut e = others[k];
-            if let Some((factor, coordinate, lookup, scale)) = active {
-                let g = factor[k];
-                if g != 0.0 {
-                    let intensity = lookup.at_coordinate(coordinate[k]) * g;
-                    e[0] += scale[0] * intensity;
-                    e[1] += scale[1] * intensity;
-                    e[2] += scale[2] * intensity;
+        match active {
+            Some((active, entry)) => {
+                let s = &entry.light.state;
+                let scale = [0, 1, 2].map(|ch| (s.color[ch] * s.dimmer) as f32);
+                let factor = &active.factor[range.clone()];
+                let (segment, fraction) = (&active.segment[range.clone()], &active.fraction[range.clone()]);
+                let lit = others.iter().zip(segment).zip(fraction).zip(factor);
+                for (e, (((o, &k), &t), &g)) in out.iter_mut().zip(lit) {
+                    let intensity = entry.lookup.at_coordinate(k, t) * g;
+                    *e = [
+                        o[0] + scale[0] * intensity,
+                        o[1] + scale[1] * intensity,
+                        o[2] + scale[2] * intensity,
+                    ];
                 }
             }
-            let t = triangles[k];
-            if let Some(values) = indirect
-                && t != NO_TRIANGLE
-            {
-                let v = vertices[(t >> 1) as usize];
-                let (b, c) = if t & 1 == 0 { (v[1], v[2]) } else { (v[2], v[3]) };
-                let (va, vb, vc) = (values[v[0] as usize], values[b as usize], values[c as usize]);
-                let [wb, wc] = weights[k];
-                let wa = 1.0 - wb - wc;
-                e[0] += wa * va[0] + wb * vb[0] + wc * vc[0];
-                e[1] += wa * va[1] + wb * vb[1] + wc * vc[1];
-                e[2] += wa * va[2] + wb * vb[2] + wc * vc[2];
+            None => out.copy_from_slice(others),
+        }
+        let Some(values) = indirect else {
+            for e in out.iter_mut() {
+                *e = e.map(non_negative);
             }
-            f(k, [non_negative(e[0]), non_negative(e[1]), non_negative(e[2])]);
+            return;
+        };
+        let triangles = &self.surfaces.triangle_codes()[range.clone()];
+        let weights = &self.surfaces.raw_weights()[range];
+        let vertices = self.surfaces.patch_vertex_ids();
+        // Neighbouring pixels mostly show the same triangle: its corner values are looked up
+        // once per run of pixels, not once per pixel.
+        let (mut last, mut corner_values) = (NO_TRIANGLE, [[0.0f32; 3]; 3]);
+        for ((e, &t), &[wb, wc]) in out.iter_mut().zip(triangles).zip(weights) {
+            if t == NO_TRIANGLE {
+                *e = e.map(non_negative);
+                continue;
+            }
+            if t != last {
+                // Half 0 of a quad is corners 0, 1, 2, half 1 corners 0, 2, 3.
+                let v = vertices[(t >> 1) as usize];
+                let half = (t & 1) as usize;
+                corner_values = [
+                    values[v[0] as usize],
+                    values[v[1 + half] as usize],
+                    values[v[2 + half] as usize],
+                ];
+                last = t;
+            }
+            let [va, vb, vc] = corner_values;
+            let wa = 1.0 - wb - wc;
+            *e = [
+                non_negative(e[0] + (wa * va[0] + wb * vb[0] + wc * vc[0])),
+                non_negative(e[1] + (wa * va[1] + wb * vb[1] + wc * vc[1])),
+                non_negative(e[2] + (wa * va[2] + wb * vb[2] + wc * vc[2])),
+            ];
         }
     }
 
@@ -632,14 +661,16 @@ impl PixelLighting {
         out.par_chunks_mut(PIXELS_PER_TASK)
             .enumerate()
             .for_each(|(chunk, out)| {
-                self.compose_chunk(chunk * PIXELS_PER_TASK, out.len(), indirect, |k, e| out[k] = e);
+                for (b, out) in out.chunks_mut(BLOCK).enumerate() {
+                    self.compose_block(chunk * PIXELS_PER_TASK + b * BLOCK, indirect, out);
+                }
             });
     }
 
     /// Bytes held per pixel whatever the number of lights (surfaces, `others`, the active
     /// light's cache), and per (light, pixel) (a visibility bit when something can occlude).
     pub fn memory_per_pixel(&self) -> (f64, f64) {
-        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 12;
+        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 16;
         let per_light = if self.entries.iter().any(|e| e.visible.is_some()) {
             1.0 / 8.0
         } else {

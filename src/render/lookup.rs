@@ -5,7 +5,7 @@
 //! accurate to 2.5e-8 rad.
 //!
 //! For a light being edited the per-pixel angle can be kept as a **curve coordinate**
-//! `u = k + t` ([`CurveLookup::coordinate_deg`]): the segment's first control point `k` and the
+//! `(k, t)` ([`CurveLookup::coordinate_deg`]): the segment's first control point `k` and the
 //! fraction `t` along it. An edit that changes intensities but no angle (the usual key press)
 //! then costs one interpolation per pixel ([`CurveLookup::at_coordinate`]).
 
@@ -24,7 +24,8 @@ pub struct CurveLookup {
     first: Vec<u16>,
     /// `cos` of the last control point's angle minus a margin: below it the curve is 0.
     cos_last: f64,
-    /// The intensities (cd) in f32, the last one repeated once (so `k + 1` is always valid).
+    /// The intensities (cd) in f32, the last one repeated once (so `k + 1` is always valid),
+    /// then two zeros: the segment of angles outside the curve ([`CurveLookup::outside`]).
     values: Vec<f32>,
     /// Per point `i > 0`: `1 / (γ_i − γ_{i−1})` (0 at a step).
     inv_width: Vec<f64>,
@@ -43,6 +44,7 @@ impl CurveLookup {
         let last = gamma_deg[gamma_deg.len() - 1];
         let mut values: Vec<f32> = curve.intensities_cd().iter().map(|&i| i as f32).collect();
         values.push(values[values.len() - 1]);
+        values.extend([0.0, 0.0]);
         let inv_width = (0..gamma_deg.len())
             .map(|i| match i {
                 0 => 0.0,
@@ -88,25 +90,28 @@ impl CurveLookup {
         }
     }
 
-    /// The curve coordinate `k + t` of `gamma_deg` (module docs), or −1 outside the curve.
+    /// The curve coordinate `(k, t)` of `gamma_deg` (module docs): the segment's first control
+    /// point and the fraction along it, or `(`[`CurveLookup::outside`]`, 0)` outside the curve.
     #[inline]
-    pub fn coordinate_deg(&self, gamma_deg: f64) -> f32 {
+    pub fn coordinate_deg(&self, gamma_deg: f64) -> (u32, f32) {
         match self.segment(gamma_deg) {
-            None => -1.0,
-            Some((i, None)) => i as f32,
-            Some((i, Some(t))) => ((i - 1) as f64 + t) as f32,
+            None => (self.outside(), 0.0),
+            Some((i, None)) => (i as u32, 0.0),
+            Some((i, Some(t))) => ((i - 1) as u32, t as f32),
         }
     }
 
-    /// Intensity (cd) at curve coordinate `u` (from [`CurveLookup::coordinate_deg`] of a curve
-    /// with the same angles): 0 for a negative `u`.
+    /// The segment index of angles outside the curve for this lookup (its intensities are 0).
     #[inline]
-    pub fn at_coordinate(&self, u: f32) -> f32 {
-        if u < 0.0 {
-            return 0.0;
-        }
-        let k = u as usize;
-        let t = u - k as f32;
+    pub fn outside(&self) -> u32 {
+        (self.values.len() - 2) as u32
+    }
+
+    /// Intensity (cd) at curve coordinate `(k, t)` (from [`CurveLookup::coordinate_deg`] of a
+    /// curve with the same angles): no branch, no conversion, 0 outside the curve.
+    #[inline]
+    pub fn at_coordinate(&self, k: u32, t: f32) -> f32 {
+        let k = (k as usize).min(self.values.len() - 2);
         let (a, b) = (self.values[k], self.values[k + 1]);
         a + t * (b - a)
     }
@@ -118,7 +123,7 @@ impl CurveLookup {
 
     /// `None` outside the curve; else the first point `i` with `γ_i ≥ γ` and, unless γ is on a
     /// point (or before the first), the fraction `t` along the segment `i − 1 → i`.
-    #[inline]
+    #[inline(always)]
     fn segment(&self, gamma_deg: f64) -> Option<(usize, Option<f64>)> {
         let g = &self.gamma_deg;
         let last = g.len() - 1;
@@ -216,10 +221,10 @@ mod tests {
         assert!(lookup.same_angles(&after));
         for k in 0..=4_000 {
             let gamma = -1.0 + 50.0 * f64::from(k) / 4_000.0;
-            let u = lookup.coordinate_deg(gamma);
+            let (k, t) = lookup.coordinate_deg(gamma);
             for (l, c) in [(&lookup, &curve), (&after, &edited)] {
                 let exact = c.eval_deg(gamma);
-                let got = f64::from(l.at_coordinate(u));
+                let got = f64::from(l.at_coordinate(k, t));
                 assert!(
                     (got - exact).abs() <= 1e-6 * 4000.0,
                     "γ = {gamma}: {got} vs {exact}"

@@ -555,10 +555,10 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
         } else {
             DisplayMode::Photo
         },
-        view: if model.plan_view {
-            ViewChoice::Plan
-        } else {
-            ViewChoice::Camera
+        view: match (model.plan_view, model.plan_work_plane) {
+            (false, _) => ViewChoice::Camera,
+            (true, false) => ViewChoice::Plan,
+            (true, true) => ViewChoice::WorkPlane,
         },
         exposure: model.exposure,
         isolux: model.isolux,

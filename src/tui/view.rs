@@ -368,7 +368,11 @@ fn format_vec_to(v: [f64; 3], decimals: usize) -> String {
 
 /// The preview's title: the view, the display mode and the exposure.
 fn preview_title(model: &Model) -> String {
-    let view = if model.plan_view { " · plan" } else { "" };
+    let view = match (model.plan_view, model.plan_work_plane) {
+        (false, _) => "",
+        (true, false) => " · plan",
+        (true, true) => " · work-plane plan",
+    };
     let isolux = if model.isolux { " · isolux" } else { "" };
     let shown = if model.false_colour {
         " · false colour (lx)".to_string()

@@ -651,6 +651,61 @@ fn render_lux_with_indirect_light_adds_to_the_direct_light_and_sky_pixels_hold_z
     assert!(gain > 1.0, "mean indirect gain {gain} lx");
 }
 
+/// `haiko render --view work-plane` draws the work plane's plan: the same lux image as the
+/// session's work-plane frame (the CLI only parses and prints), the margin 0, most pixels on the
+/// plane, and a plane 0.8 m up that is not the floor's image.
+#[test]
+fn render_view_work_plane_writes_the_work_planes_lux() {
+    use haiko::render::DisplayMode;
+    use haiko::session::{FrameSpec, Session, SessionOptions, ViewChoice};
+    let dir = tempfile::tempdir().unwrap();
+    let room = spots_and_boxes();
+    let path = dir.path().join("room.toml");
+    std::fs::write(&path, room.toml()).unwrap();
+    let mut images = Vec::new();
+    for view in ["work-plane", "plan"] {
+        let (png, pfm) = (
+            dir.path().join(format!("{view}.png")),
+            dir.path().join(format!("{view}.pfm")),
+        );
+        let p = |p: &std::path::Path| p.to_str().unwrap().to_string();
+        let args = [
+            "render",
+            &p(&path),
+            "-o",
+            &p(&png),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--view",
+            view,
+            "--lux",
+            &p(&pfm),
+            "--direct-only",
+        ];
+        let run = haiko(&args);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        images.push(read_pfm(&pfm).2);
+    }
+    let (plane, floor) = (&images[0], &images[1]);
+    assert_eq!(plane[0], 0.0, "the margin sees nothing");
+    assert!(plane.iter().filter(|&&e| e > 0.0).count() > plane.len() / 2);
+    assert_ne!(plane, floor);
+    let options = SessionOptions {
+        indirect: false,
+        ..SessionOptions::default()
+    };
+    let mut session = Session::new(room.load(dir.path()), options, &mut |_| {}).unwrap();
+    let spec = FrameSpec {
+        view: ViewChoice::WorkPlane,
+        ..FrameSpec::new((64, 48), DisplayMode::Photo)
+    };
+    session.render(&spec).unwrap();
+    let want: Vec<f64> = session.lux_image().unwrap().into_iter().map(f64::from).collect();
+    assert_eq!(plane, &want);
+}
+
 /// Mean sRGB value of a frame's pixels.
 fn mean_pixel(pixmap: &tiny_skia::Pixmap) -> f64 {
     let sum: u64 = pixmap
