@@ -30,7 +30,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::camera::View;
-use super::lookup::{CurveLookup, acos};
+use super::lookup::{CurveLookup, SinHalfTable, acos};
 use super::shade::{DisplayShader, Shader};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
 use super::tone::{self, tone_srgb8_lit};
@@ -38,7 +38,7 @@ use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::photometry::LightState;
 use crate::scene::model::{PatchMesh, Surface};
-use crate::transport::direct::{Receiver, geometry_factor};
+use crate::transport::direct::{MIN_DISTANCE_M, Receiver, geometry_factor};
 use crate::transport::occlusion::Occluders;
 
 /// Shadow rays start this far above the visible point, along its normal (m): clear of the f32
@@ -84,16 +84,27 @@ impl From<&crate::scene::Light> for PixelLight {
     }
 }
 
-/// One light's entry: the light, its curve table and its visibility bits.
+/// One light's entry: the light, its curve tables and its visibility bits.
 #[derive(Debug, Clone)]
 struct Entry {
     light: PixelLight,
     lookup: CurveLookup,
+    /// The curve in `sin(γ/2)` for the sum of the other lights, built on first need per curve.
+    table: Option<SinHalfTable>,
     /// Bit `i` set when pixel `i` sees the light unoccluded; `None` when nothing can occlude.
     visible: Option<Vec<u64>>,
 }
 
 impl Entry {
+    fn new(light: PixelLight, surfaces: &PixelSurfaces, occluders: Option<&Occluders>) -> Entry {
+        Entry {
+            visible: occluders.map(|o| visibility_bits(surfaces, &light, o)),
+            lookup: CurveLookup::new(&light.state.curve),
+            table: None,
+            light,
+        }
+    }
+
     #[inline]
     fn sees(&self, i: usize) -> bool {
         self.visible
@@ -113,19 +124,89 @@ impl Entry {
         Some((self.light.state.aim.dot(dir), factor))
     }
 
-    /// This light's direct illuminance (lx, before colour, dimmer applied) at pixel `i`
-    /// (receiver `rx`).
-    #[inline]
-    fn illuminance(&self, rx: &Receiver, i: usize) -> f64 {
-        match self.geometry(rx, i) {
-            Some((cos_gamma, factor)) => self.light.state.dimmer * self.lookup.eval_cos(cos_gamma) * factor,
-            None => 0.0,
-        }
-    }
-
     fn is_dark(&self) -> bool {
         let state = &self.light.state;
         state.dimmer == 0.0 || state.color == [0.0; 3] || state.curve.peak_cd() == 0.0
+    }
+}
+
+/// A light in f32 for the light-major sum of `others` ([`PixelLighting::resum_others`]).
+struct SumLight<'a> {
+    entry: &'a Entry,
+    table: &'a SinHalfTable,
+    position: [f32; 3],
+    aim: [f32; 3],
+    /// `a²` (m²).
+    radius2: f32,
+    /// Colour times dimmer.
+    scale: [f32; 3],
+}
+
+impl SumLight<'_> {
+    /// `entry` in f32, `None` until its table is built.
+    fn new(entry: &Entry) -> Option<SumLight<'_>> {
+        let light = &entry.light;
+        let [r, g, b] = light.state.color.map(|c| (c * light.state.dimmer) as f32);
+        Some(SumLight {
+            entry,
+            table: entry.table.as_ref()?,
+            position: light.position.as_vec3().to_array(),
+            aim: light.state.aim.as_vec3().to_array(),
+            radius2: (light.radius_m * light.radius_m) as f32,
+            scale: [r, g, b],
+        })
+    }
+
+    /// Adds this light's direct light to `out`, the pixels from `start` (a multiple of 64) on:
+    /// the visibility bits first (a word of 64 pixels that see nothing is skipped whole), then
+    /// the geometry of [`geometry_factor`] and the curve from the table.
+    fn add_into(&self, surfaces: &PixelSurfaces, start: usize, out: &mut [[f32; 3]]) {
+        match &self.entry.visible {
+            None => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    self.add_at(surfaces, start + k, o);
+                }
+            }
+            Some(bits) => {
+                let words = &bits[start / 64..(start + out.len()).div_ceil(64)];
+                for (w, &word) in words.iter().enumerate() {
+                    let mut word = word;
+                    while word != 0 {
+                        let k = w * 64 + word.trailing_zeros() as usize;
+                        word &= word - 1;
+                        self.add_at(surfaces, start + k, &mut out[k]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Adds this light's direct light at pixel `i` (its visibility bit already tested) to `o`.
+    #[inline(always)]
+    fn add_at(&self, surfaces: &PixelSurfaces, i: usize, o: &mut [f32; 3]) {
+        let t = surfaces.triangle_codes()[i];
+        if t == NO_TRIANGLE {
+            return;
+        }
+        let [qx, qy, qz] = self.position;
+        let [ax, ay, az] = self.aim;
+        let [px, py, pz] = surfaces.raw_points()[i];
+        let [nx, ny, nz] = surfaces.patch_normals()[(t / 2) as usize];
+        let (dx, dy, dz) = (px - qx, py - qy, pz - qz);
+        let r2 = dx * dx + dy * dy + dz * dz;
+        if r2 < (MIN_DISTANCE_M * MIN_DISTANCE_M) as f32 {
+            return;
+        }
+        let inv_r = 1.0 / r2.sqrt();
+        let cos_incidence = -(nx * dx + ny * dy + nz * dz) * inv_r;
+        if cos_incidence <= 0.0 {
+            return;
+        }
+        let cos_gamma = (ax * dx + ay * dy + az * dz) * inv_r;
+        let e = self.table.eval_cos(cos_gamma) * cos_incidence / (r2 + self.radius2);
+        for ch in 0..3 {
+            o[ch] += self.scale[ch] * e;
+        }
     }
 }
 
@@ -181,11 +262,7 @@ impl PixelLighting {
     pub fn new(surfaces: PixelSurfaces, lights: Vec<PixelLight>, occluders: Option<&Occluders>) -> Self {
         let entries = lights
             .into_iter()
-            .map(|light| Entry {
-                visible: occluders.map(|o| visibility_bits(&surfaces, &light, o)),
-                lookup: CurveLookup::new(&light.state.curve),
-                light,
-            })
+            .map(|light| Entry::new(light, &surfaces, occluders))
             .collect();
         let mut lighting = PixelLighting {
             others: Vec::new(),
@@ -224,11 +301,7 @@ impl PixelLighting {
     pub fn set_lights(&mut self, lights: Vec<PixelLight>, occluders: Option<&Occluders>) {
         self.entries = lights
             .into_iter()
-            .map(|light| Entry {
-                visible: occluders.map(|o| visibility_bits(&self.surfaces, &light, o)),
-                lookup: CurveLookup::new(&light.state.curve),
-                light,
-            })
+            .map(|light| Entry::new(light, &self.surfaces, occluders))
             .collect();
         self.active = None;
         self.resum_others();
@@ -269,6 +342,7 @@ impl PixelLighting {
             let lookup = CurveLookup::new(&state.curve);
             angles_moved = !entry.lookup.same_angles(&lookup);
             entry.lookup = lookup;
+            entry.table = None;
         }
         entry.light.state = state;
         if self.active_light() != Some(i) {
@@ -329,39 +403,33 @@ impl PixelLighting {
         self.refresh_active_gamma();
     }
 
-    /// Re-sums the direct light of every light but the active one.
+    /// Re-sums the direct light of every light but the active one, light by light over each
+    /// block of pixels in f32 with each curve from its [`SinHalfTable`] (docs/DECISIONS.md,
+    /// "Light-major sum of the other lights").
     fn resum_others(&mut self) {
         let n = self.surfaces.len();
         self.others.resize(n, [0.0; 3]);
         let skip = self.active_light();
-        let lit: Vec<&Entry> = self
+        for (k, entry) in self.entries.iter_mut().enumerate() {
+            if Some(k) != skip && !entry.is_dark() && entry.table.is_none() {
+                entry.table = Some(SinHalfTable::new(&entry.lookup));
+            }
+        }
+        let lit: Vec<SumLight> = self
             .entries
             .iter()
             .enumerate()
             .filter(|&(k, e)| Some(k) != skip && !e.is_dark())
-            .map(|(_, e)| e)
+            .filter_map(|(_, e)| SumLight::new(e))
             .collect();
         let surfaces = &self.surfaces;
         self.others
             .par_chunks_mut(PIXELS_PER_TASK)
             .enumerate()
             .for_each(|(chunk, out)| {
-                let start = chunk * PIXELS_PER_TASK;
-                for (k, o) in out.iter_mut().enumerate() {
-                    let i = start + k;
-                    let mut sum = [0.0f32; 3];
-                    if let Some(rx) = receiver(surfaces, i) {
-                        for entry in &lit {
-                            let e = entry.illuminance(&rx, i);
-                            if e != 0.0 {
-                                let color = entry.light.state.color;
-                                for ch in 0..3 {
-                                    sum[ch] += (color[ch] * e) as f32;
-                                }
-                            }
-                        }
-                    }
-                    *o = sum;
+                out.fill([0.0; 3]);
+                for light in &lit {
+                    light.add_into(surfaces, chunk * PIXELS_PER_TASK, out);
                 }
             });
     }
