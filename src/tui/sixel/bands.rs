@@ -83,6 +83,9 @@ struct Scratch {
     segments: Vec<Segment>,
     used: Vec<bool>,
     uniform: Vec<bool>,
+    /// The entries painting the previous column, and the current one's.
+    previous: Vec<usize>,
+    current: Vec<usize>,
 }
 
 impl Scratch {
@@ -102,9 +105,11 @@ impl Scratch {
     fn gather(&mut self, band: &[u8], width: usize, rows: usize, full: u8) {
         self.entries.clear();
         uniform_columns(band, width, &mut self.uniform);
-        // The entries painting the previous column.
-        let mut previous: Vec<usize> = Vec::with_capacity(6);
-        let mut current: Vec<usize> = Vec::with_capacity(6);
+        let (mut previous, mut current) = (
+            std::mem::take(&mut self.previous),
+            std::mem::take(&mut self.current),
+        );
+        previous.clear();
         let mut x = 0;
         while x < width {
             if self.uniform[x] {
@@ -167,6 +172,7 @@ impl Scratch {
             std::mem::swap(&mut previous, &mut current);
             x += 1;
         }
+        (self.previous, self.current) = (previous, current);
     }
 
     /// Appends an entry, extending the last entry when it is the same sixel just before.
