@@ -19,9 +19,12 @@
 //! lights once); moving a light casts its shadow rays again. Nothing accumulates: `others` is
 //! always a fresh sum, so a room whose lights are all off is exactly 0.
 //!
-//! Shadow rays are cast per 16 × 16 tile of pixels against only the occluders that reach into
-//! the box around the light and the tile's points ([`Occluders::within`]); when none does, the
-//! whole tile sees the light without a ray.
+//! Everything but the active light's γ is computed in one parallel sweep over the pixels
+//! ([`PixelLighting::sweep`]): chunk by chunk of [`shadows::chunk_pixels`], light by light, the
+//! geometry in f32, the shadow rays cast again where asked ([`shadows::cast_shadow_rays`]: per
+//! 16-pixel column of the chunk against only the occluders reaching into the box around its
+//! points and the light), else the light's visibility bits applied, then the light added into
+//! `others` or kept as the active light's factor.
 //!
 //! [`PixelLighting::render_into`] adds the per-vertex indirect light (Gouraud over each pixel's
 //! triangle) and shades the pixel in the same pass.
@@ -32,18 +35,15 @@ use rayon::prelude::*;
 use super::camera::View;
 use super::lookup::{CurveLookup, SinHalfTable, acos};
 use super::shade::{DisplayShader, Shader};
+use super::shadows::{self, ShadowBits, ShadowChunk};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
 use super::tone::{self, tone_srgb8_lit};
 use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::photometry::LightState;
 use crate::scene::model::{PatchMesh, Surface};
-use crate::transport::direct::{MIN_DISTANCE_M, Receiver, geometry_factor};
+use crate::transport::direct::MIN_DISTANCE_M;
 use crate::transport::occlusion::Occluders;
-
-/// Shadow rays start this far above the visible point, along its normal (m): clear of the f32
-/// rounding of the stored point (≤ 5e-7 m in a room of 10 m).
-const RAY_LIFT_M: f64 = 1e-5;
 
 /// Pixels per parallel task.
 const PIXELS_PER_TASK: usize = 8192;
@@ -84,44 +84,22 @@ impl From<&crate::scene::Light> for PixelLight {
     }
 }
 
-/// One light's entry: the light, its curve tables and its visibility bits.
+/// One light's entry: the light and its curve tables.
 #[derive(Debug, Clone)]
 struct Entry {
     light: PixelLight,
     lookup: CurveLookup,
     /// The curve in `sin(γ/2)` for the sum of the other lights, built on first need per curve.
     table: Option<SinHalfTable>,
-    /// Bit `i` set when pixel `i` sees the light unoccluded; `None` when nothing can occlude.
-    visible: Option<Vec<u64>>,
 }
 
 impl Entry {
-    fn new(light: PixelLight, surfaces: &PixelSurfaces, occluders: Option<&Occluders>) -> Entry {
+    fn new(light: PixelLight) -> Entry {
         Entry {
-            visible: occluders.map(|o| visibility_bits(surfaces, &light, o)),
             lookup: CurveLookup::new(&light.state.curve),
             table: None,
             light,
         }
-    }
-
-    #[inline]
-    fn sees(&self, i: usize) -> bool {
-        self.visible
-            .as_ref()
-            .is_none_or(|bits| bits[i / 64] >> (i % 64) & 1 == 1)
-    }
-
-    /// `(cos γ, cosθ / (r² + a²) · V)` at pixel `i` (receiver `rx`), `None` when the pixel
-    /// cannot be lit.
-    #[inline]
-    fn geometry(&self, rx: &Receiver, i: usize) -> Option<(f64, f64)> {
-        // The visibility bit first: an occluded pixel costs no geometry.
-        if !self.sees(i) {
-            return None;
-        }
-        let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, rx)?;
-        Some((self.light.state.aim.dot(dir), factor))
     }
 
     fn is_dark(&self) -> bool {
@@ -130,97 +108,131 @@ impl Entry {
     }
 }
 
-/// A light in f32 for the light-major sum of `others` ([`PixelLighting::resum_others`]).
-struct SumLight<'a> {
-    entry: &'a Entry,
-    table: &'a SinHalfTable,
+/// Which lights' shadow rays a sweep casts again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Cast {
+    /// Every light's (a new view, new lights).
+    Every,
+    /// One light's (it moved).
+    One(usize),
+    /// None: the visibility bits are kept.
+    Nothing,
+}
+
+/// A light as the sweep sees it, in f32.
+struct SweepLight<'a> {
     position: [f32; 3],
+    /// The position in f64, where shadow rays end (world, m).
+    position_m: DVec3,
     aim: [f32; 3],
     /// `a²` (m²).
     radius2: f32,
     /// Colour times dimmer.
     scale: [f32; 3],
+    /// The curve, for a light added into `others` (`None`: the active light, or a dark one).
+    table: Option<&'a SinHalfTable>,
+    /// Whether the sweep has anything to do for this light.
+    needed: bool,
+    /// Whether its shadow rays are cast again.
+    cast: bool,
 }
 
-impl SumLight<'_> {
-    /// `entry` in f32, `None` until its table is built.
-    fn new(entry: &Entry) -> Option<SumLight<'_>> {
+impl SweepLight<'_> {
+    /// Light `k` for a sweep whose active light is `active` and that casts again the shadow
+    /// rays `cast` names (`None`: nothing can occlude).
+    fn new(k: usize, entry: &Entry, active: Option<usize>, cast: Option<Cast>) -> SweepLight<'_> {
         let light = &entry.light;
         let [r, g, b] = light.state.color.map(|c| (c * light.state.dimmer) as f32);
-        Some(SumLight {
-            entry,
-            table: entry.table.as_ref()?,
+        let table = (active != Some(k) && !entry.is_dark())
+            .then_some(entry.table.as_ref())
+            .flatten();
+        let cast = cast == Some(Cast::Every) || cast == Some(Cast::One(k));
+        SweepLight {
             position: light.position.as_vec3().to_array(),
+            position_m: light.position,
             aim: light.state.aim.as_vec3().to_array(),
             radius2: (light.radius_m * light.radius_m) as f32,
             scale: [r, g, b],
-        })
-    }
-
-    /// Adds this light's direct light to `out`, the pixels from `start` (a multiple of 64) on:
-    /// the visibility bits first (a word of 64 pixels that see nothing is skipped whole), then
-    /// the geometry of [`geometry_factor`] and the curve from the table.
-    fn add_into(&self, surfaces: &PixelSurfaces, start: usize, out: &mut [[f32; 3]]) {
-        match &self.entry.visible {
-            None => {
-                for (k, o) in out.iter_mut().enumerate() {
-                    self.add_at(surfaces, start + k, o);
-                }
-            }
-            Some(bits) => {
-                let words = &bits[start / 64..(start + out.len()).div_ceil(64)];
-                for (w, &word) in words.iter().enumerate() {
-                    let mut word = word;
-                    while word != 0 {
-                        let k = w * 64 + word.trailing_zeros() as usize;
-                        word &= word - 1;
-                        self.add_at(surfaces, start + k, &mut out[k]);
-                    }
-                }
-            }
+            needed: table.is_some() || cast || active == Some(k),
+            table,
+            cast,
         }
     }
 
-    /// Adds this light's direct light at pixel `i` (its visibility bit already tested) to `o`.
-    #[inline(always)]
-    fn add_at(&self, surfaces: &PixelSurfaces, i: usize, o: &mut [f32; 3]) {
-        let t = surfaces.triangle_codes()[i];
-        if t == NO_TRIANGLE {
-            return;
-        }
+    /// For the pixels of `chunk`: `cosθ / (r² + a²)` (1/m², 0 where the pixel shows no
+    /// surface, faces away or sits in the luminaire) into `factor` and cos γ into `cos_gamma` —
+    /// the geometry of [`crate::transport::direct::geometry_factor`] in f32, one branch-free
+    /// loop over the chunk's columns of coordinates (vectorised).
+    fn geometry(&self, chunk: &ChunkPoints, factor: &mut [f32], cos_gamma: &mut [f32]) {
         let [qx, qy, qz] = self.position;
         let [ax, ay, az] = self.aim;
-        let [px, py, pz] = surfaces.raw_points()[i];
-        let [nx, ny, nz] = surfaces.patch_normals()[(t / 2) as usize];
-        let (dx, dy, dz) = (px - qx, py - qy, pz - qz);
-        let r2 = dx * dx + dy * dy + dz * dz;
-        if r2 < (MIN_DISTANCE_M * MIN_DISTANCE_M) as f32 {
-            return;
+        let min_r2 = (MIN_DISTANCE_M * MIN_DISTANCE_M) as f32;
+        let n = factor.len();
+        let [px, py, pz] = chunk.point.each_ref().map(|c| &c[..n]);
+        let [nx, ny, nz] = chunk.normal.each_ref().map(|c| &c[..n]);
+        let cos_gamma = &mut cos_gamma[..n];
+        for j in 0..n {
+            let (dx, dy, dz) = (px[j] - qx, py[j] - qy, pz[j] - qz);
+            let r2 = dx * dx + dy * dy + dz * dz;
+            let inv_r = 1.0 / r2.sqrt();
+            let cos_incidence = -(nx[j] * dx + ny[j] * dy + nz[j] * dz) * inv_r;
+            cos_gamma[j] = (ax * dx + ay * dy + az * dz) * inv_r;
+            factor[j] = if r2 >= min_r2 && cos_incidence > 0.0 {
+                cos_incidence / (r2 + self.radius2)
+            } else {
+                0.0
+            };
         }
-        let inv_r = 1.0 / r2.sqrt();
-        let cos_incidence = -(nx * dx + ny * dy + nz * dz) * inv_r;
-        if cos_incidence <= 0.0 {
-            return;
-        }
-        let cos_gamma = (ax * dx + ay * dy + az * dz) * inv_r;
-        let e = self.table.eval_cos(cos_gamma) * cos_incidence / (r2 + self.radius2);
-        for ch in 0..3 {
-            o[ch] += self.scale[ch] * e;
+    }
+
+    /// Adds this light's direct light (lx, linear RGB) at the pixels whose `factor` and
+    /// `cos_gamma` the sweep holds into `out`; nothing without a table.
+    fn add_into(&self, factor: &[f32], cos_gamma: &[f32], out: &mut [[f32; 3]]) {
+        let Some(table) = self.table else { return };
+        for ((o, &f), &c) in out.iter_mut().zip(factor).zip(cos_gamma) {
+            if f > 0.0 {
+                let e = table.eval_cos(c) * f;
+                for ch in 0..3 {
+                    o[ch] += self.scale[ch] * e;
+                }
+            }
         }
     }
 }
 
-/// The receiver (point, normal) at pixel `i`, `None` for the background.
-#[inline]
-fn receiver(surfaces: &PixelSurfaces, i: usize) -> Option<Receiver> {
-    let t = surfaces.triangle_codes()[i];
-    if t == NO_TRIANGLE {
-        return None;
+/// The visible points and normals of one sweep chunk's pixels, coordinate by coordinate (world,
+/// m; f32); a pixel that shows no surface has the normal 0, so no light reaches it.
+#[derive(Default)]
+struct ChunkPoints {
+    point: [Vec<f32>; 3],
+    normal: [Vec<f32>; 3],
+}
+
+impl ChunkPoints {
+    /// The pixels `start..start + len` of `surfaces`.
+    fn new(surfaces: &PixelSurfaces, start: usize, len: usize) -> ChunkPoints {
+        let mut chunk = ChunkPoints::default();
+        for c in chunk.point.iter_mut().chain(chunk.normal.iter_mut()) {
+            c.reserve_exact(len);
+        }
+        let range = start..start + len;
+        let normals = surfaces.patch_normals();
+        for (&t, p) in surfaces.triangle_codes()[range.clone()]
+            .iter()
+            .zip(&surfaces.raw_points()[range])
+        {
+            let n = if t == NO_TRIANGLE {
+                [0.0; 3]
+            } else {
+                normals[(t / 2) as usize]
+            };
+            for axis in 0..3 {
+                chunk.point[axis].push(p[axis]);
+                chunk.normal[axis].push(n[axis]);
+            }
+        }
+        chunk
     }
-    Some(Receiver {
-        point: DVec3::from(surfaces.raw_points()[i].map(f64::from)),
-        normal: DVec3::from(surfaces.patch_normals()[(t / 2) as usize].map(f64::from)),
-    })
 }
 
 /// The active light's per-pixel cache.
@@ -254,23 +266,22 @@ pub struct PixelLighting {
     /// Direct light of every light but the active one (lx, linear RGB).
     others: Vec<[f32; 3]>,
     active: Option<Active>,
+    /// Which pixels see which lights; `None` when nothing can occlude.
+    shadows: Option<ShadowBits>,
 }
 
 impl PixelLighting {
     /// Per-pixel direct light of `lights` on `surfaces`, with shadow rays through `occluders`
     /// (none: nothing occludes). Casts one shadow ray per (light, pixel facing it).
     pub fn new(surfaces: PixelSurfaces, lights: Vec<PixelLight>, occluders: Option<&Occluders>) -> Self {
-        let entries = lights
-            .into_iter()
-            .map(|light| Entry::new(light, &surfaces, occluders))
-            .collect();
         let mut lighting = PixelLighting {
             others: Vec::new(),
             surfaces,
-            entries,
+            entries: lights.into_iter().map(Entry::new).collect(),
             active: None,
+            shadows: None,
         };
-        lighting.resum_others();
+        lighting.sweep(Cast::Every, occluders);
         lighting
     }
 
@@ -286,25 +297,17 @@ impl PixelLighting {
         occluders: Option<&Occluders>,
     ) -> Result<()> {
         self.surfaces.rebuild(frame, mesh, surfaces, view)?;
-        for entry in &mut self.entries {
-            entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
-        }
-        match self.active_light() {
-            Some(i) => self.activate(i),
-            None => self.resum_others(),
-        }
+        self.sweep(Cast::Every, occluders);
+        self.refresh_active_gamma();
         Ok(())
     }
 
     /// Replaces every light (a light added or removed): each one's shadow rays are cast again,
     /// the surfaces are kept.
     pub fn set_lights(&mut self, lights: Vec<PixelLight>, occluders: Option<&Occluders>) {
-        self.entries = lights
-            .into_iter()
-            .map(|light| Entry::new(light, &self.surfaces, occluders))
-            .collect();
+        self.entries = lights.into_iter().map(Entry::new).collect();
         self.active = None;
-        self.resum_others();
+        self.sweep(Cast::Every, occluders);
     }
 
     /// The surfaces the light is evaluated on.
@@ -368,11 +371,9 @@ impl PixelLighting {
         let entry = &mut self.entries[i];
         entry.light.position = position;
         entry.light.radius_m = radius_m;
-        entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
+        self.sweep(Cast::One(i), occluders);
         if self.active_light() == Some(i) {
-            self.activate(i);
-        } else {
-            self.resum_others();
+            self.refresh_active_gamma();
         }
         Ok(())
     }
@@ -392,65 +393,97 @@ impl PixelLighting {
     fn activate(&mut self, i: usize) {
         let mut active = self.active.take().unwrap_or_default();
         active.index = i;
-        let n = self.surfaces.len();
-        active.gamma_deg.resize(n, 0.0);
-        active.segment.resize(n, 0);
-        active.fraction.resize(n, 0.0);
-        active.factor.resize(n, 0.0);
         self.active = Some(active);
-        self.resum_others();
-        self.refresh_active_factor();
+        self.sweep(Cast::Nothing, None);
         self.refresh_active_gamma();
     }
 
-    /// Re-sums the direct light of every light but the active one, light by light over each
-    /// block of pixels in f32 with each curve from its [`SinHalfTable`] (docs/DECISIONS.md,
-    /// "Light-major sum of the other lights").
-    fn resum_others(&mut self) {
+    /// One parallel pass over the pixels, chunk by chunk ([`shadows::chunk_pixels`]) and light by
+    /// light within a chunk: each light's `cosθ / (r² + a²)` and cos γ (f32), its shadow rays
+    /// cast again through `occluders` when `cast` names it (else its visibility bits applied),
+    /// then its direct light added into `others` with its [`SinHalfTable`] — or, for the active
+    /// light, its factor kept in the active cache (docs/DECISIONS.md, "Light-major sum of the
+    /// other lights"). With `cast` other than [`Cast::Nothing`] and no `occluders`, nothing
+    /// occludes and no bits are kept.
+    fn sweep(&mut self, cast: Cast, occluders: Option<&Occluders>) {
         let n = self.surfaces.len();
-        self.others.resize(n, [0.0; 3]);
-        let skip = self.active_light();
+        let width = self.surfaces.width() as usize;
+        let n_lights = self.entries.len();
+        let rays = match (cast, occluders) {
+            (Cast::Nothing, _) => None,
+            (_, None) => {
+                self.shadows = None;
+                None
+            }
+            (cast, Some(occluders)) => {
+                let fits = self.shadows.as_ref().is_some_and(|b| b.fits(n, width, n_lights));
+                if !fits {
+                    self.shadows = Some(ShadowBits::new(n, width, n_lights));
+                }
+                Some((if fits { cast } else { Cast::Every }, occluders))
+            }
+        };
+        let active = self.active_light();
         for (k, entry) in self.entries.iter_mut().enumerate() {
-            if Some(k) != skip && !entry.is_dark() && entry.table.is_none() {
+            if Some(k) != active && !entry.is_dark() && entry.table.is_none() {
                 entry.table = Some(SinHalfTable::new(&entry.lookup));
             }
         }
-        let lit: Vec<SumLight> = self
+        let lights: Vec<SweepLight> = self
             .entries
             .iter()
             .enumerate()
-            .filter(|&(k, e)| Some(k) != skip && !e.is_dark())
-            .filter_map(|(_, e)| SumLight::new(e))
+            .map(|(k, entry)| SweepLight::new(k, entry, active, rays.map(|(cast, _)| cast)))
             .collect();
-        let surfaces = &self.surfaces;
-        self.others
-            .par_chunks_mut(PIXELS_PER_TASK)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                out.fill([0.0; 3]);
-                for light in &lit {
-                    light.add_into(surfaces, chunk * PIXELS_PER_TASK, out);
-                }
-            });
-    }
-
-    /// The active light's `cosθ / (r² + a²) · V` per pixel.
-    fn refresh_active_factor(&mut self) {
-        let Some(active) = self.active.as_mut() else {
-            return;
+        let chunk = shadows::chunk_pixels(width);
+        let n_chunks = n.div_ceil(chunk);
+        let mut factors: Vec<Option<&mut [f32]>> = match self.active.as_mut() {
+            Some(active) => {
+                active.gamma_deg.resize(n, 0.0);
+                active.segment.resize(n, 0);
+                active.fraction.resize(n, 0.0);
+                active.factor.resize(n, 0.0);
+                active.factor.chunks_mut(chunk).map(Some).collect()
+            }
+            None => (0..n_chunks).map(|_| None).collect(),
         };
-        let entry = &self.entries[active.index];
+        let mut bits: Vec<Option<ShadowChunk>> = match self.shadows.as_mut() {
+            Some(shadows) => shadows.chunks_mut().into_iter().map(Some).collect(),
+            None => (0..n_chunks).map(|_| None).collect(),
+        };
+        bits.resize_with(n_chunks, || None);
         let surfaces = &self.surfaces;
-        active
-            .factor
-            .par_chunks_mut(PIXELS_PER_TASK)
+        self.others.resize(n, [0.0; 3]);
+        self.others
+            .par_chunks_mut(chunk)
+            .zip(factors.par_iter_mut())
+            .zip(bits.par_iter_mut())
             .enumerate()
-            .for_each(|(chunk, out)| {
-                let start = chunk * PIXELS_PER_TASK;
-                for (k, f) in out.iter_mut().enumerate() {
-                    *f = receiver(surfaces, start + k)
-                        .and_then(|rx| entry.geometry(&rx, start + k))
-                        .map_or(0.0, |(_, factor)| factor as f32);
+            .for_each(|(c, ((others, active_factor), bits))| {
+                let start = c * chunk;
+                let (mut factor, mut cos_gamma) = (vec![0.0f32; others.len()], vec![0.0f32; others.len()]);
+                let points = ChunkPoints::new(surfaces, start, others.len());
+                others.fill([0.0; 3]);
+                for (k, light) in lights.iter().enumerate().filter(|(_, l)| l.needed) {
+                    light.geometry(&points, &mut factor, &mut cos_gamma);
+                    match (bits.as_mut(), rays) {
+                        (Some(bits), Some((_, occluders))) if light.cast => {
+                            shadows::cast_shadow_rays(
+                                occluders,
+                                surfaces,
+                                start,
+                                light.position_m,
+                                &mut factor,
+                            );
+                            bits.store(k, &factor);
+                        }
+                        (Some(bits), _) => bits.mask(k, &mut factor),
+                        (None, _) => {}
+                    }
+                    match active_factor.as_mut() {
+                        Some(out) if active == Some(k) => out.copy_from_slice(&factor),
+                        _ => light.add_into(&factor, &cos_gamma, others),
+                    }
                 }
             });
     }
@@ -739,11 +772,7 @@ impl PixelLighting {
     /// light's cache), and per (light, pixel) (a visibility bit when something can occlude).
     pub fn memory_per_pixel(&self) -> (f64, f64) {
         let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 16;
-        let per_light = if self.entries.iter().any(|e| e.visible.is_some()) {
-            1.0 / 8.0
-        } else {
-            0.0
-        };
+        let per_light = if self.shadows.is_some() { 1.0 / 8.0 } else { 0.0 };
         (shared as f64, per_light)
     }
 }
@@ -762,59 +791,4 @@ fn unit(v: DVec3) -> DVec3 {
 #[inline]
 fn non_negative(x: f32) -> f32 {
     if x > 0.0 { x } else { 0.0 }
-}
-
-/// Side of the square pixel tiles whose shadow rays are skipped together.
-const TILE: usize = 16;
-
-/// Visibility bits of `light` at every pixel: set where the pixel faces the light and the shadow
-/// ray from just above the point to the light is free. Tiles of [`TILE`]² pixels test only the
-/// occluders reaching into their box with the light, and none cast rays when none does.
-fn visibility_bits(surfaces: &PixelSurfaces, light: &PixelLight, occluders: &Occluders) -> Vec<u64> {
-    let (n, w) = (surfaces.len(), surfaces.width() as usize);
-    let mut visible = vec![false; n];
-    visible
-        .par_chunks_mut(TILE * w.max(1))
-        .enumerate()
-        .for_each(|(band, rows)| {
-            let first = band * TILE * w;
-            let height = rows.len() / w.max(1);
-            let mut starts: Vec<(usize, DVec3)> = Vec::with_capacity(TILE * TILE);
-            for x0 in (0..w).step_by(TILE) {
-                starts.clear();
-                let (mut lo, mut hi) = (light.position, light.position);
-                for y in 0..height {
-                    for x in x0..(x0 + TILE).min(w) {
-                        let k = y * w + x;
-                        let Some(rx) = receiver(surfaces, first + k) else {
-                            continue;
-                        };
-                        if geometry_factor(light.position, light.radius_m, &rx).is_none() {
-                            continue;
-                        }
-                        let from = rx.point + rx.normal * RAY_LIFT_M;
-                        lo = lo.min(from);
-                        hi = hi.max(from);
-                        starts.push((k, from));
-                    }
-                }
-                if starts.is_empty() {
-                    continue;
-                }
-                let near = occluders.within(lo, hi);
-                for &(k, from) in &starts {
-                    rows[k] = near.is_empty() || !near.blocked(from, light.position);
-                }
-            }
-        });
-    let mut bits = vec![0u64; n.div_ceil(64)];
-    bits.par_iter_mut()
-        .zip(visible.par_chunks(64))
-        .for_each(|(word, flags)| {
-            *word = flags
-                .iter()
-                .enumerate()
-                .fold(0, |acc, (b, &on)| acc | (u64::from(on) << b));
-        });
-    bits
 }

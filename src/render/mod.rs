@@ -22,6 +22,7 @@ pub mod pick;
 pub mod plan;
 pub mod raster;
 pub mod shade;
+mod shadows;
 pub mod surface;
 pub mod text;
 pub mod tone;
