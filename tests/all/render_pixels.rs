@@ -360,14 +360,18 @@ fn agreement(got: &[f64], exact: &[f64]) -> Agreement {
 }
 
 fn assert_agrees(what: &str, lighting: &PixelLighting, room: &TestRoom) {
-    let a = agreement(&library_image(lighting), &room.image(SIZE.0, SIZE.1));
+    assert_agrees_at(what, lighting, room, SIZE);
+}
+
+fn assert_agrees_at(what: &str, lighting: &PixelLighting, room: &TestRoom, size: (u32, u32)) {
+    let a = agreement(&library_image(lighting), &room.image(size.0, size.1));
     println!(
         "{what}: {} lit pixels, median relative error {:.2e}, {:.3} % of pixels off by > 5 % of the maximum",
         a.lit,
         a.median_rel,
         100.0 * a.off_fraction
     );
-    let n = (SIZE.0 * SIZE.1) as usize;
+    let n = (size.0 * size.1) as usize;
     assert!(a.lit > n / 20, "{what}: only {} pixels are lit", a.lit);
     // The bounds are 0.5 % and 1 %; exact evaluation at the exact point does far better
     // (f32 storage of the point: ~1e-7; the edge pixels are the rasterizer's 1/256-pixel snap).
@@ -430,6 +434,41 @@ fn edits_keep_the_per_pixel_direct_light_exact() {
         .unwrap();
     lighting.set_state(1, state(&room.lamps[1])).unwrap();
     assert_agrees("moved light", &lighting, &room);
+}
+
+#[test]
+fn a_camera_change_keeps_the_per_pixel_direct_light_exact_at_any_image_width() {
+    // New views of an image whose pixel count and rows are not whole 64-bit words (the sweep's
+    // chunks and visibility words are padded), with a light being edited and after one moved:
+    // every light's shadow rays are cast again for the new pixels.
+    let dir = tempfile::tempdir().unwrap();
+    let mut room = spots_and_boxes();
+    let scene = room.load(dir.path());
+    let (mut lighting, mut frame, occluders) = lighting(&scene);
+    room.lamps[2].dimmer = 0.5;
+    let mut state = LightState::from(&scene.lights[2]);
+    state.dimmer = 0.5;
+    lighting.set_state(2, state).unwrap();
+    for (eye, size) in [
+        (DVec3::new(5.6, 0.3, 2.2), (251, 187)),
+        (DVec3::new(0.4, 0.5, 2.6), (97, 61)),
+        (room.eye, SIZE),
+    ] {
+        room.eye = eye;
+        let camera = scene::Camera { eye, ..scene.camera };
+        let view = View::new(camera, size.0, size.1).unwrap();
+        lighting
+            .set_view(
+                &mut frame,
+                &scene.fine,
+                &scene.surfaces,
+                &view,
+                occluders.as_ref(),
+            )
+            .unwrap();
+        assert_eq!(lighting.active_light(), Some(2));
+        assert_agrees_at(&format!("view from {eye} at {size:?}"), &lighting, &room, size);
+    }
 }
 
 #[test]
