@@ -3,9 +3,9 @@
 //! 1024 × 768 preview pixmap of the paper and office rooms (update → command → session relight,
 //! per-pixel direct light, shading and overlays, into reused buffers; targets 16 ms and 33 ms), a
 //! 5° camera orbit step (target 200 ms), the per-pixel light's memory (printed), the heap
-//! allocations of a key press (counted with dhat), and what one preview frame costs on the wire
-//! for each image protocol at 160 × 48 cells with a 10 × 20 px font (encode time is benched; the
-//! byte counts are printed).
+//! allocations of a key press (counted with dhat), and what one full preview frame costs on the
+//! wire with the editor's own encoder for each image protocol at 160 × 48 cells with a 10 × 20 px
+//! font (encode time is benched; the byte counts are printed).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -15,11 +15,13 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use haiko::render::DisplayMode;
 use haiko::session::{FrameSpec, Session, SessionOptions};
 use haiko::tui::app::frame_spec;
+use haiko::tui::frame_budget::FramePlan;
+use haiko::tui::multiplexer::Protocol;
+use haiko::tui::preview::ImageSetup;
 use haiko::tui::view::preview_rect;
 use haiko::tui::{Effect, Model, Msg, preview, update};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use ratatui::layout::{Rect, Size};
-use ratatui_image::picker::{Picker, ProtocolType};
 
 #[path = "common/cpu_time.rs"]
 mod cpu_time;
@@ -219,26 +221,39 @@ fn bytes_per_frame(c: &mut Criterion) {
         pixmap.width(),
         pixmap.height()
     );
+    // The editor's own encoders (`preview::encode_frame`), each frame the full one sent after
+    // input went idle (sixel dithered).
     let mut group = c.benchmark_group("editor/encode");
+    let plan = FramePlan::Full { dither: true };
+    let size = (pixmap.width(), pixmap.height());
     for protocol in [
-        ProtocolType::Halfblocks,
-        ProtocolType::Sixel,
-        ProtocolType::Kitty,
-        ProtocolType::Iterm2,
+        Protocol::Halfblocks,
+        Protocol::Sixel,
+        Protocol::Kitty,
+        Protocol::Iterm2,
     ] {
-        let mut picker = Picker::halfblocks();
-        picker.set_protocol_type(protocol);
-        let image = preview::encode(&picker, &pixmap, cells).expect("the frame encodes");
-        let bytes = preview::bytes_on_wire(&image, area).expect("bytes measured");
+        let setup = ImageSetup {
+            protocol,
+            passthrough: false,
+            cell_px: if protocol == Protocol::Halfblocks {
+                preview::HALFBLOCK_CELL_PX
+            } else {
+                FONT
+            },
+            hint: None,
+        };
+        let encode =
+            || preview::encode_frame(&setup, pixmap.data(), size, plan, cells).expect("the frame encodes");
+        let bytes = preview::frame_sequence(&encode(), area)
+            .expect("bytes measured")
+            .len();
         println!(
             "bytes per frame, {protocol:?}: {bytes} ({:.0} KiB)",
             bytes as f64 / 1024.0
         );
-        group.bench_with_input(
-            BenchmarkId::from_parameter(format!("{protocol:?}")),
-            &picker,
-            |b, p| b.iter(|| black_box(preview::encode(p, &pixmap, cells).expect("the frame encodes"))),
-        );
+        group.bench_function(BenchmarkId::from_parameter(format!("{protocol:?}")), |b| {
+            b.iter(|| black_box(encode()))
+        });
     }
     group.finish();
 }

@@ -41,6 +41,9 @@ pub enum ViewArg {
     Camera,
     /// Straight down onto the floor, parallel projection, with luminaire symbols.
     Plan,
+    /// The plan of the design's work plane (0.8 m unless the room's `[[surface]]` says),
+    /// with luminaire symbols.
+    WorkPlane,
 }
 
 impl From<ViewArg> for ViewChoice {
@@ -48,6 +51,7 @@ impl From<ViewArg> for ViewChoice {
         match view {
             ViewArg::Camera => ViewChoice::Camera,
             ViewArg::Plan => ViewChoice::Plan,
+            ViewArg::WorkPlane => ViewChoice::WorkPlane,
         }
     }
 }

@@ -118,16 +118,20 @@ impl Legend {
     }
 }
 
-/// Label colour (sRGB8).
-const LABEL_RGB: [u8; 3] = [235, 235, 235];
+/// Where the legend of a `width × height` image goes (pixels): label scale, bar width, margin,
+/// tick levels, panel width, bar top and bottom rows.
+struct Layout {
+    s: u32,
+    bar_w: u32,
+    margin: u32,
+    levels: Vec<f64>,
+    panel_w: u32,
+    top: u32,
+    bottom: u32,
+}
 
-/// Draws the legend of `scale` at the right edge of `pixmap`: a dark panel, the viridis bar
-/// (bottom = the scale's minimum, top = its maximum), a tick and a label at each round value
-/// ([`round_levels`] of the scale's range on a log scale, [`linear_levels`] on a linear one, as
-/// many as the bar has room for) and the unit `lx` above. Returns where it drew (the ticks are the levels to draw isolux lines at); `None`
-/// when the image is too small for a legend.
-pub fn draw_legend(pixmap: &mut Pixmap, scale: &FalseColor) -> Option<Legend> {
-    let (w, h) = (pixmap.width(), pixmap.height());
+/// The legend's layout in a `w × h` image, `None` when the image is too small for one.
+fn layout(w: u32, h: u32, scale: &FalseColor) -> Option<Layout> {
     let s = (h / 240).max(1);
     let bar_w = 10 * s;
     let margin = 6 * s;
@@ -150,6 +154,43 @@ pub fn draw_legend(pixmap: &mut Pixmap, scale: &FalseColor) -> Option<Legend> {
     if panel_w + 2 * margin > w || bottom <= top + 4 * text_height(s) {
         return None;
     }
+    Some(Layout {
+        s,
+        bar_w,
+        margin,
+        levels,
+        panel_w,
+        top,
+        bottom,
+    })
+}
+
+/// Pixels at the right edge of a `width × height` image that [`draw_legend`] covers for `scale`
+/// (its panel and the margin beside it), 0 when the image is too small for a legend: what a
+/// plan view leaves free so the legend stands beside the footprint.
+pub fn legend_width(width: u32, height: u32, scale: &FalseColor) -> u32 {
+    layout(width, height, scale).map_or(0, |l| l.panel_w + l.margin)
+}
+
+/// Label colour (sRGB8).
+const LABEL_RGB: [u8; 3] = [235, 235, 235];
+
+/// Draws the legend of `scale` at the right edge of `pixmap`: a dark panel, the viridis bar
+/// (bottom = the scale's minimum, top = its maximum), a tick and a label at each round value
+/// ([`round_levels`] of the scale's range on a log scale, [`linear_levels`] on a linear one, as
+/// many as the bar has room for) and the unit `lx` above. Returns where it drew (the ticks are the levels to draw isolux lines at); `None`
+/// when the image is too small for a legend.
+pub fn draw_legend(pixmap: &mut Pixmap, scale: &FalseColor) -> Option<Legend> {
+    let (w, h) = (pixmap.width(), pixmap.height());
+    let Layout {
+        s,
+        bar_w,
+        margin,
+        levels,
+        panel_w,
+        top,
+        bottom,
+    } = layout(w, h, scale)?;
     let bar_right = w - 2 * margin;
     let bar_left = bar_right - bar_w;
     let mut legend = Legend {

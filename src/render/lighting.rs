@@ -11,7 +11,7 @@
 //!   every light but the *active* one (lx, linear RGB, dimmer and colour applied);
 //! * per light: one visibility bit (only when the scene has occluders);
 //! * for the active light (the one edited last): γ (degrees), its curve coordinate
-//!   ([`super::lookup`]) and `cosθ / (r² + a²) · V`, 12 bytes.
+//!   ([`super::lookup`]: segment and fraction) and `cosθ / (r² + a²) · V`, 16 bytes.
 //!
 //! A dimmer or colour edit of the active light, or a curve edit that moves no angle, costs one
 //! interpolation per pixel; a curve edit that moves an angle re-derives the coordinates from γ;
@@ -19,9 +19,12 @@
 //! lights once); moving a light casts its shadow rays again. Nothing accumulates: `others` is
 //! always a fresh sum, so a room whose lights are all off is exactly 0.
 //!
-//! Shadow rays are cast per 16 × 16 tile of pixels against only the occluders that reach into
-//! the box around the light and the tile's points ([`Occluders::within`]); when none does, the
-//! whole tile sees the light without a ray.
+//! Everything but the active light's γ is computed in one parallel sweep over the pixels
+//! ([`PixelLighting::sweep`]): chunk by chunk of [`shadows::chunk_pixels`], light by light, the
+//! geometry in f32, the shadow rays cast again where asked ([`shadows::cast_shadow_rays`]: per
+//! 16-pixel column of the chunk against only the occluders reaching into the box around its
+//! points and the light), else the light's visibility bits applied, then the light added into
+//! `others` or kept as the active light's factor.
 //!
 //! [`PixelLighting::render_into`] adds the per-vertex indirect light (Gouraud over each pixel's
 //! triangle) and shades the pixel in the same pass.
@@ -30,23 +33,23 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::camera::View;
-use super::lookup::{CurveLookup, acos};
+use super::lookup::{CurveLookup, SinHalfTable, acos};
 use super::shade::{DisplayShader, Shader};
+use super::shadows::{self, ShadowBits, ShadowChunk};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
-use super::tone::{self, tone_srgb8};
+use super::tone::{self, tone_srgb8_lit};
 use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::photometry::LightState;
 use crate::scene::model::{PatchMesh, Surface};
-use crate::transport::direct::{Receiver, geometry_factor};
+use crate::transport::direct::MIN_DISTANCE_M;
 use crate::transport::occlusion::Occluders;
-
-/// Shadow rays start this far above the visible point, along its normal (m): clear of the f32
-/// rounding of the stored point (≤ 5e-7 m in a room of 10 m).
-const RAY_LIFT_M: f64 = 1e-5;
 
 /// Pixels per parallel task.
 const PIXELS_PER_TASK: usize = 8192;
+
+/// Pixels composed and shaded together (a scratch block of 3 KiB on the stack).
+const BLOCK: usize = 256;
 
 /// A light as the per-pixel direct light sees it: where it is and what it emits.
 #[derive(Debug, Clone, PartialEq)]
@@ -81,38 +84,21 @@ impl From<&crate::scene::Light> for PixelLight {
     }
 }
 
-/// One light's entry: the light, its curve table and its visibility bits.
+/// One light's entry: the light and its curve tables.
 #[derive(Debug, Clone)]
 struct Entry {
     light: PixelLight,
     lookup: CurveLookup,
-    /// Bit `i` set when pixel `i` sees the light unoccluded; `None` when nothing can occlude.
-    visible: Option<Vec<u64>>,
+    /// The curve in `sin(γ/2)` for the sum of the other lights, built on first need per curve.
+    table: Option<SinHalfTable>,
 }
 
 impl Entry {
-    #[inline]
-    fn sees(&self, i: usize) -> bool {
-        self.visible
-            .as_ref()
-            .is_none_or(|bits| bits[i / 64] >> (i % 64) & 1 == 1)
-    }
-
-    /// `(cos γ, cosθ / (r² + a²) · V)` at pixel `i` (receiver `rx`), `None` when the pixel
-    /// cannot be lit.
-    #[inline]
-    fn geometry(&self, rx: &Receiver, i: usize) -> Option<(f64, f64)> {
-        let (dir, factor) = geometry_factor(self.light.position, self.light.radius_m, rx)?;
-        self.sees(i).then(|| (self.light.state.aim.dot(dir), factor))
-    }
-
-    /// This light's direct illuminance (lx, before colour, dimmer applied) at pixel `i`
-    /// (receiver `rx`).
-    #[inline]
-    fn illuminance(&self, rx: &Receiver, i: usize) -> f64 {
-        match self.geometry(rx, i) {
-            Some((cos_gamma, factor)) => self.light.state.dimmer * self.lookup.eval_cos(cos_gamma) * factor,
-            None => 0.0,
+    fn new(light: PixelLight) -> Entry {
+        Entry {
+            lookup: CurveLookup::new(&light.state.curve),
+            table: None,
+            light,
         }
     }
 
@@ -122,17 +108,131 @@ impl Entry {
     }
 }
 
-/// The receiver (point, normal) at pixel `i`, `None` for the background.
-#[inline]
-fn receiver(surfaces: &PixelSurfaces, i: usize) -> Option<Receiver> {
-    let t = surfaces.triangle_codes()[i];
-    if t == NO_TRIANGLE {
-        return None;
+/// Which lights' shadow rays a sweep casts again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Cast {
+    /// Every light's (a new view, new lights).
+    Every,
+    /// One light's (it moved).
+    One(usize),
+    /// None: the visibility bits are kept.
+    Nothing,
+}
+
+/// A light as the sweep sees it, in f32.
+struct SweepLight<'a> {
+    position: [f32; 3],
+    /// The position in f64, where shadow rays end (world, m).
+    position_m: DVec3,
+    aim: [f32; 3],
+    /// `a²` (m²).
+    radius2: f32,
+    /// Colour times dimmer.
+    scale: [f32; 3],
+    /// The curve, for a light added into `others` (`None`: the active light, or a dark one).
+    table: Option<&'a SinHalfTable>,
+    /// Whether the sweep has anything to do for this light.
+    needed: bool,
+    /// Whether its shadow rays are cast again.
+    cast: bool,
+}
+
+impl SweepLight<'_> {
+    /// Light `k` for a sweep whose active light is `active` and that casts again the shadow
+    /// rays `cast` names (`None`: nothing can occlude).
+    fn new(k: usize, entry: &Entry, active: Option<usize>, cast: Option<Cast>) -> SweepLight<'_> {
+        let light = &entry.light;
+        let [r, g, b] = light.state.color.map(|c| (c * light.state.dimmer) as f32);
+        let table = (active != Some(k) && !entry.is_dark())
+            .then_some(entry.table.as_ref())
+            .flatten();
+        let cast = cast == Some(Cast::Every) || cast == Some(Cast::One(k));
+        SweepLight {
+            position: light.position.as_vec3().to_array(),
+            position_m: light.position,
+            aim: light.state.aim.as_vec3().to_array(),
+            radius2: (light.radius_m * light.radius_m) as f32,
+            scale: [r, g, b],
+            needed: table.is_some() || cast || active == Some(k),
+            table,
+            cast,
+        }
     }
-    Some(Receiver {
-        point: DVec3::from(surfaces.raw_points()[i].map(f64::from)),
-        normal: DVec3::from(surfaces.patch_normals()[(t / 2) as usize].map(f64::from)),
-    })
+
+    /// For the pixels of `chunk`: `cosθ / (r² + a²)` (1/m², 0 where the pixel shows no
+    /// surface, faces away or sits in the luminaire) into `factor` and cos γ into `cos_gamma` —
+    /// the geometry of [`crate::transport::direct::geometry_factor`] in f32, one branch-free
+    /// loop over the chunk's columns of coordinates (vectorised).
+    fn geometry(&self, chunk: &ChunkPoints, factor: &mut [f32], cos_gamma: &mut [f32]) {
+        let [qx, qy, qz] = self.position;
+        let [ax, ay, az] = self.aim;
+        let min_r2 = (MIN_DISTANCE_M * MIN_DISTANCE_M) as f32;
+        let n = factor.len();
+        let [px, py, pz] = chunk.point.each_ref().map(|c| &c[..n]);
+        let [nx, ny, nz] = chunk.normal.each_ref().map(|c| &c[..n]);
+        let cos_gamma = &mut cos_gamma[..n];
+        for j in 0..n {
+            let (dx, dy, dz) = (px[j] - qx, py[j] - qy, pz[j] - qz);
+            let r2 = dx * dx + dy * dy + dz * dz;
+            let inv_r = 1.0 / r2.sqrt();
+            let cos_incidence = -(nx[j] * dx + ny[j] * dy + nz[j] * dz) * inv_r;
+            cos_gamma[j] = (ax * dx + ay * dy + az * dz) * inv_r;
+            factor[j] = if r2 >= min_r2 && cos_incidence > 0.0 {
+                cos_incidence / (r2 + self.radius2)
+            } else {
+                0.0
+            };
+        }
+    }
+
+    /// Adds this light's direct light (lx, linear RGB) at the pixels whose `factor` and
+    /// `cos_gamma` the sweep holds into `out`; nothing without a table.
+    fn add_into(&self, factor: &[f32], cos_gamma: &[f32], out: &mut [[f32; 3]]) {
+        let Some(table) = self.table else { return };
+        for ((o, &f), &c) in out.iter_mut().zip(factor).zip(cos_gamma) {
+            if f > 0.0 {
+                let e = table.eval_cos(c) * f;
+                for ch in 0..3 {
+                    o[ch] += self.scale[ch] * e;
+                }
+            }
+        }
+    }
+}
+
+/// The visible points and normals of one sweep chunk's pixels, coordinate by coordinate (world,
+/// m; f32); a pixel that shows no surface has the normal 0, so no light reaches it.
+#[derive(Default)]
+struct ChunkPoints {
+    point: [Vec<f32>; 3],
+    normal: [Vec<f32>; 3],
+}
+
+impl ChunkPoints {
+    /// The pixels `start..start + len` of `surfaces`.
+    fn new(surfaces: &PixelSurfaces, start: usize, len: usize) -> ChunkPoints {
+        let mut chunk = ChunkPoints::default();
+        for c in chunk.point.iter_mut().chain(chunk.normal.iter_mut()) {
+            c.reserve_exact(len);
+        }
+        let range = start..start + len;
+        let normals = surfaces.patch_normals();
+        for (&t, p) in surfaces.triangle_codes()[range.clone()]
+            .iter()
+            .zip(&surfaces.raw_points()[range])
+        {
+            let n = if t == NO_TRIANGLE {
+                [0.0; 3]
+            } else {
+                normals[(t / 2) as usize]
+            };
+            for axis in 0..3 {
+                chunk.point[axis].push(p[axis]);
+                chunk.normal[axis].push(n[axis]);
+            }
+        }
+        chunk
+    }
 }
 
 /// The active light's per-pixel cache.
@@ -141,8 +241,11 @@ struct Active {
     index: usize,
     /// γ per pixel (degrees).
     gamma_deg: Vec<f32>,
-    /// The curve coordinate of γ per pixel (−1 outside the curve).
-    coordinate: Vec<f32>,
+    /// The curve coordinate of γ per pixel: the segment ([`CurveLookup::outside`] where the
+    /// light does not reach or γ is outside the curve) …
+    segment: Vec<u32>,
+    /// … and the fraction along it.
+    fraction: Vec<f32>,
     /// `cosθ / (r² + a²) · V` per pixel (1/m²), 0 where the light cannot reach.
     factor: Vec<f32>,
 }
@@ -163,27 +266,22 @@ pub struct PixelLighting {
     /// Direct light of every light but the active one (lx, linear RGB).
     others: Vec<[f32; 3]>,
     active: Option<Active>,
+    /// Which pixels see which lights; `None` when nothing can occlude.
+    shadows: Option<ShadowBits>,
 }
 
 impl PixelLighting {
     /// Per-pixel direct light of `lights` on `surfaces`, with shadow rays through `occluders`
     /// (none: nothing occludes). Casts one shadow ray per (light, pixel facing it).
     pub fn new(surfaces: PixelSurfaces, lights: Vec<PixelLight>, occluders: Option<&Occluders>) -> Self {
-        let entries = lights
-            .into_iter()
-            .map(|light| Entry {
-                visible: occluders.map(|o| visibility_bits(&surfaces, &light, o)),
-                lookup: CurveLookup::new(&light.state.curve),
-                light,
-            })
-            .collect();
         let mut lighting = PixelLighting {
             others: Vec::new(),
             surfaces,
-            entries,
+            entries: lights.into_iter().map(Entry::new).collect(),
             active: None,
+            shadows: None,
         };
-        lighting.resum_others();
+        lighting.sweep(Cast::Every, occluders);
         lighting
     }
 
@@ -199,29 +297,17 @@ impl PixelLighting {
         occluders: Option<&Occluders>,
     ) -> Result<()> {
         self.surfaces.rebuild(frame, mesh, surfaces, view)?;
-        for entry in &mut self.entries {
-            entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
-        }
-        match self.active_light() {
-            Some(i) => self.activate(i),
-            None => self.resum_others(),
-        }
+        self.sweep(Cast::Every, occluders);
+        self.refresh_active_gamma();
         Ok(())
     }
 
     /// Replaces every light (a light added or removed): each one's shadow rays are cast again,
     /// the surfaces are kept.
     pub fn set_lights(&mut self, lights: Vec<PixelLight>, occluders: Option<&Occluders>) {
-        self.entries = lights
-            .into_iter()
-            .map(|light| Entry {
-                visible: occluders.map(|o| visibility_bits(&self.surfaces, &light, o)),
-                lookup: CurveLookup::new(&light.state.curve),
-                light,
-            })
-            .collect();
+        self.entries = lights.into_iter().map(Entry::new).collect();
         self.active = None;
-        self.resum_others();
+        self.sweep(Cast::Every, occluders);
     }
 
     /// The surfaces the light is evaluated on.
@@ -259,6 +345,7 @@ impl PixelLighting {
             let lookup = CurveLookup::new(&state.curve);
             angles_moved = !entry.lookup.same_angles(&lookup);
             entry.lookup = lookup;
+            entry.table = None;
         }
         entry.light.state = state;
         if self.active_light() != Some(i) {
@@ -284,11 +371,9 @@ impl PixelLighting {
         let entry = &mut self.entries[i];
         entry.light.position = position;
         entry.light.radius_m = radius_m;
-        entry.visible = occluders.map(|o| visibility_bits(&self.surfaces, &entry.light, o));
+        self.sweep(Cast::One(i), occluders);
         if self.active_light() == Some(i) {
-            self.activate(i);
-        } else {
-            self.resum_others();
+            self.refresh_active_gamma();
         }
         Ok(())
     }
@@ -308,70 +393,97 @@ impl PixelLighting {
     fn activate(&mut self, i: usize) {
         let mut active = self.active.take().unwrap_or_default();
         active.index = i;
-        let n = self.surfaces.len();
-        active.gamma_deg.resize(n, 0.0);
-        active.coordinate.resize(n, -1.0);
-        active.factor.resize(n, 0.0);
         self.active = Some(active);
-        self.resum_others();
-        self.refresh_active_factor();
+        self.sweep(Cast::Nothing, None);
         self.refresh_active_gamma();
     }
 
-    /// Re-sums the direct light of every light but the active one.
-    fn resum_others(&mut self) {
+    /// One parallel pass over the pixels, chunk by chunk ([`shadows::chunk_pixels`]) and light by
+    /// light within a chunk: each light's `cosθ / (r² + a²)` and cos γ (f32), its shadow rays
+    /// cast again through `occluders` when `cast` names it (else its visibility bits applied),
+    /// then its direct light added into `others` with its [`SinHalfTable`] — or, for the active
+    /// light, its factor kept in the active cache (docs/DECISIONS.md, "Light-major sum of the
+    /// other lights"). With `cast` other than [`Cast::Nothing`] and no `occluders`, nothing
+    /// occludes and no bits are kept.
+    fn sweep(&mut self, cast: Cast, occluders: Option<&Occluders>) {
         let n = self.surfaces.len();
-        self.others.resize(n, [0.0; 3]);
-        let skip = self.active_light();
-        let lit: Vec<&Entry> = self
+        let width = self.surfaces.width() as usize;
+        let n_lights = self.entries.len();
+        let rays = match (cast, occluders) {
+            (Cast::Nothing, _) => None,
+            (_, None) => {
+                self.shadows = None;
+                None
+            }
+            (cast, Some(occluders)) => {
+                let fits = self.shadows.as_ref().is_some_and(|b| b.fits(n, width, n_lights));
+                if !fits {
+                    self.shadows = Some(ShadowBits::new(n, width, n_lights));
+                }
+                Some((if fits { cast } else { Cast::Every }, occluders))
+            }
+        };
+        let active = self.active_light();
+        for (k, entry) in self.entries.iter_mut().enumerate() {
+            if Some(k) != active && !entry.is_dark() && entry.table.is_none() {
+                entry.table = Some(SinHalfTable::new(&entry.lookup));
+            }
+        }
+        let lights: Vec<SweepLight> = self
             .entries
             .iter()
             .enumerate()
-            .filter(|&(k, e)| Some(k) != skip && !e.is_dark())
-            .map(|(_, e)| e)
+            .map(|(k, entry)| SweepLight::new(k, entry, active, rays.map(|(cast, _)| cast)))
             .collect();
-        let surfaces = &self.surfaces;
-        self.others
-            .par_chunks_mut(PIXELS_PER_TASK)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                let start = chunk * PIXELS_PER_TASK;
-                for (k, o) in out.iter_mut().enumerate() {
-                    let i = start + k;
-                    let mut sum = [0.0f32; 3];
-                    if let Some(rx) = receiver(surfaces, i) {
-                        for entry in &lit {
-                            let e = entry.illuminance(&rx, i);
-                            if e != 0.0 {
-                                let color = entry.light.state.color;
-                                for ch in 0..3 {
-                                    sum[ch] += (color[ch] * e) as f32;
-                                }
-                            }
-                        }
-                    }
-                    *o = sum;
-                }
-            });
-    }
-
-    /// The active light's `cosθ / (r² + a²) · V` per pixel.
-    fn refresh_active_factor(&mut self) {
-        let Some(active) = self.active.as_mut() else {
-            return;
+        let chunk = shadows::chunk_pixels(width);
+        let n_chunks = n.div_ceil(chunk);
+        let mut factors: Vec<Option<&mut [f32]>> = match self.active.as_mut() {
+            Some(active) => {
+                active.gamma_deg.resize(n, 0.0);
+                active.segment.resize(n, 0);
+                active.fraction.resize(n, 0.0);
+                active.factor.resize(n, 0.0);
+                active.factor.chunks_mut(chunk).map(Some).collect()
+            }
+            None => (0..n_chunks).map(|_| None).collect(),
         };
-        let entry = &self.entries[active.index];
+        let mut bits: Vec<Option<ShadowChunk>> = match self.shadows.as_mut() {
+            Some(shadows) => shadows.chunks_mut().into_iter().map(Some).collect(),
+            None => (0..n_chunks).map(|_| None).collect(),
+        };
+        bits.resize_with(n_chunks, || None);
         let surfaces = &self.surfaces;
-        active
-            .factor
-            .par_chunks_mut(PIXELS_PER_TASK)
+        self.others.resize(n, [0.0; 3]);
+        self.others
+            .par_chunks_mut(chunk)
+            .zip(factors.par_iter_mut())
+            .zip(bits.par_iter_mut())
             .enumerate()
-            .for_each(|(chunk, out)| {
-                let start = chunk * PIXELS_PER_TASK;
-                for (k, f) in out.iter_mut().enumerate() {
-                    *f = receiver(surfaces, start + k)
-                        .and_then(|rx| entry.geometry(&rx, start + k))
-                        .map_or(0.0, |(_, factor)| factor as f32);
+            .for_each(|(c, ((others, active_factor), bits))| {
+                let start = c * chunk;
+                let (mut factor, mut cos_gamma) = (vec![0.0f32; others.len()], vec![0.0f32; others.len()]);
+                let points = ChunkPoints::new(surfaces, start, others.len());
+                others.fill([0.0; 3]);
+                for (k, light) in lights.iter().enumerate().filter(|(_, l)| l.needed) {
+                    light.geometry(&points, &mut factor, &mut cos_gamma);
+                    match (bits.as_mut(), rays) {
+                        (Some(bits), Some((_, occluders))) if light.cast => {
+                            shadows::cast_shadow_rays(
+                                occluders,
+                                surfaces,
+                                start,
+                                light.position_m,
+                                &mut factor,
+                            );
+                            bits.store(k, &factor);
+                        }
+                        (Some(bits), _) => bits.mask(k, &mut factor),
+                        (None, _) => {}
+                    }
+                    match active_factor.as_mut() {
+                        Some(out) if active == Some(k) => out.copy_from_slice(&factor),
+                        _ => light.add_into(&factor, &cos_gamma, others),
+                    }
                 }
             });
     }
@@ -408,15 +520,17 @@ impl PixelLighting {
             return;
         };
         let lookup = &self.entries[active.index].lookup;
+        let outside = lookup.outside();
         active
-            .coordinate
+            .segment
             .par_chunks_mut(PIXELS_PER_TASK)
+            .zip(active.fraction.par_chunks_mut(PIXELS_PER_TASK))
             .zip(active.gamma_deg.par_chunks(PIXELS_PER_TASK))
             .zip(active.factor.par_chunks(PIXELS_PER_TASK))
-            .for_each(|((coordinate, gamma), factor)| {
-                for ((u, &g), &f) in coordinate.iter_mut().zip(gamma).zip(factor) {
-                    *u = if f == 0.0 {
-                        -1.0
+            .for_each(|(((segment, fraction), gamma), factor)| {
+                for (((k, t), &g), &f) in segment.iter_mut().zip(fraction.iter_mut()).zip(gamma).zip(factor) {
+                    (*k, *t) = if f == 0.0 {
+                        (outside, 0.0)
                     } else {
                         lookup.coordinate_deg(f64::from(g))
                     };
@@ -478,68 +592,72 @@ impl PixelLighting {
         Ok(())
     }
 
-    /// Calls `f(k, E)` with the illuminance of pixel `start + k`, `k < len`, from `source`.
-    #[inline]
-    fn illuminance_chunk(
-        &self,
-        source: &Source,
-        start: usize,
-        len: usize,
-        mut f: impl FnMut(usize, [f32; 3]),
-    ) {
-        match source {
-            Source::Lux(lux) => {
-                for (k, &e) in lux[start..start + len].iter().enumerate() {
-                    f(k, e);
-                }
-            }
-            Source::Compose(indirect) => self.compose_chunk(start, len, *indirect, f),
-        }
-    }
-
-    /// Shades `pixels` chunk by chunk in parallel from the illuminance `source`; the shader is
-    /// chosen once per chunk, outside the per-pixel loop.
+    /// Shades `pixels` in parallel chunks of [`PIXELS_PER_TASK`], each in blocks of [`BLOCK`]:
+    /// the block's illuminance is taken from `source` (composed into a scratch block on the
+    /// stack when it is not composed yet), then shaded in a loop of its own.
     fn shade_chunks(&self, pixels: &mut [[u8; 4]], shader: &DisplayShader, source: Source) {
-        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
-        let triangles = self.surfaces.triangle_codes();
-        let luminance = self.surfaces.patch_luminance_factors();
-        let table = tone::table();
         pixels
             .par_chunks_mut(PIXELS_PER_TASK)
             .enumerate()
             .for_each(|(chunk, pixels)| {
-                let start = chunk * PIXELS_PER_TASK;
-                let triangles = &triangles[start..start + pixels.len()];
-                match shader {
-                    DisplayShader::Photo(photo) => {
-                        let exposure = photo.exposure() as f32;
-                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
-                            let t = triangles[k];
-                            pixels[k] = if t == NO_TRIANGLE {
-                                background
-                            } else {
-                                let f = luminance[(t >> 1) as usize];
-                                [
-                                    tone_srgb8(table, f[0] * e[0] * exposure),
-                                    tone_srgb8(table, f[1] * e[1] * exposure),
-                                    tone_srgb8(table, f[2] * e[2] * exposure),
-                                    255,
-                                ]
-                            };
-                        });
-                    }
-                    DisplayShader::FalseColor(scale) => {
-                        self.illuminance_chunk(&source, start, pixels.len(), |k, e| {
-                            pixels[k] = if triangles[k] == NO_TRIANGLE {
-                                background
-                            } else {
-                                let [r, g, b] = scale.shade(e);
-                                [r, g, b, 255]
-                            };
-                        });
-                    }
+                let mut scratch = [[0.0f32; 3]; BLOCK];
+                for (b, pixels) in pixels.chunks_mut(BLOCK).enumerate() {
+                    let start = chunk * PIXELS_PER_TASK + b * BLOCK;
+                    let e: &[[f32; 3]] = match source {
+                        Source::Lux(lux) => &lux[start..start + pixels.len()],
+                        Source::Compose(indirect) => {
+                            let e = &mut scratch[..pixels.len()];
+                            self.compose_block(start, indirect, e);
+                            e
+                        }
+                    };
+                    self.shade_block(start, e, pixels, shader);
                 }
             });
+    }
+
+    /// Shades pixels `start..start + pixels.len()` whose illuminance is `e` (lx, linear RGB):
+    /// photo shaders see the luminance `ρ E / π` of the pixel's surface, false colour the
+    /// illuminance; the background gets [`BACKGROUND_RGB`]. The shader is matched once, outside
+    /// the per-pixel loop.
+    #[inline]
+    fn shade_block(&self, start: usize, e: &[[f32; 3]], pixels: &mut [[u8; 4]], shader: &DisplayShader) {
+        let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
+        let triangles = &self.surfaces.triangle_codes()[start..start + pixels.len()];
+        match shader {
+            DisplayShader::Photo(photo) => {
+                let luminance = self.surfaces.patch_luminance_factors();
+                let table = tone::table();
+                let exposure = photo.exposure() as f32;
+                let (mut last, mut f) = (NO_TRIANGLE, [0.0f32; 3]);
+                for ((pixel, &t), e) in pixels.iter_mut().zip(triangles).zip(e) {
+                    *pixel = if t == NO_TRIANGLE {
+                        background
+                    } else {
+                        if t != last {
+                            f = luminance[(t >> 1) as usize].map(|x| x * exposure);
+                            last = t;
+                        }
+                        [
+                            tone_srgb8_lit(table, f[0] * e[0]),
+                            tone_srgb8_lit(table, f[1] * e[1]),
+                            tone_srgb8_lit(table, f[2] * e[2]),
+                            255,
+                        ]
+                    };
+                }
+            }
+            DisplayShader::FalseColor(scale) => {
+                for ((pixel, &t), &e) in pixels.iter_mut().zip(triangles).zip(e) {
+                    *pixel = if t == NO_TRIANGLE {
+                        background
+                    } else {
+                        let [r, g, b] = scale.shade(e);
+                        [r, g, b, 255]
+                    };
+                }
+            }
+        }
     }
 
     /// The illuminance (lx, linear RGB) at pixel `i` alone, as [`PixelLighting::illuminance_into`]
@@ -553,9 +671,9 @@ impl PixelLighting {
         if i >= self.surfaces.len() {
             return Ok(None);
         }
-        let mut value = [0.0; 3];
-        self.compose_chunk(i, 1, indirect_lx, |_, e| value = e);
-        Ok(Some(value))
+        let mut value = [[0.0; 3]];
+        self.compose_block(i, indirect_lx, &mut value);
+        Ok(Some(value[0]))
     }
 
     fn check_indirect(&self, indirect_lx: &[[f32; 3]]) -> Result<()> {
@@ -570,60 +688,72 @@ impl PixelLighting {
         }
     }
 
-    /// Calls `f(k, E)` with the illuminance `E` (lx, linear RGB, ≥ +0) of pixel `start + k` for
-    /// `k < len`: `others`, plus the active light, plus the indirect light interpolated over the
-    /// pixel's triangle. One tight loop over the chunk's slices (the editor's hot path).
+    /// The illuminance `E` (lx, linear RGB, ≥ +0) of pixels `start..start + out.len()` into
+    /// `out`: `others`, plus the active light, plus the indirect light interpolated over the
+    /// pixel's triangle. The editor's hot path, as one short loop per term (no calls, no
+    /// branch on the light: an unlit pixel has factor 0 and the segment of zeros), so the loads
+    /// of many pixels are in flight at once.
     #[inline]
-    fn compose_chunk(
-        &self,
-        start: usize,
-        len: usize,
-        indirect: Option<&[[f32; 3]]>,
-        mut f: impl FnMut(usize, [f32; 3]),
-    ) {
-        let range = start..start + len;
+    fn compose_block(&self, start: usize, indirect: Option<&[[f32; 3]]>, out: &mut [[f32; 3]]) {
+        let range = start..start + out.len();
         let others = &self.others[range.clone()];
-        let triangles = &self.surfaces.triangle_codes()[range.clone()];
-        let weights = &self.surfaces.raw_weights()[range.clone()];
-        let vertices = self.surfaces.patch_vertex_ids();
         let active = self.active.as_ref().and_then(|active| {
             let entry = &self.entries[active.index];
-            let s = &entry.light.state;
-            let scale = [0, 1, 2].map(|ch| (s.color[ch] * s.dimmer) as f32);
-            (!entry.is_dark()).then(|| {
-                (
-                    &active.factor[range.clone()],
-                    &active.coordinate[range.clone()],
-                    &entry.lookup,
-                    scale,
-                )
-            })
+            (!entry.is_dark()).then_some((active, entry))
         });
-        for k in 0..len {
-            let mut e = others[k];
-            if let Some((factor, coordinate, lookup, scale)) = active {
-                let g = factor[k];
-                if g != 0.0 {
-                    let intensity = lookup.at_coordinate(coordinate[k]) * g;
-                    e[0] += scale[0] * intensity;
-                    e[1] += scale[1] * intensity;
-                    e[2] += scale[2] * intensity;
+        match active {
+            Some((active, entry)) => {
+                let s = &entry.light.state;
+                let scale = [0, 1, 2].map(|ch| (s.color[ch] * s.dimmer) as f32);
+                let factor = &active.factor[range.clone()];
+                let (segment, fraction) = (&active.segment[range.clone()], &active.fraction[range.clone()]);
+                let lit = others.iter().zip(segment).zip(fraction).zip(factor);
+                for (e, (((o, &k), &t), &g)) in out.iter_mut().zip(lit) {
+                    let intensity = entry.lookup.at_coordinate(k, t) * g;
+                    *e = [
+                        o[0] + scale[0] * intensity,
+                        o[1] + scale[1] * intensity,
+                        o[2] + scale[2] * intensity,
+                    ];
                 }
             }
-            let t = triangles[k];
-            if let Some(values) = indirect
-                && t != NO_TRIANGLE
-            {
-                let v = vertices[(t >> 1) as usize];
-                let (b, c) = if t & 1 == 0 { (v[1], v[2]) } else { (v[2], v[3]) };
-                let (va, vb, vc) = (values[v[0] as usize], values[b as usize], values[c as usize]);
-                let [wb, wc] = weights[k];
-                let wa = 1.0 - wb - wc;
-                e[0] += wa * va[0] + wb * vb[0] + wc * vc[0];
-                e[1] += wa * va[1] + wb * vb[1] + wc * vc[1];
-                e[2] += wa * va[2] + wb * vb[2] + wc * vc[2];
+            None => out.copy_from_slice(others),
+        }
+        let Some(values) = indirect else {
+            for e in out.iter_mut() {
+                *e = e.map(non_negative);
             }
-            f(k, [non_negative(e[0]), non_negative(e[1]), non_negative(e[2])]);
+            return;
+        };
+        let triangles = &self.surfaces.triangle_codes()[range.clone()];
+        let weights = &self.surfaces.raw_weights()[range];
+        let vertices = self.surfaces.patch_vertex_ids();
+        // Neighbouring pixels mostly show the same triangle: its corner values are looked up
+        // once per run of pixels, not once per pixel.
+        let (mut last, mut corner_values) = (NO_TRIANGLE, [[0.0f32; 3]; 3]);
+        for ((e, &t), &[wb, wc]) in out.iter_mut().zip(triangles).zip(weights) {
+            if t == NO_TRIANGLE {
+                *e = e.map(non_negative);
+                continue;
+            }
+            if t != last {
+                // Half 0 of a quad is corners 0, 1, 2, half 1 corners 0, 2, 3.
+                let v = vertices[(t >> 1) as usize];
+                let half = (t & 1) as usize;
+                corner_values = [
+                    values[v[0] as usize],
+                    values[v[1 + half] as usize],
+                    values[v[2 + half] as usize],
+                ];
+                last = t;
+            }
+            let [va, vb, vc] = corner_values;
+            let wa = 1.0 - wb - wc;
+            *e = [
+                non_negative(e[0] + (wa * va[0] + wb * vb[0] + wc * vc[0])),
+                non_negative(e[1] + (wa * va[1] + wb * vb[1] + wc * vc[1])),
+                non_negative(e[2] + (wa * va[2] + wb * vb[2] + wc * vc[2])),
+            ];
         }
     }
 
@@ -632,19 +762,17 @@ impl PixelLighting {
         out.par_chunks_mut(PIXELS_PER_TASK)
             .enumerate()
             .for_each(|(chunk, out)| {
-                self.compose_chunk(chunk * PIXELS_PER_TASK, out.len(), indirect, |k, e| out[k] = e);
+                for (b, out) in out.chunks_mut(BLOCK).enumerate() {
+                    self.compose_block(chunk * PIXELS_PER_TASK + b * BLOCK, indirect, out);
+                }
             });
     }
 
     /// Bytes held per pixel whatever the number of lights (surfaces, `others`, the active
     /// light's cache), and per (light, pixel) (a visibility bit when something can occlude).
     pub fn memory_per_pixel(&self) -> (f64, f64) {
-        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 12;
-        let per_light = if self.entries.iter().any(|e| e.visible.is_some()) {
-            1.0 / 8.0
-        } else {
-            0.0
-        };
+        let shared = PixelSurfaces::BYTES_PER_PIXEL + 12 + 16;
+        let per_light = if self.shadows.is_some() { 1.0 / 8.0 } else { 0.0 };
         (shared as f64, per_light)
     }
 }
@@ -663,59 +791,4 @@ fn unit(v: DVec3) -> DVec3 {
 #[inline]
 fn non_negative(x: f32) -> f32 {
     if x > 0.0 { x } else { 0.0 }
-}
-
-/// Side of the square pixel tiles whose shadow rays are skipped together.
-const TILE: usize = 16;
-
-/// Visibility bits of `light` at every pixel: set where the pixel faces the light and the shadow
-/// ray from just above the point to the light is free. Tiles of [`TILE`]² pixels test only the
-/// occluders reaching into their box with the light, and none cast rays when none does.
-fn visibility_bits(surfaces: &PixelSurfaces, light: &PixelLight, occluders: &Occluders) -> Vec<u64> {
-    let (n, w) = (surfaces.len(), surfaces.width() as usize);
-    let mut visible = vec![false; n];
-    visible
-        .par_chunks_mut(TILE * w.max(1))
-        .enumerate()
-        .for_each(|(band, rows)| {
-            let first = band * TILE * w;
-            let height = rows.len() / w.max(1);
-            let mut starts: Vec<(usize, DVec3)> = Vec::with_capacity(TILE * TILE);
-            for x0 in (0..w).step_by(TILE) {
-                starts.clear();
-                let (mut lo, mut hi) = (light.position, light.position);
-                for y in 0..height {
-                    for x in x0..(x0 + TILE).min(w) {
-                        let k = y * w + x;
-                        let Some(rx) = receiver(surfaces, first + k) else {
-                            continue;
-                        };
-                        if geometry_factor(light.position, light.radius_m, &rx).is_none() {
-                            continue;
-                        }
-                        let from = rx.point + rx.normal * RAY_LIFT_M;
-                        lo = lo.min(from);
-                        hi = hi.max(from);
-                        starts.push((k, from));
-                    }
-                }
-                if starts.is_empty() {
-                    continue;
-                }
-                let near = occluders.within(lo, hi);
-                for &(k, from) in &starts {
-                    rows[k] = near.is_empty() || !near.blocked(from, light.position);
-                }
-            }
-        });
-    let mut bits = vec![0u64; n.div_ceil(64)];
-    bits.par_iter_mut()
-        .zip(visible.par_chunks(64))
-        .for_each(|(word, flags)| {
-            *word = flags
-                .iter()
-                .enumerate()
-                .fold(0, |acc, (b, &on)| acc | (u64::from(on) << b));
-        });
-    bits
 }

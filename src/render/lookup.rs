@@ -5,7 +5,7 @@
 //! accurate to 2.5e-8 rad.
 //!
 //! For a light being edited the per-pixel angle can be kept as a **curve coordinate**
-//! `u = k + t` ([`CurveLookup::coordinate_deg`]): the segment's first control point `k` and the
+//! `(k, t)` ([`CurveLookup::coordinate_deg`]): the segment's first control point `k` and the
 //! fraction `t` along it. An edit that changes intensities but no angle (the usual key press)
 //! then costs one interpolation per pixel ([`CurveLookup::at_coordinate`]).
 
@@ -24,7 +24,8 @@ pub struct CurveLookup {
     first: Vec<u16>,
     /// `cos` of the last control point's angle minus a margin: below it the curve is 0.
     cos_last: f64,
-    /// The intensities (cd) in f32, the last one repeated once (so `k + 1` is always valid).
+    /// The intensities (cd) in f32, the last one repeated once (so `k + 1` is always valid),
+    /// then two zeros: the segment of angles outside the curve ([`CurveLookup::outside`]).
     values: Vec<f32>,
     /// Per point `i > 0`: `1 / (γ_i − γ_{i−1})` (0 at a step).
     inv_width: Vec<f64>,
@@ -43,6 +44,7 @@ impl CurveLookup {
         let last = gamma_deg[gamma_deg.len() - 1];
         let mut values: Vec<f32> = curve.intensities_cd().iter().map(|&i| i as f32).collect();
         values.push(values[values.len() - 1]);
+        values.extend([0.0, 0.0]);
         let inv_width = (0..gamma_deg.len())
             .map(|i| match i {
                 0 => 0.0,
@@ -88,25 +90,28 @@ impl CurveLookup {
         }
     }
 
-    /// The curve coordinate `k + t` of `gamma_deg` (module docs), or −1 outside the curve.
+    /// The curve coordinate `(k, t)` of `gamma_deg` (module docs): the segment's first control
+    /// point and the fraction along it, or `(`[`CurveLookup::outside`]`, 0)` outside the curve.
     #[inline]
-    pub fn coordinate_deg(&self, gamma_deg: f64) -> f32 {
+    pub fn coordinate_deg(&self, gamma_deg: f64) -> (u32, f32) {
         match self.segment(gamma_deg) {
-            None => -1.0,
-            Some((i, None)) => i as f32,
-            Some((i, Some(t))) => ((i - 1) as f64 + t) as f32,
+            None => (self.outside(), 0.0),
+            Some((i, None)) => (i as u32, 0.0),
+            Some((i, Some(t))) => ((i - 1) as u32, t as f32),
         }
     }
 
-    /// Intensity (cd) at curve coordinate `u` (from [`CurveLookup::coordinate_deg`] of a curve
-    /// with the same angles): 0 for a negative `u`.
+    /// The segment index of angles outside the curve for this lookup (its intensities are 0).
     #[inline]
-    pub fn at_coordinate(&self, u: f32) -> f32 {
-        if u < 0.0 {
-            return 0.0;
-        }
-        let k = u as usize;
-        let t = u - k as f32;
+    pub fn outside(&self) -> u32 {
+        (self.values.len() - 2) as u32
+    }
+
+    /// Intensity (cd) at curve coordinate `(k, t)` (from [`CurveLookup::coordinate_deg`] of a
+    /// curve with the same angles): no branch, no conversion, 0 outside the curve.
+    #[inline]
+    pub fn at_coordinate(&self, k: u32, t: f32) -> f32 {
+        let k = (k as usize).min(self.values.len() - 2);
         let (a, b) = (self.values[k], self.values[k + 1]);
         a + t * (b - a)
     }
@@ -118,7 +123,7 @@ impl CurveLookup {
 
     /// `None` outside the curve; else the first point `i` with `γ_i ≥ γ` and, unless γ is on a
     /// point (or before the first), the fraction `t` along the segment `i − 1 → i`.
-    #[inline]
+    #[inline(always)]
     fn segment(&self, gamma_deg: f64) -> Option<(usize, Option<f64>)> {
         let g = &self.gamma_deg;
         let last = g.len() - 1;
@@ -134,6 +139,69 @@ impl CurveLookup {
             return Some((i, None));
         }
         Some((i, Some((gamma_deg - g[i - 1]) * self.inv_width[i])))
+    }
+}
+
+/// Intervals of a [`SinHalfTable`]: `s = sin(γ/2)` from 0 to 1 in steps of 1/4096 (γ steps of
+/// at most 0.028° up to 90°, 0.08° at 150°).
+const SIN_HALF_STEPS: usize = 4096;
+
+/// A curve sampled uniformly in `s = sin(γ/2) = √((1 − cos γ) / 2)` (f32), for adding up the
+/// lights that are not being edited: the intensity from cos γ costs one square root and one
+/// linear interpolation — no search, no arc cosine (docs/DECISIONS.md, "Light-major sum of the
+/// other lights"). Between control points the curve is linear in γ and γ is smooth in `s`, so
+/// the interpolation is within f32 rounding there; a step of the table that holds a control
+/// point (a corner, a step of the curve, its end) is evaluated exactly by the [`CurveLookup`].
+/// Angles past the last control point read exactly 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SinHalfTable {
+    /// Intensity (cd) at `s = j / SIN_HALF_STEPS`, the last value repeated once (`j + 1` always
+    /// valid).
+    values: Vec<f32>,
+    /// Bit `j` set when step `j` (from `s = j / SIN_HALF_STEPS` to the next) holds a control
+    /// point.
+    exact: Vec<u64>,
+    lookup: CurveLookup,
+}
+
+impl SinHalfTable {
+    /// The table of the curve behind `lookup`.
+    pub fn new(lookup: &CurveLookup) -> SinHalfTable {
+        let n = SIN_HALF_STEPS as f64;
+        let mut values: Vec<f32> = (0..=SIN_HALF_STEPS)
+            .map(|j| lookup.eval_rad(2.0 * (j as f64 / n).asin()) as f32)
+            .collect();
+        values.push(values[SIN_HALF_STEPS]);
+        let mut exact = vec![0u64; (SIN_HALF_STEPS + 1).div_ceil(64)];
+        for &g in &lookup.gamma_deg {
+            // The step(s) whose closed interval holds γ (both, when γ falls on a sample).
+            let x = (g.to_radians() / 2.0).sin() * n;
+            for j in [x.floor() - 1.0, x.floor(), x.ceil()] {
+                let j = j.clamp(0.0, n) as usize;
+                exact[j / 64] |= 1 << (j % 64);
+            }
+        }
+        SinHalfTable {
+            values,
+            exact,
+            lookup: lookup.clone(),
+        }
+    }
+
+    /// Intensity (cd) at the angle whose cosine is `cos_gamma`.
+    #[inline]
+    pub fn eval_cos(&self, cos_gamma: f32) -> f32 {
+        if f64::from(cos_gamma) < self.lookup.cos_last {
+            return 0.0;
+        }
+        let x = ((0.5 - 0.5 * cos_gamma).max(0.0).sqrt() * SIN_HALF_STEPS as f32).min(SIN_HALF_STEPS as f32);
+        let j = x as usize;
+        if self.exact[j / 64] >> (j % 64) & 1 == 1 {
+            return self.lookup.eval_cos(f64::from(cos_gamma)) as f32;
+        }
+        let t = x - j as f32;
+        let (a, b) = (self.values[j], self.values[j + 1]);
+        a + t * (b - a)
     }
 }
 
@@ -216,10 +284,10 @@ mod tests {
         assert!(lookup.same_angles(&after));
         for k in 0..=4_000 {
             let gamma = -1.0 + 50.0 * f64::from(k) / 4_000.0;
-            let u = lookup.coordinate_deg(gamma);
+            let (k, t) = lookup.coordinate_deg(gamma);
             for (l, c) in [(&lookup, &curve), (&after, &edited)] {
                 let exact = c.eval_deg(gamma);
-                let got = f64::from(l.at_coordinate(u));
+                let got = f64::from(l.at_coordinate(k, t));
                 assert!(
                     (got - exact).abs() <= 1e-6 * 4000.0,
                     "γ = {gamma}: {got} vs {exact}"
@@ -242,6 +310,41 @@ mod tests {
             assert!(
                 (lookup.eval_cos(c) - exact).abs() <= 1910.0 * 2.5e-8 + 1e-9,
                 "cos γ = {c}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_sin_half_table_follows_the_curve_within_f32_rounding() {
+        let points = [(0.0, 1000.0), (30.0, 950.0), (60.0, 700.0), (90.0, 0.0)];
+        let curve = Curve::new(&points).unwrap();
+        let table = SinHalfTable::new(&CurveLookup::new(&curve));
+        let mut worst = 0.0f64;
+        for k in 0..=200_000 {
+            let c = -1.0 + 2.0 * k as f32 / 200_000.0;
+            let gamma = f64::from(c).acos();
+            let (got, exact) = (f64::from(table.eval_cos(c)), curve.eval_rad(gamma));
+            if gamma.to_degrees() > 90.0 {
+                assert_eq!(got, 0.0, "cos γ = {c}: past the curve");
+            }
+            worst = worst.max((got - exact).abs());
+        }
+        // f32 rounding of cos γ (the slope is at most 1337 cd/rad) and of the values: 1e-6 of
+        // the peak; the steps holding a control point are evaluated exactly.
+        assert!(worst <= 1e-3, "worst {worst} cd");
+    }
+
+    #[test]
+    fn the_sin_half_table_keeps_the_step_of_a_spot_sharp() {
+        let curve = Curve::new(&[(0.0, 2500.0), (12.0, 2500.0), (12.0, 0.0), (90.0, 0.0)]).unwrap();
+        let table = SinHalfTable::new(&CurveLookup::new(&curve));
+        for k in 0..=20_000 {
+            let gamma_deg = 11.0 + 2.0 * f64::from(k) / 20_000.0;
+            let c = gamma_deg.to_radians().cos() as f32;
+            let exact = curve.eval_rad(f64::from(c).acos());
+            assert!(
+                (f64::from(table.eval_cos(c)) - exact).abs() <= 1e-3,
+                "γ = {gamma_deg}°"
             );
         }
     }

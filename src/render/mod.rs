@@ -22,18 +22,22 @@ pub mod pick;
 pub mod plan;
 pub mod raster;
 pub mod shade;
+mod shadows;
 pub mod surface;
 pub mod text;
 pub mod tone;
 
 pub use camera::{Projection, RayBasis, View};
 pub use exposure::Exposure;
-pub use legend::{Legend, draw_isolux, draw_legend, round_levels};
+pub use legend::{Legend, draw_isolux, draw_legend, legend_width, round_levels};
 pub use lighting::{PixelLight, PixelLighting};
 pub use overlay::{LightMarker, draw_crosshair, draw_lights};
 pub use pfm::{encode_pfm, luma_values, write_pfm};
 pub use pick::{Pick, aim_direction, pick};
-pub use plan::{PlanLight, PlanSurface, draw_plan_lights, plan_view, work_plane_indirect, work_plane_mesh};
+pub use plan::{
+    PlanLight, PlanSurface, draw_plan_lights, plan_view, plan_view_beside, work_plane_indirect,
+    work_plane_mesh,
+};
 pub use raster::{BACKGROUND_ID, Raster, ScreenTriangle, ScreenVertex, Target, rasterize, rasterize_into};
 pub use shade::{
     DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, vertex_attributes,

@@ -64,6 +64,15 @@ impl PlanSurface {
 ///
 /// Errors (bad input): an image side the view rejects, or a room that is not a positive size.
 pub fn plan_view(room_size: DVec3, width: u32, height: u32) -> Result<View> {
+    plan_view_beside(room_size, width, height, 0)
+}
+
+/// As [`plan_view`], with the footprint fitted into the image's left `width − free_right_px`
+/// pixels (a strip at the right edge kept free for the legend, [`super::legend_width`]); the
+/// whole strip is kept free only while the footprint keeps at least half the width.
+///
+/// Errors as [`plan_view`].
+pub fn plan_view_beside(room_size: DVec3, width: u32, height: u32, free_right_px: u32) -> Result<View> {
     if !(room_size.min_element() > 0.0 && room_size.is_finite()) {
         return Err(Error::input(
             "",
@@ -71,11 +80,15 @@ pub fn plan_view(room_size: DVec3, width: u32, height: u32) -> Result<View> {
             format!("{room_size} m is not a room"),
         ));
     }
+    let free = free_right_px.min(width / 2);
     let margin = PLAN_MARGIN * room_size.x.max(room_size.y);
     let (footprint_w, footprint_h) = (room_size.x + 2.0 * margin, room_size.y + 2.0 * margin);
-    let aspect = f64::from(width.max(1)) / f64::from(height.max(1));
+    let aspect = f64::from((width - free).max(1)) / f64::from(height.max(1));
     let view_height_m = footprint_h.max(footprint_w / aspect);
-    let centre = DVec3::new(0.5 * room_size.x, 0.5 * room_size.y, 0.0);
+    // The image centre lies half the free strip right of the footprint's centre.
+    let m_per_px = view_height_m / f64::from(height.max(1));
+    let shift = DVec3::X * (0.5 * f64::from(free) * m_per_px);
+    let centre = DVec3::new(0.5 * room_size.x, 0.5 * room_size.y, 0.0) + shift;
     let eye = centre + DVec3::Z * (room_size.z + EYE_ABOVE_CEILING_M);
     View::orthographic(
         eye,

@@ -84,6 +84,14 @@ pub fn tone_srgb8(table: &[u8; TABLE_SIZE], x: f32) -> u8 {
     table[bin.clamp(0, TABLE_SIZE as i32 - 1) as usize]
 }
 
+/// As [`tone_srgb8`] for an `x` known to be ≥ +0 and not NaN (an exposed, composed
+/// illuminance): three integer operations and the table load, for the shading loop.
+#[inline(always)]
+pub fn tone_srgb8_lit(table: &[u8; TABLE_SIZE], x: f32) -> u8 {
+    let bin = (x.to_bits() >> SHIFT).saturating_sub(FIRST_INDEX as u32);
+    table[(bin as usize).min(TABLE_SIZE - 1)]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -123,6 +131,28 @@ mod tests {
         assert_eq!(tone_srgb8(t, 1e30), 255);
         // Mid-grey: x = 0.18 / 0.82 gives display value 0.18, sRGB8 118.
         assert_eq!(tone_srgb8(t, 0.18 / 0.82), 118);
+    }
+
+    #[test]
+    fn the_lit_entry_agrees_with_the_general_one_for_every_non_negative_value() {
+        let t = table();
+        for x in [
+            0.0,
+            f32::MIN_POSITIVE,
+            1e-30,
+            1e-7,
+            0.18 / 0.82,
+            1e7,
+            1e30,
+            f32::MAX,
+            f32::INFINITY,
+        ] {
+            assert_eq!(tone_srgb8_lit(t, x), tone_srgb8(t, x), "x = {x}");
+        }
+        for k in 0..=100_000 {
+            let x = 10f32.powf(-9.0 + 18.0 * k as f32 / 100_000.0);
+            assert_eq!(tone_srgb8_lit(t, x), tone_srgb8(t, x), "x = {x}");
+        }
     }
 
     /// Below mid-grey the curve is Reinhard + sRGB; above it every stop up to 6 gets about

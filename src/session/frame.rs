@@ -14,17 +14,23 @@ use glam::DVec3;
 use tiny_skia::Pixmap;
 
 use crate::error::Result;
+use crate::photometry::LightState;
 use crate::relight::Relighter;
 use crate::render::exposure::room_ev100;
-use crate::render::plan::{PlanLight, draw_plan_lights, plan_view};
+use crate::render::plan::{
+    PlanLight, draw_plan_lights, plan_view_beside, work_plane_indirect, work_plane_mesh,
+};
 use crate::render::shade::luma;
 use crate::render::{
     self, DisplayMode, DisplayShader, FalseColor, LightMarker, LuxScale, Photo, PixelLight, PixelLighting,
-    PixelSurfaces, View, draw_crosshair, draw_isolux, draw_legend, draw_lights, luma_values, round_levels,
-    vertex_attributes_into,
+    PixelSurfaces, View, draw_crosshair, draw_isolux, draw_legend, draw_lights, legend_width, luma_values,
+    round_levels, vertex_attributes_into,
 };
+use crate::scene::design::{Design, Placement};
+use crate::scene::model::{PatchMesh, Surface, SurfaceKind};
 use crate::scene::{AimSpec, Camera, DirectMode, Scene};
 use crate::session::light::LightEdit;
+use crate::transport::bake::Bake;
 use crate::transport::occlusion::Occluders;
 
 /// Largest image side (pixels) a frame may have.
@@ -40,8 +46,23 @@ pub enum ViewChoice {
     #[default]
     Camera,
     /// The plan: straight down onto the floor with a parallel projection, the room's footprint
-    /// filling the image, luminaire symbols with their aim ([`crate::render::plan`]).
+    /// filling the image (left of the legend when one is drawn), luminaire symbols with their
+    /// aim ([`crate::render::plan`]).
     Plan,
+    /// The plan of the design's work plane (the height of the room's first horizontal
+    /// calculation surface, `[[surface]]` in docs/ROOM_FILE.md, 0.8 m by default): each pixel
+    /// is the point of the plane below it, with exact per-pixel direct light (shadows of the
+    /// boxes above it included) and the indirect light gathered at the plane's vertices from the
+    /// bake's coarse patches, as the numbers (`haiko grid`, `haiko probe`) compute it; cells
+    /// inside boxes are left out. Photo mode shows the plane with the floor's reflectance.
+    WorkPlane,
+}
+
+impl ViewChoice {
+    /// True for the plan views (floor or work plane).
+    pub fn is_plan(self) -> bool {
+        matches!(self, ViewChoice::Plan | ViewChoice::WorkPlane)
+    }
 }
 
 /// How the photo mode is exposed (docs/DECISIONS.md, "Fixed exposure").
@@ -129,6 +150,8 @@ struct ViewKey {
     camera: Camera,
     size_px: (u32, u32),
     view: ViewChoice,
+    /// Pixels at the right edge a plan keeps free for the legend.
+    free_right_px: u32,
 }
 
 /// The 3D image without overlays is reused while these stay the same.
@@ -141,6 +164,56 @@ struct BaseKey {
     legend: bool,
     /// Bumped whenever the per-pixel or per-vertex light changes.
     light_version: u64,
+}
+
+/// The design's work plane as the work-plane plan shows it.
+#[derive(Debug)]
+struct PlaneState {
+    /// Height above the floor (m).
+    height_m: f64,
+    mesh: PatchMesh,
+    /// Its one surface, with the floor's reflectance (for photo mode).
+    surfaces: Vec<Surface>,
+    /// Indirect light at its vertices (lx, linear RGB) and the illuminance version it was
+    /// gathered for.
+    indirect: Option<(u64, Vec<[f32; 3]>)>,
+}
+
+impl PlaneState {
+    /// The work plane of `scene`'s design, meshed at the room's patch size.
+    fn of_scene(scene: &Scene) -> Result<PlaneState> {
+        let height_m = work_plane_height(scene);
+        let (mesh, mut surfaces) =
+            work_plane_mesh(scene.room_size, &scene.boxes, height_m, scene.settings.patch_size)?;
+        if let Some(floor) = scene.surfaces.iter().find(|s| s.kind == SurfaceKind::Floor) {
+            surfaces[0].reflectance = floor.reflectance;
+        }
+        Ok(PlaneState {
+            height_m,
+            mesh,
+            surfaces,
+            indirect: None,
+        })
+    }
+}
+
+/// Height (m) of `scene`'s work plane: its design's first horizontal calculation surface, else
+/// the default 0.8 m (at most half the room's height).
+pub fn work_plane_height(scene: &Scene) -> f64 {
+    scene
+        .design
+        .surfaces
+        .iter()
+        .find_map(|s| match s.placement {
+            Placement::Horizontal { height_m, .. } => Some(height_m),
+            Placement::Room { .. } => None,
+        })
+        .unwrap_or_else(
+            || match &Design::default_for(scene.room_size).surfaces[0].placement {
+                Placement::Horizontal { height_m, .. } => *height_m,
+                Placement::Room { .. } => 0.5 * scene.room_size.z,
+            },
+        )
 }
 
 /// The per-pixel direct light for one view and what it was built for.
@@ -161,6 +234,8 @@ pub struct FrameBuffers {
     pixel: Option<PixelState>,
     /// The scene's occluders (boxes, OBJ triangles), built at the first frame.
     occluders: Option<Option<Occluders>>,
+    /// The work plane, built at the first work-plane plan.
+    plane: Option<PlaneState>,
     base_pixels: Option<Pixmap>,
     base_key: Option<BaseKey>,
     /// Per-vertex light the pixels interpolate: indirect light (lx, linear RGB), or in paper
@@ -222,6 +297,7 @@ impl FrameBuffers {
         &mut self,
         scene: &Scene,
         (relighter, illuminance_version): (&Relighter, u64),
+        bake: Option<&Bake>,
         camera: Camera,
         spec: &FrameSpec,
         lights: &[LightEdit],
@@ -236,8 +312,23 @@ impl FrameBuffers {
         }
         let paper_mode = scene.settings.direct == DirectMode::Basis;
         self.sync_vertex_light(relighter, illuminance_version, paper_mode);
-        self.sync_pixels(scene, camera, spec, lights, paper_mode)?;
         let shader = self.shader(scene, relighter, spec)?;
+        // A plan's footprint stands left of the legend, not under it.
+        let free_right_px = match (spec.view, spec.legend, shader) {
+            (view, true, DisplayShader::FalseColor(scale)) if view.is_plan() => {
+                legend_width(width, height, &scale)
+            }
+            _ => 0,
+        };
+        self.sync_pixels(scene, camera, spec, lights, paper_mode, free_right_px)?;
+        if spec.view == ViewChoice::WorkPlane {
+            self.sync_plane_light(
+                scene,
+                relighter.has_indirect().then_some(bake).flatten(),
+                lights,
+                illuminance_version,
+            );
+        }
         let pixel = self
             .pixel
             .as_ref()
@@ -255,7 +346,7 @@ impl FrameBuffers {
             .as_mut()
             .ok_or_else(|| crate::error::Error::internal("frame: no frame after the surfaces"))?;
         if self.base_key != Some(key) {
-            let vertex_light = self.vertex_light.as_deref();
+            let vertex_light = shown_vertex_light(pixel.key.view, &self.vertex_light, &self.plane);
             let lux = spec.isolux.then_some(&mut self.lux);
             pixel.lighting.render_into(frame, vertex_light, &shader, lux)?;
             if spec.isolux {
@@ -293,7 +384,7 @@ impl FrameBuffers {
                     }));
                 draw_lights(frame, &pixel.view, &self.markers);
             }
-            ViewChoice::Plan => {
+            view @ (ViewChoice::Plan | ViewChoice::WorkPlane) => {
                 let symbols: Vec<PlanLight> = lights
                     .iter()
                     .enumerate()
@@ -304,7 +395,11 @@ impl FrameBuffers {
                         selected: spec.selected_light == Some(i),
                     })
                     .collect();
-                draw_plan_lights(&mut frame.pixmap, &pixel.view, &symbols, 0.0);
+                let plane_z = match (view, &self.plane) {
+                    (ViewChoice::WorkPlane, Some(plane)) => plane.height_m,
+                    _ => 0.0,
+                };
+                draw_plan_lights(&mut frame.pixmap, &pixel.view, &symbols, plane_z);
             }
         }
         if let Some((x, y)) = spec.cursor {
@@ -332,6 +427,25 @@ impl FrameBuffers {
         }
     }
 
+    /// Gathers the indirect light at the work plane's vertices for the lights' current state
+    /// when the light changed since (`bake`: the session's, `None` without indirect light).
+    fn sync_plane_light(&mut self, scene: &Scene, bake: Option<&Bake>, lights: &[LightEdit], version: u64) {
+        let Some(plane) = self.plane.as_mut() else {
+            return;
+        };
+        let Some(bake) = bake else {
+            plane.indirect = None;
+            return;
+        };
+        if plane.indirect.as_ref().is_some_and(|(v, _)| *v == version) {
+            return;
+        }
+        let states: Vec<LightState> = lights.iter().map(|l| pixel_light(l).state).collect();
+        let values = work_plane_indirect(scene, bake, &states, &plane.mesh);
+        plane.indirect = Some((version, values));
+        self.light_version += 1;
+    }
+
     /// Brings the per-pixel direct light up to the view and the lights: new surfaces (and every
     /// shadow ray) when the view changed, new shadow rays for a moved light, the curve, aim,
     /// dimmer or colour of an edited one. In paper mode it holds no lights.
@@ -342,18 +456,25 @@ impl FrameBuffers {
         spec: &FrameSpec,
         lights: &[LightEdit],
         paper_mode: bool,
+        free_right_px: u32,
     ) -> Result<()> {
         let (width, height) = spec.size_px;
         let key = ViewKey {
             camera,
             size_px: spec.size_px,
             view: spec.view,
+            free_right_px,
         };
         let occluders = self
             .occluders
             .get_or_insert_with(|| Occluders::of_scene(scene))
             .as_ref();
-        let wanted: Vec<PixelLight> = if paper_mode {
+        if spec.view == ViewChoice::WorkPlane && self.plane.is_none() {
+            self.plane = Some(PlaneState::of_scene(scene)?);
+        }
+        // The work plane is no mesh of the room: its direct light is exact per pixel even in
+        // paper mode.
+        let wanted: Vec<PixelLight> = if paper_mode && spec.view != ViewChoice::WorkPlane {
             Vec::new()
         } else {
             lights.iter().map(pixel_light).collect()
@@ -366,19 +487,25 @@ impl FrameBuffers {
         if stale {
             let view = match spec.view {
                 ViewChoice::Camera => View::new(camera, width, height)?,
-                ViewChoice::Plan => plan_view(scene.room_size, width, height)?,
+                ViewChoice::Plan | ViewChoice::WorkPlane => {
+                    plan_view_beside(scene.room_size, width, height, free_right_px)?
+                }
+            };
+            let (mesh, mesh_surfaces) = match (spec.view, &self.plane) {
+                (ViewChoice::WorkPlane, Some(plane)) => (&plane.mesh, &plane.surfaces[..]),
+                _ => (&scene.fine, &scene.surfaces[..]),
             };
             match &mut self.pixel {
                 // The lights' own changes follow below, with those of an unchanged view.
                 Some(pixel) => {
                     pixel
                         .lighting
-                        .set_view(frame, &scene.fine, &scene.surfaces, &view, occluders)?;
+                        .set_view(frame, mesh, mesh_surfaces, &view, occluders)?;
                     pixel.view = view;
                     pixel.key = key;
                 }
                 none => {
-                    let surfaces = PixelSurfaces::build(frame, &scene.fine, &scene.surfaces, &view)?;
+                    let surfaces = PixelSurfaces::build(frame, mesh, mesh_surfaces, &view)?;
                     *none = Some(PixelState {
                         lighting: PixelLighting::new(surfaces, wanted.clone(), occluders),
                         view,
@@ -451,10 +578,16 @@ impl FrameBuffers {
     /// it, or before the first frame.
     pub fn pick(&self, scene: &Scene, (x, y): (u32, u32)) -> Option<PixelHit> {
         let (frame, view) = self.latest()?;
-        let hit = render::pick(frame, view, &scene.fine, x, y)?;
-        let lighting = &self.pixel.as_ref()?.lighting;
+        let pixel = self.pixel.as_ref()?;
+        let mesh = match (pixel.key.view, &self.plane) {
+            (ViewChoice::WorkPlane, Some(plane)) => &plane.mesh,
+            _ => &scene.fine,
+        };
+        let hit = render::pick(frame, view, mesh, x, y)?;
+        let lighting = &pixel.lighting;
         let i = y as usize * lighting.surfaces().width() as usize + x as usize;
-        let rgb = lighting.illuminance_at(i, self.vertex_light.as_deref()).ok()??;
+        let vertex_light = shown_vertex_light(pixel.key.view, &self.vertex_light, &self.plane);
+        let rgb = lighting.illuminance_at(i, vertex_light).ok()??;
         Some(PixelHit {
             point: hit.point,
             normal: hit.normal,
@@ -467,12 +600,26 @@ impl FrameBuffers {
     /// Per-pixel illuminance (lx, luma) of the latest frame, row-major from the top-left pixel,
     /// 0 where no surface is seen; `None` before the first frame.
     pub fn lux_image(&mut self) -> Option<Vec<f32>> {
-        let lighting = &self.pixel.as_ref()?.lighting;
-        match self.vertex_light.as_deref() {
+        let pixel = self.pixel.as_ref()?;
+        let lighting = &pixel.lighting;
+        match shown_vertex_light(pixel.key.view, &self.vertex_light, &self.plane) {
             Some(values) => lighting.illuminance_into(values, &mut self.lux).ok()?,
             None => lighting.direct_into(&mut self.lux),
         }
         Some(luma_values(&self.lux))
+    }
+}
+
+/// The per-vertex light the pixels of `view` interpolate: the work plane's gathered indirect
+/// light in its plan, else the room mesh's (`vertex_light`).
+fn shown_vertex_light<'a>(
+    view: ViewChoice,
+    vertex_light: &'a Option<Vec<[f32; 3]>>,
+    plane: &'a Option<PlaneState>,
+) -> Option<&'a [[f32; 3]]> {
+    match view {
+        ViewChoice::WorkPlane => plane.as_ref()?.indirect.as_ref().map(|(_, v)| &v[..]),
+        ViewChoice::Camera | ViewChoice::Plan => vertex_light.as_deref(),
     }
 }
 

@@ -36,7 +36,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 pub use command::{Applied, Change, Command, CommandError, RoomBounds};
-pub use frame::{ExposureChoice, FrameSpec, MAX_SIDE_PX, PixelHit, ViewChoice};
+pub use frame::{ExposureChoice, FrameSpec, MAX_SIDE_PX, PixelHit, ViewChoice, work_plane_height};
 pub use light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
 pub use numbers::DesignNumbers;
 pub use receivers::{IndirectSource, LightInput, ReceiverSet};
@@ -767,6 +767,7 @@ impl Session {
         self.buffers.render(
             &self.scene,
             (relighter, self.illuminance_version),
+            self.bake.as_ref(),
             self.camera,
             spec,
             &self.lights,

@@ -15,7 +15,7 @@ use crate::transport::visibility::Visibility;
 pub use crate::scene::Receiver;
 
 /// Receivers closer than this to a light (m) get no light: they are inside the luminaire.
-const MIN_DISTANCE_M: f64 = 1e-6;
+pub(crate) const MIN_DISTANCE_M: f64 = 1e-6;
 
 /// Per (light, receiver) geometry: the unit direction from the light and the factor
 /// `cosθ / (r² + a²) · V` (1/m²), one entry per receiver (factor 0 for receivers that cannot be

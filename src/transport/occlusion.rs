@@ -123,6 +123,18 @@ impl Occluders {
         LocalOccluders { boxes, triangles }
     }
 
+    /// The occluders that can meet a segment from a point of the box `min`–`max` to `light`
+    /// (world, m): boxes that overlap the convex hull of that box and the light, triangles by
+    /// their BVH nodes against the hull's bounding box (conservatively). The shadow rays of a
+    /// tile of pixels test only these. Tighter than [`Occluders::within`] of the hull's bounding
+    /// box: a desk inside that box but off the cone from the light to the tile is dropped.
+    pub fn toward(&self, min: DVec3, max: DVec3, light: DVec3) -> LocalOccluders<'_> {
+        let (lo, hi) = (min.min(light), max.max(light));
+        let mut near = self.within(lo, hi);
+        near.boxes.retain(|b| hull_meets_box(min, max, light, b));
+        near
+    }
+
     /// True when any occluder meets the open segment `from → to`.
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
         segment_blocked(&self.boxes, self.triangles.as_ref(), from, to)
@@ -148,6 +160,43 @@ impl LocalOccluders<'_> {
         segment_blocked(&self.boxes, self.triangles, from, to)
     }
 }
+
+/// Whether the convex hull of the box `min`–`max` and the point `apex` may meet the box `b`:
+/// false only when a separating axis shows a gap (more than [`SEPARATION_M`]). The axes of two
+/// convex solids' separation are their face normals and the cross products of their edges:
+/// here the coordinate axes and each axis × (corner − apex) (docs/DECISIONS.md, "Per-pixel
+/// direct light").
+fn hull_meets_box(min: DVec3, max: DVec3, apex: DVec3, b: &Aabb) -> bool {
+    let (center, half) = ((min + max) * 0.5, (max - min) * 0.5);
+    let (b_center, b_half) = ((b.min + b.max) * 0.5, (b.max - b.min) * 0.5);
+    let separated = |axis: DVec3| {
+        let reach = axis.abs().dot(half);
+        let c = axis.dot(center);
+        let a = axis.dot(apex);
+        let (h_lo, h_hi) = ((c - reach).min(a), (c + reach).max(a));
+        let (b_c, b_reach) = (axis.dot(b_center), axis.abs().dot(b_half));
+        let gap = SEPARATION_M * axis.length();
+        h_hi + gap < b_c - b_reach || b_c + b_reach + gap < h_lo
+    };
+    let axes = [DVec3::X, DVec3::Y, DVec3::Z];
+    if axes.into_iter().any(separated) {
+        return false;
+    }
+    let corners = (0..8).map(|k| {
+        DVec3::new(
+            if k & 1 == 0 { min.x } else { max.x },
+            if k & 2 == 0 { min.y } else { max.y },
+            if k & 4 == 0 { min.z } else { max.z },
+        )
+    });
+    !corners
+        .flat_map(|c| axes.map(|e| e.cross(c - apex)))
+        .any(separated)
+}
+
+/// A gap smaller than this (m) between a tile's hull and a box does not drop the box: rounding
+/// never drops an occluder a shadow ray could meet.
+const SEPARATION_M: f64 = 1e-9;
 
 /// True when a box or a triangle meets the open segment `from → to`.
 fn segment_blocked(boxes: &[Aabb], triangles: Option<&TriangleBvh>, from: DVec3, to: DVec3) -> bool {
@@ -227,6 +276,48 @@ mod tests {
         assert!(!occ.blocked(DVec3::new(0.0, 1.0, 2.0), DVec3::new(3.0, 1.0, 2.0)));
         // No occluders at all (a forced visibility pass in an empty room) blocks nothing.
         assert!(!Occluders::from_parts(&[], &[]).blocked(light, DVec3::ZERO));
+    }
+
+    #[test]
+    fn toward_drops_only_boxes_no_segment_to_the_light_meets() {
+        // A desk between a ceiling light and the floor: tiles of floor points in its shadow or
+        // at its edge keep it; tiles well off to the side, whose boxes with the light still
+        // hold the desk, drop it. Checked against many segments per tile.
+        let desk = unit_box([2.0, 2.0, 0.0], [3.6, 2.8, 0.75]);
+        let occ = Occluders::from_parts(&[desk], &[]);
+        let light = DVec3::new(2.8, 2.4, 2.8);
+        let mut dropped = 0;
+        for ix in 0..40 {
+            for iy in 0..30 {
+                let lo = DVec3::new(0.1 * f64::from(ix) - 0.3, 0.1 * f64::from(iy) - 0.3, 0.0);
+                let hi = lo + DVec3::new(0.1, 0.1, 0.0);
+                let near = occ.toward(lo, hi, light);
+                let any_blocked = (0..=8).any(|a| {
+                    (0..=8).any(|b| {
+                        let p = lo + (hi - lo) * DVec3::new(f64::from(a) / 8.0, f64::from(b) / 8.0, 0.0);
+                        occ.blocked(p, light)
+                    })
+                });
+                if any_blocked {
+                    assert!(!near.is_empty(), "tile at {lo} is shadowed but dropped the desk");
+                }
+                let in_box = !occ.within(lo.min(light), hi.max(light)).is_empty();
+                if in_box && near.is_empty() {
+                    dropped += 1;
+                }
+            }
+        }
+        // Most tiles whose bounding box with the light holds the desk are not behind it.
+        assert!(dropped > 300, "only {dropped} tiles dropped the desk");
+        // A tile right under the desk's edge keeps it; one on the far wall side drops it.
+        assert!(
+            !occ.toward(DVec3::new(3.6, 2.3, 0.0), DVec3::new(3.7, 2.4, 0.0), light)
+                .is_empty()
+        );
+        assert!(
+            occ.toward(DVec3::new(0.0, 4.0, 0.0), DVec3::new(0.1, 4.1, 0.0), light)
+                .is_empty()
+        );
     }
 
     #[test]

@@ -34,6 +34,7 @@ use crate::tui::recovery::{self, Answer};
 use crate::tui::save::{SaveTarget, edit_room_text};
 use crate::tui::signals::{self, PendingEdits};
 use crate::tui::terminal::{Graphics, TerminalSession, spawn_input_reader};
+use crate::tui::view::dialog_shown;
 use crate::tui::workers::{
     AppEvent, EncodeJob, EncodedFrame, EngineRequest, RenderedFrame, spawn_encode_worker, spawn_engine,
 };
@@ -155,6 +156,8 @@ struct App {
     /// True when the edits changed this turn (the recovery text is made again).
     edits_changed: bool,
     suspend: bool,
+    /// True when the last frame drawn showed a dialog ([`dialog_shown`]).
+    dialog_shown: bool,
     quit: bool,
 }
 
@@ -196,6 +199,12 @@ impl App {
         let pending = PendingEdits::default();
         signals::watch(room.to_path_buf(), pending.clone())
             .map_err(|e| Error::internal(format!("cannot watch for signals: {e}")))?;
+        let suspend = sender.clone();
+        signals::watch_suspend(move || {
+            // The app gone means the editor is ending anyway.
+            let _ = suspend.send(AppEvent::Suspend);
+        })
+        .map_err(|e| Error::internal(format!("cannot watch for signals: {e}")))?;
         Ok(App {
             model,
             room: room.to_path_buf(),
@@ -216,6 +225,7 @@ impl App {
             pending,
             edits_changed: edited,
             suspend: false,
+            dialog_shown: false,
             quit: false,
         })
     }
@@ -306,6 +316,10 @@ impl App {
                 Err(Error::internal(format!("reading the terminal: {message}")))
             }
             AppEvent::Msg(msg) => self.dispatch(msg),
+            AppEvent::Suspend => {
+                self.suspend = true;
+                Ok(())
+            }
             AppEvent::Rendered(frame) => self.on_rendered(frame),
             AppEvent::Encoded(encoded) => {
                 let EncodedFrame {
@@ -501,11 +515,20 @@ impl App {
     /// Draws the screen; a new image's bytes and write time go to the frame budget.
     fn draw(&mut self, session: &mut TerminalSession) -> Result<()> {
         let (model, image) = (&self.model, self.image.as_ref());
+        // A dialog closed: the normal draw puts the text cells right, then everything is drawn
+        // again so the preview image covers what the dialog left on it.
+        let dialog_closed =
+            std::mem::replace(&mut self.dialog_shown, dialog_shown(model)) && !self.dialog_shown;
         let start = Instant::now();
-        session.draw(|frame| {
-            let mut preview = |f: &mut Frame<'_>, area: Rect| draw_preview(model, image, f, area);
-            view(model, frame, PreviewArea::Draw(&mut preview));
-        })?;
+        for pass in 0..1 + usize::from(dialog_closed) {
+            if pass > 0 {
+                session.forget_screen();
+            }
+            session.draw(|frame| {
+                let mut preview = |f: &mut Frame<'_>, area: Rect| draw_preview(model, image, f, area);
+                view(model, frame, PreviewArea::Draw(&mut preview));
+            })?;
+        }
         if let Some((plan, bytes)) = self.unrecorded.take() {
             self.budget
                 .record(plan, self.model.preview_px, bytes, start.elapsed());
@@ -534,10 +557,10 @@ pub fn frame_spec(model: &Model) -> Option<FrameSpec> {
         } else {
             DisplayMode::Photo
         },
-        view: if model.plan_view {
-            ViewChoice::Plan
-        } else {
-            ViewChoice::Camera
+        view: match (model.plan_view, model.plan_work_plane) {
+            (false, _) => ViewChoice::Camera,
+            (true, false) => ViewChoice::Plan,
+            (true, true) => ViewChoice::WorkPlane,
         },
         exposure: model.exposure,
         isolux: model.isolux,

@@ -6,7 +6,7 @@
 //! The frames follow the editor's [`FrameBudget`]: the interactive frame is the finest
 //! reduction that fits the budget, learned from the frames encoded before it exactly as the
 //! editor learns from the frames it sends; the full frame is the one the editor settles on once
-//! idle (sixel dithered when that fits [`FULL_TARGET`], else flat).
+//! idle (sixel dithered when that fits [`crate::tui::frame_budget::FULL_TARGET`], else flat).
 
 use std::time::Instant;
 
@@ -17,7 +17,7 @@ use crate::scene::Scene;
 use crate::session::Session;
 use crate::tui::Model;
 use crate::tui::app::frame_spec;
-use crate::tui::frame_budget::{Budget, FULL_TARGET, FrameBudget, FramePlan, prior_bytes_per_pixel};
+use crate::tui::frame_budget::{Budget, FrameBudget, FramePlan, prior_bytes_per_pixel};
 use crate::tui::multiplexer::Protocol;
 use crate::tui::preview::{self, HALFBLOCK_CELL_PX, ImageSetup};
 
@@ -121,16 +121,14 @@ pub fn measure(
     let record = |policy: &mut FrameBudget, frame: &FrameCost| {
         policy.record(frame.plan, full_px, frame.bytes.len(), std::time::Duration::ZERO);
     };
-    // The first full frame (flat), then the one the editor settles on.
+    // The first full frame (dithered), then the one the editor settles on: flat when the
+    // dithered one is over the target.
     let idle = std::time::Duration::from_secs(1);
     let mut full = encode(policy.plan(idle, full_px))?;
     record(&mut policy, &full);
     if policy.plan(idle, full_px) != full.plan {
-        let dithered = encode(policy.plan(idle, full_px))?;
-        record(&mut policy, &dithered);
-        if dithered.bytes.len() <= FULL_TARGET {
-            full = dithered;
-        }
+        full = encode(policy.plan(idle, full_px))?;
+        record(&mut policy, &full);
     }
     // Interactive frames until the plan settles (at most one try per divisor).
     let mut interactive = encode(policy.plan(TYPING, full_px))?;

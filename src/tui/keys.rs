@@ -185,6 +185,8 @@ pub enum Action {
     ToggleIsolux,
     /// Switch between the camera's view and the plan (top-down) view.
     TogglePlanView,
+    /// The plan shows the work plane instead of the floor (and the plan is shown).
+    ToggleWorkPlane,
     /// Enter aim mode.
     AimMode,
     /// Enter move mode.
@@ -352,6 +354,7 @@ pub const BINDINGS: &[Binding] = &[
     bind(Normal, &[C('r')], A::RefitDisplay, "refit exposure and scale", None),
     bind(Normal, &[C('i')], A::ToggleIsolux, "isolux lines on / off", None),
     bind(Normal, &[C('p')], A::TogglePlanView, "plan view / camera view", None),
+    bind(Normal, &[C('P')], A::ToggleWorkPlane, "plan of the floor / of the work plane", None),
     bind(Normal, &[C('[')], A::Orbit { yaw_deg: -5.0, pitch_deg: 0.0 }, "camera orbit left 5°", None),
     bind(Normal, &[C(']')], A::Orbit { yaw_deg: 5.0, pitch_deg: 0.0 }, "camera orbit right 5°", None),
     bind(Normal, &[C('{')], A::Orbit { yaw_deg: 0.0, pitch_deg: -5.0 }, "camera orbit down 5°", None),

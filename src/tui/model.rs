@@ -154,6 +154,8 @@ pub struct Model {
     pub false_colour: bool,
     /// The plan (top-down) preview instead of the camera's.
     pub plan_view: bool,
+    /// The plan shows the design's work plane instead of the floor.
+    pub plan_work_plane: bool,
     /// Isolux lines over the preview.
     pub isolux: bool,
     /// The photo exposure: the room's, moved in stops, or automatic.
@@ -217,6 +219,7 @@ impl Model {
             home_camera: scene.camera,
             false_colour: false,
             plan_view: false,
+            plan_work_plane: false,
             isolux: false,
             exposure: ExposureChoice::default(),
             display_refit: 0,

@@ -6,7 +6,8 @@
 //! file (`tui::recovery`), then takes the terminal back: the standard output lock is taken
 //! from the app (waiting at most [`STDOUT_WAIT`] for a write in progress) so no further frame
 //! follows, [`RESTORE`] is written, cooked mode is restored, and the process exits with
-//! 128 + the signal's number.
+//! 128 + the signal's number. SIGTSTP from outside suspends the editor as Ctrl-Z does
+//! ([`watch_suspend`]).
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -16,7 +17,7 @@ use std::thread;
 use std::time::Duration;
 
 use ratatui::crossterm::terminal::disable_raw_mode;
-use signal_hook::consts::signal::{SIGHUP, SIGINT, SIGQUIT, SIGTERM};
+use signal_hook::consts::signal::{SIGHUP, SIGINT, SIGQUIT, SIGSTOP, SIGTERM, SIGTSTP};
 use signal_hook::iterator::Signals;
 
 use crate::tui::recovery;
@@ -146,12 +147,28 @@ pub fn watch(room: PathBuf, pending: PendingEdits) -> io::Result<()> {
     Ok(())
 }
 
-/// Stops the process as Ctrl-Z does outside raw mode (SIGTSTP, default action); returns once
-/// the shell continues it.
+/// Starts a thread that turns SIGTSTP sent from outside (`kill -TSTP`; in raw mode Ctrl-Z is a
+/// key) into a call of `suspend`, after which the app suspends as on Ctrl-Z: the terminal given
+/// back, the process stopped, the screen drawn anew when the shell continues it. Without it the
+/// default action would stop the process with the terminal still raw, on the alternate screen.
+///
+/// Errors: the signal handler could not be installed.
+pub fn watch_suspend(suspend: impl Fn() + Send + 'static) -> io::Result<()> {
+    let mut signals = Signals::new([SIGTSTP])?;
+    thread::spawn(move || {
+        for _ in signals.forever() {
+            suspend();
+        }
+    });
+    Ok(())
+}
+
+/// Stops the process as Ctrl-Z does outside raw mode; returns once the shell continues it.
+/// SIGSTOP, since SIGTSTP is caught ([`watch_suspend`]).
 ///
 /// Errors: the signal could not be raised.
 pub fn stop_self() -> io::Result<()> {
-    signal_hook::low_level::raise(signal_hook::consts::signal::SIGTSTP)
+    signal_hook::low_level::raise(SIGSTOP)
 }
 
 /// File descriptor 1, unbuffered and without std's lock.

@@ -78,6 +78,7 @@ impl TerminalSession {
     pub fn suspend(&mut self) -> Result<()> {
         let failed = |e: std::io::Error| Error::internal(format!("suspending: {e}"));
         execute!(stdout(), DisableMouseCapture).map_err(failed)?;
+        self.terminal.show_cursor().map_err(failed)?;
         ratatui::restore();
         signals::stop_self().map_err(failed)?;
         // A new terminal has empty buffers: the next draw writes every cell. (Terminal::clear
@@ -95,6 +96,12 @@ impl TerminalSession {
             .size()
             .map_err(|e| Error::internal(format!("cannot read the terminal size: {e}")))?;
         Ok((size.width, size.height))
+    }
+
+    /// Forgets what the screen shows: the next [`TerminalSession::draw`] writes every cell that
+    /// is not blank, images included (no clear, so no flash).
+    pub fn forget_screen(&mut self) {
+        self.terminal.swap_buffers();
     }
 
     /// Draws one frame inside a synchronized update, so the terminal shows it at once.

@@ -303,6 +303,12 @@ fn on_action(model: &mut Model, action: Action, event: &KeyEvent) -> Vec<Effect>
             model.plan_view = !model.plan_view;
             vec![Effect::Render]
         }
+        Action::ToggleWorkPlane => {
+            // From the camera view straight to the work plane's plan.
+            model.plan_work_plane = !model.plan_view || !model.plan_work_plane;
+            model.plan_view = true;
+            vec![Effect::Render]
+        }
         Action::AimMode => {
             if model.light().is_none() {
                 return Vec::new();

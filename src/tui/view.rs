@@ -196,6 +196,17 @@ pub fn view(model: &Model, frame: &mut Frame<'_>, preview: PreviewArea<'_>) {
     }
 }
 
+/// True when `model` shows a dialog over the panes (the help or a prompt, drawn by [`view`]).
+/// When one closes, an image protocol that paints pixels over skipped cells (sixel, iTerm2)
+/// must send the preview again: the cells under the dialog are skipped, so the terminal would
+/// keep the dialog's text over the image (docs/DECISIONS.md "Terminal graphics").
+pub fn dialog_shown(model: &Model) -> bool {
+    matches!(
+        model.mode,
+        Mode::Help | Mode::ConfirmQuit | Mode::SaveConflict { .. } | Mode::SaveAs { .. } | Mode::ConfirmSave
+    )
+}
+
 /// The C-planes' spread of `light`'s file while its curve is still the file's.
 fn spread_samples(model: &Model, light: &LightEdit) -> Option<Vec<(f64, f64, f64)>> {
     lid_info(model, light)
@@ -357,7 +368,11 @@ fn format_vec_to(v: [f64; 3], decimals: usize) -> String {
 
 /// The preview's title: the view, the display mode and the exposure.
 fn preview_title(model: &Model) -> String {
-    let view = if model.plan_view { " · plan" } else { "" };
+    let view = match (model.plan_view, model.plan_work_plane) {
+        (false, _) => "",
+        (true, false) => " · plan",
+        (true, true) => " · work-plane plan",
+    };
     let isolux = if model.isolux { " · isolux" } else { "" };
     let shown = if model.false_colour {
         " · false colour (lx)".to_string()

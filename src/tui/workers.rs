@@ -40,6 +40,8 @@ pub enum AppEvent {
     Rendered(RenderedFrame),
     /// The encode worker finished (or skipped) a frame.
     Encoded(EncodedFrame),
+    /// SIGTSTP arrived from outside: suspend as on Ctrl-Z.
+    Suspend,
 }
 
 /// A rendered preview and what it cost.

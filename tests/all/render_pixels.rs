@@ -360,14 +360,18 @@ fn agreement(got: &[f64], exact: &[f64]) -> Agreement {
 }
 
 fn assert_agrees(what: &str, lighting: &PixelLighting, room: &TestRoom) {
-    let a = agreement(&library_image(lighting), &room.image(SIZE.0, SIZE.1));
+    assert_agrees_at(what, lighting, room, SIZE);
+}
+
+fn assert_agrees_at(what: &str, lighting: &PixelLighting, room: &TestRoom, size: (u32, u32)) {
+    let a = agreement(&library_image(lighting), &room.image(size.0, size.1));
     println!(
         "{what}: {} lit pixels, median relative error {:.2e}, {:.3} % of pixels off by > 5 % of the maximum",
         a.lit,
         a.median_rel,
         100.0 * a.off_fraction
     );
-    let n = (SIZE.0 * SIZE.1) as usize;
+    let n = (size.0 * size.1) as usize;
     assert!(a.lit > n / 20, "{what}: only {} pixels are lit", a.lit);
     // The bounds are 0.5 % and 1 %; exact evaluation at the exact point does far better
     // (f32 storage of the point: ~1e-7; the edge pixels are the rasterizer's 1/256-pixel snap).
@@ -430,6 +434,41 @@ fn edits_keep_the_per_pixel_direct_light_exact() {
         .unwrap();
     lighting.set_state(1, state(&room.lamps[1])).unwrap();
     assert_agrees("moved light", &lighting, &room);
+}
+
+#[test]
+fn a_camera_change_keeps_the_per_pixel_direct_light_exact_at_any_image_width() {
+    // New views of an image whose pixel count and rows are not whole 64-bit words (the sweep's
+    // chunks and visibility words are padded), with a light being edited and after one moved:
+    // every light's shadow rays are cast again for the new pixels.
+    let dir = tempfile::tempdir().unwrap();
+    let mut room = spots_and_boxes();
+    let scene = room.load(dir.path());
+    let (mut lighting, mut frame, occluders) = lighting(&scene);
+    room.lamps[2].dimmer = 0.5;
+    let mut state = LightState::from(&scene.lights[2]);
+    state.dimmer = 0.5;
+    lighting.set_state(2, state).unwrap();
+    for (eye, size) in [
+        (DVec3::new(5.6, 0.3, 2.2), (251, 187)),
+        (DVec3::new(0.4, 0.5, 2.6), (97, 61)),
+        (room.eye, SIZE),
+    ] {
+        room.eye = eye;
+        let camera = scene::Camera { eye, ..scene.camera };
+        let view = View::new(camera, size.0, size.1).unwrap();
+        lighting
+            .set_view(
+                &mut frame,
+                &scene.fine,
+                &scene.surfaces,
+                &view,
+                occluders.as_ref(),
+            )
+            .unwrap();
+        assert_eq!(lighting.active_light(), Some(2));
+        assert_agrees_at(&format!("view from {eye} at {size:?}"), &lighting, &room, size);
+    }
 }
 
 #[test]
@@ -649,6 +688,61 @@ fn render_lux_with_indirect_light_adds_to_the_direct_light_and_sky_pixels_hold_z
     assert!(floor.iter().all(|&i| total[i] >= direct[i]));
     let gain: f64 = floor.iter().map(|&i| total[i] - direct[i]).sum::<f64>() / floor.len() as f64;
     assert!(gain > 1.0, "mean indirect gain {gain} lx");
+}
+
+/// `haiko render --view work-plane` draws the work plane's plan: the same lux image as the
+/// session's work-plane frame (the CLI only parses and prints), the margin 0, most pixels on the
+/// plane, and a plane 0.8 m up that is not the floor's image.
+#[test]
+fn render_view_work_plane_writes_the_work_planes_lux() {
+    use haiko::render::DisplayMode;
+    use haiko::session::{FrameSpec, Session, SessionOptions, ViewChoice};
+    let dir = tempfile::tempdir().unwrap();
+    let room = spots_and_boxes();
+    let path = dir.path().join("room.toml");
+    std::fs::write(&path, room.toml()).unwrap();
+    let mut images = Vec::new();
+    for view in ["work-plane", "plan"] {
+        let (png, pfm) = (
+            dir.path().join(format!("{view}.png")),
+            dir.path().join(format!("{view}.pfm")),
+        );
+        let p = |p: &std::path::Path| p.to_str().unwrap().to_string();
+        let args = [
+            "render",
+            &p(&path),
+            "-o",
+            &p(&png),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--view",
+            view,
+            "--lux",
+            &p(&pfm),
+            "--direct-only",
+        ];
+        let run = haiko(&args);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        images.push(read_pfm(&pfm).2);
+    }
+    let (plane, floor) = (&images[0], &images[1]);
+    assert_eq!(plane[0], 0.0, "the margin sees nothing");
+    assert!(plane.iter().filter(|&&e| e > 0.0).count() > plane.len() / 2);
+    assert_ne!(plane, floor);
+    let options = SessionOptions {
+        indirect: false,
+        ..SessionOptions::default()
+    };
+    let mut session = Session::new(room.load(dir.path()), options, &mut |_| {}).unwrap();
+    let spec = FrameSpec {
+        view: ViewChoice::WorkPlane,
+        ..FrameSpec::new((64, 48), DisplayMode::Photo)
+    };
+    session.render(&spec).unwrap();
+    let want: Vec<f64> = session.lux_image().unwrap().into_iter().map(f64::from).collect();
+    assert_eq!(plane, &want);
 }
 
 /// Mean sRGB value of a frame's pixels.

@@ -103,6 +103,106 @@ fn every_bundled_room_matches_its_golden_images() {
     }
 }
 
+/// The plan's footprint stands left of the legend: the room's right wall projects left of the
+/// legend panel, its left wall near the left edge, and a plan without the legend (photo mode)
+/// is centred on the footprint again.
+#[test]
+fn the_plan_footprint_stands_left_of_the_legend() {
+    let mut session = session(load("office"), false);
+    let size = (480, 360);
+    let room = session.scene().room_size;
+    let false_colour = FrameSpec {
+        view: ViewChoice::Plan,
+        ..spec(size, DisplayMode::FalseColor)
+    };
+    session.render(&false_colour).unwrap();
+    let Some(haiko::render::DisplayShader::FalseColor(scale)) =
+        session.fitted_shader(DisplayMode::FalseColor)
+    else {
+        panic!("a false-colour frame fits a lux range");
+    };
+    let legend = haiko::render::legend_width(size.0, size.1, &scale);
+    assert!(legend > 40, "the legend takes {legend} px");
+    let (_, view) = session.latest_frame().unwrap();
+    let right = view.project(DVec3::new(room.x, 0.5 * room.y, 0.0)).unwrap().x;
+    let left = view.project(DVec3::new(0.0, 0.5 * room.y, 0.0)).unwrap().x;
+    let free_from = f64::from(size.0 - legend);
+    assert!(
+        right < free_from,
+        "right wall at x = {right}, legend from {free_from}"
+    );
+    // The footprint (with its margin) fills the width left of the legend, or the height.
+    let margin = haiko::render::plan::PLAN_MARGIN * room.x.max(room.y);
+    let px_per_m = (right - left) / room.x;
+    let used_w = (room.x + 2.0 * margin) * px_per_m;
+    let used_h = (room.y + 2.0 * margin) * px_per_m;
+    assert!(
+        (used_w - free_from).abs() < 1.0 || (used_h - f64::from(size.1)).abs() < 1.0,
+        "footprint {used_w} × {used_h} px in {free_from} × {} px",
+        size.1
+    );
+    assert!(
+        (left - margin * px_per_m).abs() < 1.0 || used_w < free_from,
+        "left wall at {left}"
+    );
+    // Photo mode draws no legend: the footprint is centred in the whole image.
+    session
+        .render(&FrameSpec {
+            view: ViewChoice::Plan,
+            ..spec(size, DisplayMode::Photo)
+        })
+        .unwrap();
+    let (_, view) = session.latest_frame().unwrap();
+    let centre = view.project(DVec3::new(0.5 * room.x, 0.5 * room.y, 0.0)).unwrap();
+    assert!((centre.x - 240.0).abs() < 0.5, "centre at {}", centre.x);
+}
+
+/// The work plane's plan shows what the numbers give at the same point of the plane (the
+/// session's `illuminance_at`, which `haiko probe` and `haiko grid` use): direct light alone to
+/// f32 rounding (both exact, shadows of the boxes included), and with the indirect light within
+/// 2 % (the plan interpolates between the plane's vertices, 0.15 m apart, the indirect light
+/// the numbers gather at the point itself).
+#[test]
+fn the_work_plane_plan_shows_the_work_plane_numbers() {
+    for indirect in [false, true] {
+        let mut session = session(load("office"), indirect);
+        let height = haiko::session::work_plane_height(session.scene());
+        assert_eq!(height, 0.8, "the office's design keeps the default work plane");
+        let plan = FrameSpec {
+            view: ViewChoice::WorkPlane,
+            ..spec((320, 240), DisplayMode::FalseColor)
+        };
+        session.render(&plan).unwrap();
+        let mut checked = 0;
+        for y in (20..240).step_by(37) {
+            for x in (20..260).step_by(41) {
+                // Cells inside boxes are left out of the plane.
+                let Some(hit) = session.pick((x, y)) else {
+                    continue;
+                };
+                assert!((hit.point.z - height).abs() < 1e-6, "{hit:?}");
+                assert!(hit.normal.z > 0.999, "the plane faces up: {hit:?}");
+                let receiver = haiko::scene::Receiver {
+                    point: hit.point,
+                    normal: DVec3::Z,
+                };
+                let want = session
+                    .illuminance_at(&[receiver], !indirect, haiko::scene::DirectMode::Exact)
+                    .unwrap()[0];
+                let tolerance = if indirect { 0.02 } else { 1e-4 };
+                assert!(
+                    (hit.lux - want).abs() <= tolerance * want,
+                    "indirect {indirect}, pixel ({x}, {y}) at {}: plan {} lx, numbers {want} lx",
+                    hit.point,
+                    hit.lux
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked >= 25, "{checked} pixels on the plane");
+    }
+}
+
 /// The office in plan view, false colour with isolux lines and the legend, at a size where the
 /// symbols and labels are legible.
 #[test]

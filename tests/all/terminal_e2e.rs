@@ -214,3 +214,66 @@ fn sigint_restores_the_terminal_and_keeps_the_edit() {
     );
     assert!(dir.path().join("paper.toml.recovery").exists());
 }
+
+/// Suspends the editor running as a job of the shell in `session` (by `suspend`), checks that
+/// the shell has the terminal back in cooked mode, then resumes it with `fg` and checks that the
+/// editor draws its whole screen again with the edit still there.
+fn suspend_and_resume(session: &TmuxSession, dir: &Path, round: usize, suspend: impl Fn()) {
+    suspend();
+    session.wait_for("the shell's stopped job", |s| {
+        s.matches("Stopped").count() >= round && s.trim_end().ends_with('$')
+    });
+    assert_eq!(
+        pane_flags(session, "#{alternate_on} #{cursor_flag} #{mouse_any_flag}"),
+        "0 1 0"
+    );
+    let stty_file = dir.join(format!("stty-{round}"));
+    session.send(&format!("stty -a > '{}'", stty_file.display()));
+    session.send("Enter");
+    let stty = wait_for_file(&stty_file);
+    let modes: Vec<&str> = stty.split_whitespace().collect();
+    assert!(modes.contains(&"icanon") && modes.contains(&"echo"), "{stty}");
+    session.send("fg");
+    session.send("Enter");
+    let screen = session.wait_for("the editor drawn again", |s| {
+        status_line(s).contains("relight") && s.contains("1050.0") && s.contains("unsaved")
+    });
+    assert!(half_block_cells(&screen) > PREVIEW_CELLS / 4, "{screen}");
+    assert_eq!(pane_flags(session, "#{alternate_on} #{mouse_any_flag}"), "1 1");
+}
+
+#[test]
+fn ctrl_z_and_sigtstp_suspend_to_the_shell_and_fg_redraws_the_editor() {
+    let dir = tempfile::tempdir().unwrap();
+    let (room, original) = paper_room(dir.path());
+    let pid_file = dir.path().join("pid");
+    // An interactive shell with job control; the editor is its foreground job.
+    let session = TmuxSession::start("env PS1='$ ' bash --norc --noprofile -i", 160, 48);
+    session.wait_for("the shell", |s| s.trim_end().ends_with('$'));
+    session.send(&format!(
+        "sh -c 'echo $$ > \"{pid}\"; HAIKO_CACHE_DIR=\"{cache}\" exec \"{haiko}\" edit \"{room}\" --graphics halfblocks'",
+        pid = pid_file.display(),
+        cache = dir.path().join("cache").display(),
+        haiko = env!("CARGO_BIN_EXE_haiko"),
+        room = room.display(),
+    ));
+    session.send("Enter");
+    session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
+    session.send("Up");
+    session.wait_for("the unsaved edit", |s| {
+        s.contains("1050.0") && s.contains("unsaved")
+    });
+    // Ctrl-Z, a key in raw mode.
+    suspend_and_resume(&session, dir.path(), 1, || session.send("C-z"));
+    // SIGTSTP from outside (`kill -TSTP`, as a job-control stop sends it).
+    let pid = wait_for_file(&pid_file).trim().to_string();
+    suspend_and_resume(&session, dir.path(), 2, || {
+        let sent = std::process::Command::new("kill")
+            .args(["-TSTP", &pid])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+    });
+    // Nothing was written meanwhile: the edit is still only in the editor.
+    assert_eq!(std::fs::read_to_string(&room).unwrap(), original);
+}

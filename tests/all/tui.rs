@@ -725,6 +725,15 @@ fn preview_keys_step_the_exposure_toggle_isolux_and_the_plan_and_refit() {
     assert_eq!(spec.view, ViewChoice::Plan);
     update(&mut m, ch('p'));
     assert_eq!(frame_spec(&m).unwrap().view, ViewChoice::Camera);
+    // P: from the camera straight to the work plane's plan, then the floor's, and back.
+    update(&mut m, ch('P'));
+    assert_eq!(frame_spec(&m).unwrap().view, ViewChoice::WorkPlane);
+    update(&mut m, ch('P'));
+    assert_eq!(frame_spec(&m).unwrap().view, ViewChoice::Plan);
+    update(&mut m, ch('P'));
+    assert_eq!(frame_spec(&m).unwrap().view, ViewChoice::WorkPlane);
+    update(&mut m, ch('p'));
+    assert_eq!(frame_spec(&m).unwrap().view, ViewChoice::Camera);
     assert!(!m.dirty, "preview keys do not edit the room");
 }
 

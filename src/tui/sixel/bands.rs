@@ -83,6 +83,9 @@ struct Scratch {
     segments: Vec<Segment>,
     used: Vec<bool>,
     uniform: Vec<bool>,
+    /// The entries painting the previous column, and the current one's.
+    previous: Vec<usize>,
+    current: Vec<usize>,
 }
 
 impl Scratch {
@@ -96,10 +99,17 @@ impl Scratch {
         self.write_passes(full, out);
     }
 
-    /// The entries of each colour of each column, in column order; equal neighbours merged.
+    /// The entries of each colour of each column, in column order; a colour's equal sixels in
+    /// neighbouring columns merged into one entry (a dithered band repeats the same few sixels
+    /// along a row).
     fn gather(&mut self, band: &[u8], width: usize, rows: usize, full: u8) {
         self.entries.clear();
         uniform_columns(band, width, &mut self.uniform);
+        let (mut previous, mut current) = (
+            std::mem::take(&mut self.previous),
+            std::mem::take(&mut self.current),
+        );
+        previous.clear();
         let mut x = 0;
         while x < width {
             if self.uniform[x] {
@@ -110,26 +120,59 @@ impl Scratch {
                     x += 1;
                 }
                 self.push(start as u32, (x - start) as u32, colour, full);
+                previous.clear();
+                previous.push(self.entries.len() - 1);
                 continue;
             }
-            let column_start = self.entries.len();
+            // The same colours as the column before (which was not uniform): its entries grow.
+            if x > 0
+                && !self.uniform[x - 1]
+                && (0..rows).all(|r| band[r * width + x] == band[r * width + x - 1])
+            {
+                for &i in &previous {
+                    self.entries[i].len += 1;
+                }
+                x += 1;
+                continue;
+            }
+            let mut column: [(u8, u8); 6] = [(0, 0); 6];
+            let mut n = 0;
             for r in 0..rows {
                 let colour = band[r * width + x];
-                match self.entries[column_start..]
-                    .iter_mut()
-                    .find(|e| e.colour == colour)
-                {
-                    Some(entry) => entry.mask |= 1 << r,
-                    None => self.entries.push(Entry {
-                        x: x as u32,
-                        len: 1,
-                        colour,
-                        mask: 1 << r,
-                    }),
+                match column[..n].iter_mut().find(|(c, _)| *c == colour) {
+                    Some((_, mask)) => *mask |= 1 << r,
+                    None => {
+                        column[n] = (colour, 1 << r);
+                        n += 1;
+                    }
                 }
             }
+            current.clear();
+            for &(colour, mask) in &column[..n] {
+                let extends = previous.iter().copied().find(|&i| {
+                    let e = self.entries[i];
+                    e.colour == colour && e.mask == mask && e.end() == x as u32
+                });
+                match extends {
+                    Some(i) => {
+                        self.entries[i].len += 1;
+                        current.push(i);
+                    }
+                    None => {
+                        self.entries.push(Entry {
+                            x: x as u32,
+                            len: 1,
+                            colour,
+                            mask,
+                        });
+                        current.push(self.entries.len() - 1);
+                    }
+                }
+            }
+            std::mem::swap(&mut previous, &mut current);
             x += 1;
         }
+        (self.previous, self.current) = (previous, current);
     }
 
     /// Appends an entry, extending the last entry when it is the same sixel just before.

@@ -61,8 +61,8 @@ fn check_size(rgba: &[u8], width: usize, height: usize) -> Result<()> {
 /// `size.0 × size.1` pixels, each shown as `divisor × divisor` pixels, cut to `shown` (width,
 /// height). The quality follows the divisor ([`Quality::for_divisor`]); the colours are counted
 /// on the small image, so a reduced frame also encodes faster. A full-size frame (`divisor` 1)
-/// is dithered when `dither` is set ([`quantise_dithered`]: no banding, about two and a half
-/// times the bytes), else its band columns are flattened.
+/// is dithered when `dither` is set ([`quantise_dithered`] at [`Quality::DITHERED`]: no
+/// banding, about a quarter more bytes), else its band columns are flattened.
 ///
 /// Errors (internal): `rgba` does not hold `size.0 × size.1` pixels, or `shown` is larger than
 /// the enlarged image.
@@ -83,7 +83,12 @@ pub fn encode_frame(
     let quality = Quality::for_divisor(divisor);
     if dither && d == 1 && shown == size {
         check_size(rgba, size.0, size.1)?;
-        return Ok(encode_indexed(&quantise_dithered(rgba, size.0, size.1, quality)));
+        return Ok(encode_indexed(&quantise_dithered(
+            rgba,
+            size.0,
+            size.1,
+            Quality::DITHERED,
+        )));
     }
     let small = quantise_checked(rgba, size.0, size.1, quality)?;
     let mut indexed = if d == 1 && shown == size {
@@ -399,6 +404,10 @@ mod tests {
         let (flat_worst, dithered_worst) = (worst(band_means(&flat)), worst(band_means(&dithered)));
         assert!(flat_worst > 0.35, "{flat_worst}");
         assert!(dithered_worst < 0.15, "{dithered_worst}");
+        // At the full frames' 1.5 % steps, levels on whole percents (0, 2, 3, 5, … %): at most
+        // a twelfth of the wider 2 % step.
+        let coarse_worst = worst(band_means(&quantise_dithered(&rgba, w, h, Quality::DITHERED)));
+        assert!(coarse_worst <= 2.0 / 12.0 + 1e-9, "{coarse_worst}");
         // And it decodes exactly.
         let decoded = decode(&encode_indexed(&dithered)).unwrap();
         for (i, &c) in dithered.indices.iter().enumerate() {
@@ -423,7 +432,7 @@ mod tests {
         let dithered = encode_frame(&rgba, (60, 12), 1, (60, 12), true).unwrap();
         assert_eq!(
             dithered,
-            encode_indexed(&quantise_dithered(&rgba, 60, 12, Quality::FINE))
+            encode_indexed(&quantise_dithered(&rgba, 60, 12, Quality::DITHERED))
         );
         assert_ne!(plain, dithered);
     }

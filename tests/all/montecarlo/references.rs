@@ -77,6 +77,16 @@ pub struct Reference {
     pub paths: usize,
 }
 
+impl Reference {
+    /// The receiver the reference was traced at.
+    pub fn receiver(&self) -> Receiver {
+        Receiver {
+            point: self.point,
+            normal: self.normal,
+        }
+    }
+}
+
 /// Reads `<name>.csv`.
 pub fn read(name: &str) -> Vec<Reference> {
     let path = dir().join(format!("{name}.csv"));
@@ -384,13 +394,7 @@ pub struct RoomErrors {
 pub fn errors_against_references(name: &'static str) -> RoomErrors {
     let scene = room(name);
     let refs = read(name);
-    let receivers: Vec<Receiver> = refs
-        .iter()
-        .map(|r| Receiver {
-            point: r.point,
-            normal: r.normal,
-        })
-        .collect();
+    let receivers: Vec<Receiver> = refs.iter().map(Reference::receiver).collect();
     let baked = bake(&scene, &BakeOptions::default(), &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
     let lux = illuminance_at_receivers(&scene, Some(&baked), DirectMode::Exact, &receivers);
     summarize(name, &refs, &lux)
@@ -401,13 +405,7 @@ pub fn errors_against_references(name: &'static str) -> RoomErrors {
 pub fn engine_errors(name: &'static str, options: &InterreflectionOptions) -> RoomErrors {
     let scene = room(name);
     let refs = read(name);
-    let receivers: Vec<Receiver> = refs
-        .iter()
-        .map(|r| Receiver {
-            point: r.point,
-            normal: r.normal,
-        })
-        .collect();
+    let receivers: Vec<Receiver> = refs.iter().map(Reference::receiver).collect();
     let p = plan(&scene, PlanOptions::default());
     let engine = Interreflection::build(&scene, p.channels, p.visibility.on, options);
     let b = engine

@@ -83,6 +83,20 @@ pub struct RefLight {
 }
 
 impl RefLight {
+    /// How the light meets the point `x` with unit normal `n`: the squared distance (m²), the
+    /// cosine of incidence and the angle γ from the aim (radians); `None` at the light's centre
+    /// or from behind the surface.
+    fn incidence(&self, x: DVec3, n: DVec3) -> Option<(f64, f64, f64)> {
+        let to = x - self.position;
+        let r2 = to.length_squared();
+        if r2 < 1e-12 {
+            return None;
+        }
+        let dir = to / r2.sqrt();
+        let cos_incidence = -n.dot(dir);
+        (cos_incidence > 0.0).then(|| (r2, cos_incidence, self.aim.dot(dir).clamp(-1.0, 1.0).acos()))
+    }
+
     /// Intensity (cd, dimmer applied) at angle `gamma_deg` from the aim: linear between control
     /// points, 0 outside their span, the first value at a step (two points at one angle).
     pub fn intensity(&self, gamma_deg: f64) -> f64 {
@@ -425,18 +439,10 @@ impl Tracer {
     pub fn direct(&self, x: DVec3, n: DVec3) -> [f64; 3] {
         let mut e = [0.0; 3];
         for light in &self.lights {
-            let to = x - light.position;
-            let r2 = to.length_squared();
-            if r2 < 1e-12 {
+            let Some((r2, cos_incidence, gamma)) = light.incidence(x, n) else {
                 continue;
-            }
-            let dir = to / r2.sqrt();
-            let cos_incidence = -n.dot(dir);
-            if cos_incidence <= 0.0 {
-                continue;
-            }
-            let gamma_deg = light.aim.dot(dir).clamp(-1.0, 1.0).acos().to_degrees();
-            let intensity = light.intensity(gamma_deg);
+            };
+            let intensity = light.intensity(gamma.to_degrees());
             if intensity == 0.0 || !self.unblocked(light.position, x) {
                 continue;
             }
@@ -525,17 +531,9 @@ impl Tracer {
         let mut density = 0.0;
         let total: f64 = self.samplers.iter().map(|s| s.flux).sum();
         for (light, sampler) in self.lights.iter().zip(&self.samplers) {
-            let to = x - light.position;
-            let r2 = to.length_squared();
-            if r2 < 1e-12 {
+            let Some((r2, cos_incidence, gamma)) = light.incidence(x, n) else {
                 continue;
-            }
-            let dir = to / r2.sqrt();
-            let cos_incidence = -n.dot(dir);
-            if cos_incidence <= 0.0 {
-                continue;
-            }
-            let gamma = light.aim.dot(dir).clamp(-1.0, 1.0).acos();
+            };
             let intensity = light.intensity(gamma.to_degrees());
             let pdf = sampler.pdf(gamma);
             if (intensity == 0.0 && pdf == 0.0) || !self.unblocked(light.position, x) {
