@@ -1,7 +1,8 @@
 //! The editor's costs per keystroke (docs/BENCHMARKS.md), on one core (wall time, and `…-cpu`:
 //! CPU time of the pool's one thread, see `common/cpu_time.rs`): a key press → a new
-//! 1024 × 768 preview pixmap of the paper and office rooms (update → command → session relight,
-//! per-pixel direct light, shading and overlays, into reused buffers; targets 16 ms and 33 ms), a
+//! 1024 × 768 preview pixmap of the paper and office rooms and of the office's work-plane plan
+//! (update → command → session relight, per-pixel direct light, the plan's indirect light,
+//! shading and overlays, into reused buffers; targets 16 ms and 33 ms), a
 //! 5° camera orbit step (target 200 ms), the per-pixel light's memory (printed), the heap
 //! allocations of a key press (counted with dhat), and what one full preview frame costs on the
 //! wire with the editor's own encoder for each image protocol at 160 × 48 cells with a 10 × 20 px
@@ -13,7 +14,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use haiko::render::DisplayMode;
-use haiko::session::{FrameSpec, Session, SessionOptions};
+use haiko::session::{FrameSpec, Session, SessionOptions, ViewChoice};
 use haiko::tui::app::frame_spec;
 use haiko::tui::frame_budget::FramePlan;
 use haiko::tui::multiplexer::Protocol;
@@ -52,11 +53,17 @@ fn key(code: KeyCode) -> Msg {
 
 /// The editor and its engine on a bundled room, with one frame rendered.
 fn editor(name: &str) -> (Model, Session, FrameSpec) {
+    editor_in_view(name, ViewChoice::Camera)
+}
+
+/// [`editor`] with the preview showing `view`.
+fn editor_in_view(name: &str, view: ViewChoice) -> (Model, Session, FrameSpec) {
     let scene = room(name);
     let model = Model::new(&scene, TERMINAL, FONT);
     let mut session = Session::new(scene, SessionOptions::default(), &mut |_| {}).expect("bake");
     let spec = FrameSpec {
         selected_light: Some(0),
+        view,
         ..FrameSpec::new(SIZE, DisplayMode::Photo)
     };
     session.render(&spec).expect("the first frame renders");
@@ -98,8 +105,14 @@ fn one_core() -> rayon::ThreadPool {
 fn key_to_pixmap(c: &mut Criterion) {
     let pool = one_core();
     let mut group = c.benchmark_group("editor/key_to_pixmap_1024x768");
-    for name in ["paper", "office"] {
-        let (mut model, mut session, spec) = pool.install(|| editor(name));
+    let views = [
+        ("paper", ViewChoice::Camera),
+        ("office", ViewChoice::Camera),
+        ("office-work-plane", ViewChoice::WorkPlane),
+    ];
+    for (name, view) in views {
+        let room_name = name.split('-').next().expect("a room name");
+        let (mut model, mut session, spec) = pool.install(|| editor_in_view(room_name, view));
         if let Some((shared, per_light)) = session.preview_memory_per_pixel() {
             let lights = session.lights().len() as f64;
             println!(
