@@ -197,6 +197,10 @@ pub struct FalseColor {
     min_lx: f64,
     max_lx: f64,
     scale: LuxScale,
+    /// Where the scale starts in its own unit (`min_lx`, or `ln min_lx` for a log scale) and the
+    /// inverse of its span: a pixel's position costs one logarithm, not two and a division.
+    start: f64,
+    inv_span: f64,
 }
 
 impl FalseColor {
@@ -213,11 +217,22 @@ impl FalseColor {
                 format!("[{min_lx}, {max_lx}] lx is not an increasing {scale:?} range"),
             ));
         }
-        Ok(FalseColor {
+        Ok(FalseColor::with_range(min_lx, max_lx, scale))
+    }
+
+    /// The scale over `[min_lx, max_lx]` (already checked), with its start and inverse span.
+    fn with_range(min_lx: f64, max_lx: f64, scale: LuxScale) -> FalseColor {
+        let (start, end) = match scale {
+            LuxScale::Linear => (min_lx, max_lx),
+            LuxScale::Log => (min_lx.ln(), max_lx.ln()),
+        };
+        FalseColor {
             min_lx,
             max_lx,
             scale,
-        })
+            start,
+            inv_span: 1.0 / (end - start),
+        }
     }
 
     /// The range fitted to per-vertex illuminance `illuminance_lx` (luma, lx): from the lowest
@@ -244,11 +259,7 @@ impl FalseColor {
                 }
             }
         };
-        FalseColor {
-            min_lx,
-            max_lx,
-            scale,
-        }
+        FalseColor::with_range(min_lx, max_lx, scale)
     }
 
     /// The lux range `(min, max)` that the scale's two ends stand for.
@@ -264,10 +275,8 @@ impl FalseColor {
     /// Position of `illuminance_lx` on the scale, clamped to [0, 1].
     pub fn position(&self, illuminance_lx: f64) -> f64 {
         let t = match self.scale {
-            LuxScale::Linear => (illuminance_lx - self.min_lx) / (self.max_lx - self.min_lx),
-            LuxScale::Log => {
-                (illuminance_lx.max(self.min_lx) / self.min_lx).ln() / (self.max_lx / self.min_lx).ln()
-            }
+            LuxScale::Linear => (illuminance_lx - self.start) * self.inv_span,
+            LuxScale::Log => (illuminance_lx.max(self.min_lx).ln() - self.start) * self.inv_span,
         };
         if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) }
     }
@@ -324,12 +333,14 @@ pub const VIRIDIS: [[u8; 3]; 9] = [
 
 /// The viridis colour at `t ∈ [0, 1]` (linear between stops).
 pub fn viridis(t: f64) -> [u8; 3] {
+    // s ≥ 0 (NaN clamps to NaN, which `as` turns into 0): truncation is the floor, and adding ½
+    // before truncating rounds to nearest — no calls into libm per pixel.
     let s = t.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;
-    let i = (s.floor() as usize).min(VIRIDIS.len() - 2);
+    let i = (s as usize).min(VIRIDIS.len() - 2);
     let f = s - i as f64;
     [0, 1, 2].map(|c| {
         let (a, b) = (f64::from(VIRIDIS[i][c]), f64::from(VIRIDIS[i + 1][c]));
-        (a + (b - a) * f).round() as u8
+        (a + (b - a) * f + 0.5) as u8
     })
 }
 
