@@ -40,7 +40,7 @@ pub use plan::{
 };
 pub use raster::{BACKGROUND_ID, Raster, ScreenTriangle, ScreenVertex, Target, rasterize, rasterize_into};
 pub use shade::{
-    DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, vertex_attributes,
+    DisplayMode, DisplayShader, FalseColor, FalseColorTable, LuxScale, Photo, Shader, vertex_attributes,
     vertex_attributes_into,
 };
 pub use surface::PixelSurfaces;

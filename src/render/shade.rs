@@ -288,6 +288,76 @@ impl Shader for FalseColor {
     }
 }
 
+/// Relative width of a [`FalseColorTable`] entry: 2⁻¹⁰ of the value (the f32 bit pattern with
+/// its 13 lowest mantissa bits dropped).
+const TABLE_SHIFT: u32 = 13;
+
+/// Values below this fraction of the scale's top are shaded exactly instead of from the table
+/// (a linear scale from 0 would otherwise need entries down to the smallest f32).
+const TABLE_FLOOR: f64 = 1e-6;
+
+/// A [`FalseColor`] tabulated for one frame's pixels: positive f32 values order like their bit
+/// patterns, so the pattern with its low mantissa bits dropped indexes entries 2⁻¹⁰ of the value
+/// wide, each holding the colour at its middle — one table load per pixel instead of a
+/// logarithm and the viridis blend. An entry spans less than 1.1e-3 of the scale (log scales span
+/// at least a factor 10), so a pixel's colour is within one level of [`FalseColor::shade`]'s.
+/// Values outside the table's span are shaded exactly.
+#[derive(Debug, Clone)]
+pub struct FalseColorTable {
+    scale: FalseColor,
+    /// Bit pattern of the table's first value, and the first value and the end (lx).
+    start_bits: u32,
+    start: f32,
+    end: f32,
+    colors: Vec<[u8; 3]>,
+}
+
+impl FalseColorTable {
+    /// The table of `scale` over its range (from no lower than [`TABLE_FLOOR`] of its top).
+    pub fn new(scale: &FalseColor) -> FalseColorTable {
+        let (min_lx, max_lx) = scale.range();
+        let start = (min_lx.max(max_lx * TABLE_FLOOR) as f32).max(f32::MIN_POSITIVE);
+        let end = max_lx as f32;
+        let start_bits = start.to_bits() >> TABLE_SHIFT << TABLE_SHIFT;
+        let n = if end > start {
+            ((end.to_bits() - start_bits) >> TABLE_SHIFT) as usize + 1
+        } else {
+            0
+        };
+        let colors = (0..n)
+            .map(|k| {
+                let lo = f32::from_bits(start_bits + ((k as u32) << TABLE_SHIFT));
+                let hi = f32::from_bits(start_bits + ((k as u32 + 1) << TABLE_SHIFT));
+                viridis(scale.position(0.5 * (f64::from(lo) + f64::from(hi))))
+            })
+            .collect();
+        FalseColorTable {
+            scale: *scale,
+            start_bits,
+            start,
+            end,
+            colors,
+        }
+    }
+
+    /// Number of entries (1 024 per doubling of the value over the tabulated span).
+    pub fn entries(&self) -> usize {
+        self.colors.len()
+    }
+
+    /// The colour of illuminance `illuminance_lx` (lx, linear RGB; its luma is placed).
+    #[inline]
+    pub fn shade(&self, illuminance_lx: [f32; 3]) -> [u8; 3] {
+        let [r, g, b] = illuminance_lx;
+        let y = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+        if y >= self.start && y < self.end {
+            self.colors[((y.to_bits() - self.start_bits) >> TABLE_SHIFT) as usize]
+        } else {
+            self.scale.shade(illuminance_lx)
+        }
+    }
+}
+
 /// Either display shader, chosen at run time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum DisplayShader {
