@@ -22,9 +22,9 @@
 //! Everything but the active light's γ is computed in one parallel sweep over the pixels
 //! ([`PixelLighting::sweep`]): chunk by chunk of [`shadows::chunk_pixels`], light by light, the
 //! geometry in f32, the shadow rays cast again where asked ([`shadows::cast_shadow_rays`]: per
-//! 16-pixel column of the chunk against only the occluders reaching into the box around its
-//! points and the light), else the light's visibility bits applied, then the light added into
-//! `others` or kept as the active light's factor.
+//! 16-pixel column of the chunk against only the occluders that can meet a segment from its
+//! points to the light, [`Occluders::toward`]), else the light's visibility bits applied, then
+//! the light added into `others` or kept as the active light's factor.
 //!
 //! [`PixelLighting::render_into`] adds the per-vertex indirect light (Gouraud over each pixel's
 //! triangle) and shades the pixel in the same pass.
