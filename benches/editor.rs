@@ -1,7 +1,9 @@
 //! The editor's costs per keystroke (docs/BENCHMARKS.md), on one core (wall time, and `…-cpu`:
 //! CPU time of the pool's one thread, see `common/cpu_time.rs`): a key press → a new
-//! 1024 × 768 preview pixmap of the paper and office rooms (update → command → session relight,
-//! per-pixel direct light, shading and overlays, into reused buffers; targets 16 ms and 33 ms), a
+//! 1024 × 768 preview pixmap of the paper and office rooms, of the office in false colour with
+//! isolux lines and the legend, and of the office's work-plane plan (update → command → session
+//! relight, per-pixel direct light, the plan's indirect light, shading and overlays, into reused
+//! buffers; targets 16 ms and 33 ms), a
 //! 5° camera orbit step (target 200 ms), the per-pixel light's memory (printed), the heap
 //! allocations of a key press (counted with dhat), and what one full preview frame costs on the
 //! wire with the editor's own encoder for each image protocol at 160 × 48 cells with a 10 × 20 px
@@ -13,7 +15,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use haiko::render::DisplayMode;
-use haiko::session::{FrameSpec, Session, SessionOptions};
+use haiko::session::{FrameSpec, Session, SessionOptions, ViewChoice};
 use haiko::tui::app::frame_spec;
 use haiko::tui::frame_budget::FramePlan;
 use haiko::tui::multiplexer::Protocol;
@@ -52,6 +54,11 @@ fn key(code: KeyCode) -> Msg {
 
 /// The editor and its engine on a bundled room, with one frame rendered.
 fn editor(name: &str) -> (Model, Session, FrameSpec) {
+    editor_in_view(name, ViewChoice::Camera)
+}
+
+/// [`editor`] with the preview showing `view`.
+fn editor_in_view(name: &str, view: ViewChoice) -> (Model, Session, FrameSpec) {
     let scene = room(name);
     let model = Model::new(&scene, TERMINAL, FONT);
     // The editor's engine choice (no interreflection solve on the key path).
@@ -59,6 +66,7 @@ fn editor(name: &str) -> (Model, Session, FrameSpec) {
     let mut session = Session::new(scene, options, &mut |_| {}).expect("bake");
     let spec = FrameSpec {
         selected_light: Some(0),
+        view,
         ..FrameSpec::new(SIZE, DisplayMode::Photo)
     };
     session.render(&spec).expect("the first frame renders");
@@ -100,8 +108,19 @@ fn one_core() -> rayon::ThreadPool {
 fn key_to_pixmap(c: &mut Criterion) {
     let pool = one_core();
     let mut group = c.benchmark_group("editor/key_to_pixmap_1024x768");
-    for name in ["paper", "office"] {
-        let (mut model, mut session, spec) = pool.install(|| editor(name));
+    let views = [
+        ("paper", ViewChoice::Camera, DisplayMode::Photo),
+        ("office", ViewChoice::Camera, DisplayMode::Photo),
+        ("office-false-colour", ViewChoice::Camera, DisplayMode::FalseColor),
+        ("office-work-plane", ViewChoice::WorkPlane, DisplayMode::Photo),
+    ];
+    for (name, view, mode) in views {
+        let room_name = name.split('-').next().expect("a room name");
+        let (mut model, mut session, mut spec) = pool.install(|| editor_in_view(room_name, view));
+        if mode == DisplayMode::FalseColor {
+            // As a designer reads lux: false colour with isolux lines and the legend.
+            (spec.mode, spec.isolux, spec.legend) = (mode, true, true);
+        }
         if let Some((shared, per_light)) = session.preview_memory_per_pixel() {
             let lights = session.lights().len() as f64;
             println!(

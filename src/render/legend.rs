@@ -254,17 +254,25 @@ pub fn draw_isolux(pixmap: &mut Pixmap, lux: &[f32], surface: impl Fn(usize) -> 
         return;
     }
     let levels: Vec<f32> = levels.iter().map(|&l| l as f32).collect();
-    let crosses = |a: f32, b: f32| levels.iter().any(|&l| (a >= l) != (b >= l));
+    // A level lies between two values exactly when they have different numbers of levels at or
+    // below them (NaN has none): one branch-free count per pixel instead of a test per level and
+    // pair; the surfaces are looked up only where the count changes.
+    let band: Vec<usize> = lux
+        .iter()
+        .map(|&e| levels.iter().filter(|&&l| l <= e).count())
+        .collect();
     let mut on_line = vec![false; w * h];
     for y in 0..h {
         for x in 0..w {
             let i = y * w + x;
-            let Some(here) = surface(i) else { continue };
             for j in [(x + 1 < w).then_some(i + 1), (y + 1 < h).then_some(i + w)]
                 .into_iter()
                 .flatten()
             {
-                if surface(j) == Some(here) && crosses(lux[i], lux[j]) {
+                if band[i] != band[j]
+                    && let Some(here) = surface(i)
+                    && surface(j) == Some(here)
+                {
                     on_line[if lux[i] >= lux[j] { i } else { j }] = true;
                 }
             }

@@ -22,9 +22,9 @@
 //! Everything but the active light's γ is computed in one parallel sweep over the pixels
 //! ([`PixelLighting::sweep`]): chunk by chunk of [`shadows::chunk_pixels`], light by light, the
 //! geometry in f32, the shadow rays cast again where asked ([`shadows::cast_shadow_rays`]: per
-//! 16-pixel column of the chunk against only the occluders reaching into the box around its
-//! points and the light), else the light's visibility bits applied, then the light added into
-//! `others` or kept as the active light's factor.
+//! 16-pixel column of the chunk against only the occluders that can meet a segment from its
+//! points to the light, [`Occluders::toward`]), else the light's visibility bits applied, then
+//! the light added into `others` or kept as the active light's factor.
 //!
 //! [`PixelLighting::render_into`] adds the per-vertex indirect light (Gouraud over each pixel's
 //! triangle) and shades the pixel in the same pass.
@@ -34,7 +34,7 @@ use rayon::prelude::*;
 
 use super::camera::View;
 use super::lookup::{CurveLookup, SinHalfTable, acos};
-use super::shade::{DisplayShader, Shader};
+use super::shade::{DisplayShader, FalseColorTable, Shader};
 use super::shadows::{self, ShadowBits, ShadowChunk};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
 use super::tone::{self, tone_srgb8_lit};
@@ -596,6 +596,10 @@ impl PixelLighting {
     /// the block's illuminance is taken from `source` (composed into a scratch block on the
     /// stack when it is not composed yet), then shaded in a loop of its own.
     fn shade_chunks(&self, pixels: &mut [[u8; 4]], shader: &DisplayShader, source: Source) {
+        let table = match shader {
+            DisplayShader::FalseColor(scale) => Some(FalseColorTable::new(scale)),
+            DisplayShader::Photo(_) => None,
+        };
         pixels
             .par_chunks_mut(PIXELS_PER_TASK)
             .enumerate()
@@ -611,17 +615,25 @@ impl PixelLighting {
                             e
                         }
                     };
-                    self.shade_block(start, e, pixels, shader);
+                    self.shade_block(start, e, pixels, shader, table.as_ref());
                 }
             });
     }
 
     /// Shades pixels `start..start + pixels.len()` whose illuminance is `e` (lx, linear RGB):
     /// photo shaders see the luminance `ρ E / π` of the pixel's surface, false colour the
-    /// illuminance; the background gets [`BACKGROUND_RGB`]. The shader is matched once, outside
-    /// the per-pixel loop.
+    /// illuminance (through `table`, the false-colour scale tabulated for the frame, when given);
+    /// the background gets [`BACKGROUND_RGB`]. The shader is matched once, outside the per-pixel
+    /// loop.
     #[inline]
-    fn shade_block(&self, start: usize, e: &[[f32; 3]], pixels: &mut [[u8; 4]], shader: &DisplayShader) {
+    fn shade_block(
+        &self,
+        start: usize,
+        e: &[[f32; 3]],
+        pixels: &mut [[u8; 4]],
+        shader: &DisplayShader,
+        table: Option<&FalseColorTable>,
+    ) {
         let background = [BACKGROUND_RGB[0], BACKGROUND_RGB[1], BACKGROUND_RGB[2], 255];
         let triangles = &self.surfaces.triangle_codes()[start..start + pixels.len()];
         match shader {
@@ -652,7 +664,7 @@ impl PixelLighting {
                     *pixel = if t == NO_TRIANGLE {
                         background
                     } else {
-                        let [r, g, b] = scale.shade(e);
+                        let [r, g, b] = table.map_or_else(|| scale.shade(e), |table| table.shade(e));
                         [r, g, b, 255]
                     };
                 }

@@ -35,12 +35,12 @@ pub use overlay::{LightMarker, draw_crosshair, draw_lights};
 pub use pfm::{encode_pfm, luma_values, write_pfm};
 pub use pick::{Pick, aim_direction, pick};
 pub use plan::{
-    PlanLight, PlanSurface, draw_plan_lights, plan_view, plan_view_beside, work_plane_indirect,
-    work_plane_mesh,
+    PlanLight, PlanSurface, draw_plan_lights, plan_view, plan_view_beside, work_plane_gather,
+    work_plane_indirect, work_plane_mesh,
 };
 pub use raster::{BACKGROUND_ID, Raster, ScreenTriangle, ScreenVertex, Target, rasterize, rasterize_into};
 pub use shade::{
-    DisplayMode, DisplayShader, FalseColor, LuxScale, Photo, Shader, vertex_attributes,
+    DisplayMode, DisplayShader, FalseColor, FalseColorTable, LuxScale, Photo, Shader, vertex_attributes,
     vertex_attributes_into,
 };
 pub use surface::PixelSurfaces;

@@ -28,7 +28,8 @@ use crate::scene::mesher::{self, AxisRect, Geometry, Shape, SurfaceLayout};
 use crate::scene::model::{Aabb, PatchMesh, Reflectance, Surface, SurfaceKind};
 use crate::transport::bake::Bake;
 use crate::transport::direct::Receiver;
-use crate::transport::gather::{gather_indirect, patch_radiosity};
+use crate::transport::gather::{GatherOperator, patch_radiosity};
+use crate::transport::occlusion::Occluders;
 
 /// Margin around the room's footprint, as a fraction of its larger side.
 pub const PLAN_MARGIN: f64 = 0.04;
@@ -160,18 +161,12 @@ pub fn work_plane_mesh(
     Ok((mesh, vec![surface]))
 }
 
-/// Indirect illuminance (lx, linear RGB) at every vertex of a work-plane mesh (from
-/// [`work_plane_mesh`]) for the lights' current `states`: the coarse patches' radiosity blended
-/// from `bake`, gathered with exact point-to-patch form factors and visibility past occluders
-/// (as `haiko grid` does). Costs about (vertices × coarse patches) form factors: run it on a
-/// worker when the lights change.
-pub fn work_plane_indirect(
-    scene: &Scene,
-    bake: &Bake,
-    states: &[LightState],
-    plane: &PatchMesh,
-) -> Vec<[f32; 3]> {
-    let radiosity = patch_radiosity(scene, bake, states);
+/// The gather from `scene`'s coarse patches to every vertex of a work-plane mesh (from
+/// [`work_plane_mesh`]; normals up): exact point-to-patch form factors with visibility past
+/// occluders, as `haiko grid` gathers. Costs about (vertices × coarse patches) form factors and
+/// their shadow rays; built once per plane, then [`work_plane_indirect`] costs one pass over the
+/// stored factors per light change.
+pub fn work_plane_gather(scene: &Scene, plane: &PatchMesh) -> GatherOperator {
     let receivers: Vec<Receiver> = plane
         .positions
         .iter()
@@ -180,7 +175,20 @@ pub fn work_plane_indirect(
             normal: DVec3::Z,
         })
         .collect();
-    gather_indirect(scene, &radiosity, &receivers)
+    GatherOperator::build(scene, Occluders::of_scene(scene).as_ref(), &receivers)
+}
+
+/// Indirect illuminance (lx, linear RGB) at every vertex of a work plane for the lights' current
+/// `states`: the coarse patches' radiosity blended from `bake`, through the plane's `gather`
+/// ([`work_plane_gather`]).
+pub fn work_plane_indirect(
+    scene: &Scene,
+    bake: &Bake,
+    states: &[LightState],
+    gather: &GatherOperator,
+) -> Vec<[f32; 3]> {
+    gather
+        .apply(&patch_radiosity(scene, bake, states))
         .into_iter()
         .map(|e| e.map(|x| x as f32))
         .collect()

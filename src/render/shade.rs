@@ -197,6 +197,10 @@ pub struct FalseColor {
     min_lx: f64,
     max_lx: f64,
     scale: LuxScale,
+    /// Where the scale starts in its own unit (`min_lx`, or `ln min_lx` for a log scale) and the
+    /// inverse of its span: a pixel's position costs one logarithm, not two and a division.
+    start: f64,
+    inv_span: f64,
 }
 
 impl FalseColor {
@@ -213,11 +217,22 @@ impl FalseColor {
                 format!("[{min_lx}, {max_lx}] lx is not an increasing {scale:?} range"),
             ));
         }
-        Ok(FalseColor {
+        Ok(FalseColor::with_range(min_lx, max_lx, scale))
+    }
+
+    /// The scale over `[min_lx, max_lx]` (already checked), with its start and inverse span.
+    fn with_range(min_lx: f64, max_lx: f64, scale: LuxScale) -> FalseColor {
+        let (start, end) = match scale {
+            LuxScale::Linear => (min_lx, max_lx),
+            LuxScale::Log => (min_lx.ln(), max_lx.ln()),
+        };
+        FalseColor {
             min_lx,
             max_lx,
             scale,
-        })
+            start,
+            inv_span: 1.0 / (end - start),
+        }
     }
 
     /// The range fitted to per-vertex illuminance `illuminance_lx` (luma, lx): from the lowest
@@ -244,11 +259,7 @@ impl FalseColor {
                 }
             }
         };
-        FalseColor {
-            min_lx,
-            max_lx,
-            scale,
-        }
+        FalseColor::with_range(min_lx, max_lx, scale)
     }
 
     /// The lux range `(min, max)` that the scale's two ends stand for.
@@ -264,10 +275,8 @@ impl FalseColor {
     /// Position of `illuminance_lx` on the scale, clamped to [0, 1].
     pub fn position(&self, illuminance_lx: f64) -> f64 {
         let t = match self.scale {
-            LuxScale::Linear => (illuminance_lx - self.min_lx) / (self.max_lx - self.min_lx),
-            LuxScale::Log => {
-                (illuminance_lx.max(self.min_lx) / self.min_lx).ln() / (self.max_lx / self.min_lx).ln()
-            }
+            LuxScale::Linear => (illuminance_lx - self.start) * self.inv_span,
+            LuxScale::Log => (illuminance_lx.max(self.min_lx).ln() - self.start) * self.inv_span,
         };
         if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) }
     }
@@ -276,6 +285,76 @@ impl FalseColor {
 impl Shader for FalseColor {
     fn shade(&self, illuminance_lx: [f32; 3]) -> [u8; 3] {
         viridis(self.position(luma(illuminance_lx.map(f64::from))))
+    }
+}
+
+/// Relative width of a [`FalseColorTable`] entry: 2⁻¹⁰ of the value (the f32 bit pattern with
+/// its 13 lowest mantissa bits dropped).
+const TABLE_SHIFT: u32 = 13;
+
+/// Values below this fraction of the scale's top are shaded exactly instead of from the table
+/// (a linear scale from 0 would otherwise need entries down to the smallest f32).
+const TABLE_FLOOR: f64 = 1e-6;
+
+/// A [`FalseColor`] tabulated for one frame's pixels: positive f32 values order like their bit
+/// patterns, so the pattern with its low mantissa bits dropped indexes entries 2⁻¹⁰ of the value
+/// wide, each holding the colour at its middle — one table load per pixel instead of a
+/// logarithm and the viridis blend. An entry spans less than 1.1e-3 of the scale (log scales span
+/// at least a factor 10), so a pixel's colour is within one level of [`FalseColor::shade`]'s.
+/// Values outside the table's span are shaded exactly.
+#[derive(Debug, Clone)]
+pub struct FalseColorTable {
+    scale: FalseColor,
+    /// Bit pattern of the table's first value, and the first value and the end (lx).
+    start_bits: u32,
+    start: f32,
+    end: f32,
+    colors: Vec<[u8; 3]>,
+}
+
+impl FalseColorTable {
+    /// The table of `scale` over its range (from no lower than [`TABLE_FLOOR`] of its top).
+    pub fn new(scale: &FalseColor) -> FalseColorTable {
+        let (min_lx, max_lx) = scale.range();
+        let start = (min_lx.max(max_lx * TABLE_FLOOR) as f32).max(f32::MIN_POSITIVE);
+        let end = max_lx as f32;
+        let start_bits = start.to_bits() >> TABLE_SHIFT << TABLE_SHIFT;
+        let n = if end > start {
+            ((end.to_bits() - start_bits) >> TABLE_SHIFT) as usize + 1
+        } else {
+            0
+        };
+        let colors = (0..n)
+            .map(|k| {
+                let lo = f32::from_bits(start_bits + ((k as u32) << TABLE_SHIFT));
+                let hi = f32::from_bits(start_bits + ((k as u32 + 1) << TABLE_SHIFT));
+                viridis(scale.position(0.5 * (f64::from(lo) + f64::from(hi))))
+            })
+            .collect();
+        FalseColorTable {
+            scale: *scale,
+            start_bits,
+            start,
+            end,
+            colors,
+        }
+    }
+
+    /// Number of entries (1 024 per doubling of the value over the tabulated span).
+    pub fn entries(&self) -> usize {
+        self.colors.len()
+    }
+
+    /// The colour of illuminance `illuminance_lx` (lx, linear RGB; its luma is placed).
+    #[inline]
+    pub fn shade(&self, illuminance_lx: [f32; 3]) -> [u8; 3] {
+        let [r, g, b] = illuminance_lx;
+        let y = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+        if y >= self.start && y < self.end {
+            self.colors[((y.to_bits() - self.start_bits) >> TABLE_SHIFT) as usize]
+        } else {
+            self.scale.shade(illuminance_lx)
+        }
     }
 }
 
@@ -324,12 +403,14 @@ pub const VIRIDIS: [[u8; 3]; 9] = [
 
 /// The viridis colour at `t ∈ [0, 1]` (linear between stops).
 pub fn viridis(t: f64) -> [u8; 3] {
+    // s ≥ 0 (NaN clamps to NaN, which `as` turns into 0): truncation is the floor, and adding ½
+    // before truncating rounds to nearest — no calls into libm per pixel.
     let s = t.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;
-    let i = (s.floor() as usize).min(VIRIDIS.len() - 2);
+    let i = (s as usize).min(VIRIDIS.len() - 2);
     let f = s - i as f64;
     [0, 1, 2].map(|c| {
         let (a, b) = (f64::from(VIRIDIS[i][c]), f64::from(VIRIDIS[i + 1][c]));
-        (a + (b - a) * f).round() as u8
+        (a + (b - a) * f + 0.5) as u8
     })
 }
 

@@ -18,7 +18,7 @@ use crate::photometry::LightState;
 use crate::relight::Relighter;
 use crate::render::exposure::room_ev100;
 use crate::render::plan::{
-    PlanLight, draw_plan_lights, plan_view_beside, work_plane_indirect, work_plane_mesh,
+    PlanLight, draw_plan_lights, plan_view_beside, work_plane_gather, work_plane_indirect, work_plane_mesh,
 };
 use crate::render::shade::luma;
 use crate::render::{
@@ -31,6 +31,7 @@ use crate::scene::model::{PatchMesh, Surface, SurfaceKind};
 use crate::scene::{AimSpec, Camera, DirectMode, Scene};
 use crate::session::light::LightEdit;
 use crate::transport::bake::Bake;
+use crate::transport::gather::GatherOperator;
 use crate::transport::occlusion::Occluders;
 
 /// Largest image side (pixels) a frame may have.
@@ -177,6 +178,8 @@ struct PlaneState {
     /// Indirect light at its vertices (lx, linear RGB) and the illuminance version it was
     /// gathered for.
     indirect: Option<(u64, Vec<[f32; 3]>)>,
+    /// The gather from the coarse patches to its vertices, built on first need.
+    gather: Option<GatherOperator>,
 }
 
 impl PlaneState {
@@ -193,6 +196,7 @@ impl PlaneState {
             mesh,
             surfaces,
             indirect: None,
+            gather: None,
         })
     }
 }
@@ -428,7 +432,8 @@ impl FrameBuffers {
     }
 
     /// Gathers the indirect light at the work plane's vertices for the lights' current state
-    /// when the light changed since (`bake`: the session's, `None` without indirect light).
+    /// when the light changed since (`bake`: the session's, `None` without indirect light),
+    /// through the plane's gather operator (its form factors and shadow rays computed once).
     fn sync_plane_light(&mut self, scene: &Scene, bake: Option<&Bake>, lights: &[LightEdit], version: u64) {
         let Some(plane) = self.plane.as_mut() else {
             return;
@@ -441,7 +446,10 @@ impl FrameBuffers {
             return;
         }
         let states: Vec<LightState> = lights.iter().map(|l| pixel_light(l).state).collect();
-        let values = work_plane_indirect(scene, bake, &states, &plane.mesh);
+        let gather = plane
+            .gather
+            .get_or_insert_with(|| work_plane_gather(scene, &plane.mesh));
+        let values = work_plane_indirect(scene, bake, &states, gather);
         plane.indirect = Some((version, values));
         self.light_version += 1;
     }

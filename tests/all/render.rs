@@ -8,9 +8,9 @@ use glam::DVec3;
 use haiko::render::golden::{Golden, Tolerance, count_differing, ids_from_pixmap, ids_to_pixmap};
 use haiko::render::shade::{VIRIDIS, srgb_encode};
 use haiko::render::{
-    BACKGROUND_ID, DisplayMode, DisplayShader, FalseColor, LightMarker, LuxScale, Photo, ScreenTriangle,
-    ScreenVertex, Shader, View, aim_direction, draw_crosshair, draw_lights, pick, rasterize, render,
-    render_attributes, render_into, vertex_attributes,
+    BACKGROUND_ID, DisplayMode, DisplayShader, FalseColor, FalseColorTable, LightMarker, LuxScale, Photo,
+    ScreenTriangle, ScreenVertex, Shader, View, aim_direction, draw_crosshair, draw_lights, pick, rasterize,
+    render, render_attributes, render_into, vertex_attributes,
 };
 use haiko::scene::model::{Camera, Patch, PatchMesh, Reflectance, Surface, SurfaceKind};
 use proptest::prelude::*;
@@ -849,6 +849,50 @@ fn false_colour_endpoints_are_the_ends_of_viridis() {
         "{min_lx}–{max_lx} vs {lo}–{hi}"
     );
     assert_eq!(fitted.shade([max_lx as f32; 3]), top);
+}
+
+#[test]
+fn the_false_colour_table_is_within_one_level_of_the_exact_shade() {
+    // Log scales of 1:10 and 1:1000, and a linear one from 0 (values below 1e-6 of its top are
+    // shaded exactly); 40 000 values spread geometrically over and past each range, in grey and
+    // in colour.
+    let scales = [
+        FalseColor::new(50.0, 500.0, LuxScale::Log).unwrap(),
+        FalseColor::new(2.0, 2000.0, LuxScale::Log).unwrap(),
+        FalseColor::new(0.0, 1000.0, LuxScale::Linear).unwrap(),
+    ];
+    for scale in scales {
+        let table = FalseColorTable::new(&scale);
+        let (lo, hi) = scale.range();
+        // 1 024 entries per doubling over the span (from 1e-6 of the top for the linear scale).
+        let doublings = (hi / lo.max(hi * 1e-6)).log2();
+        assert!(
+            (table.entries() as f64 - 1024.0 * doublings).abs() <= 1024.0,
+            "{} entries for {doublings} doublings",
+            table.entries()
+        );
+        let (from, to) = ((lo.max(1e-3) / 4.0).ln(), (hi * 4.0).ln());
+        let mut same = 0;
+        let n: u32 = 40_000;
+        for k in 0..n {
+            let y = (from + (to - from) * f64::from(k) / f64::from(n)).exp() as f32;
+            for rgb in [[y; 3], [y * 1.2, y, y * 0.7]] {
+                let (got, want) = (table.shade(rgb), scale.shade(rgb));
+                let off = (0..3).map(|c| got[c].abs_diff(want[c])).max().unwrap();
+                assert!(off <= 1, "{scale:?} at {rgb:?}: table {got:?}, exact {want:?}");
+                same += u32::from(off == 0);
+            }
+        }
+        assert!(
+            same >= 2 * n * 9 / 10,
+            "{scale:?}: only {same} of {} equal",
+            2 * n
+        );
+        // Past the ends the table shades exactly: the ends of viridis.
+        assert_eq!(table.shade([(hi * 2.0) as f32; 3]), VIRIDIS[8]);
+        assert_eq!(table.shade([-1.0; 3]), VIRIDIS[0]);
+        assert_eq!(table.shade([f32::NAN; 3]), VIRIDIS[0]);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

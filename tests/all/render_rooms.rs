@@ -172,35 +172,64 @@ fn the_work_plane_plan_shows_the_work_plane_numbers() {
             view: ViewChoice::WorkPlane,
             ..spec((320, 240), DisplayMode::FalseColor)
         };
-        session.render(&plan).unwrap();
-        let mut checked = 0;
-        for y in (20..240).step_by(37) {
-            for x in (20..260).step_by(41) {
-                // Cells inside boxes are left out of the plane.
-                let Some(hit) = session.pick((x, y)) else {
-                    continue;
-                };
-                assert!((hit.point.z - height).abs() < 1e-6, "{hit:?}");
-                assert!(hit.normal.z > 0.999, "the plane faces up: {hit:?}");
-                let receiver = haiko::scene::Receiver {
-                    point: hit.point,
-                    normal: DVec3::Z,
-                };
-                let want = session
-                    .illuminance_at(&[receiver], !indirect, haiko::scene::DirectMode::Exact)
-                    .unwrap()[0];
-                let tolerance = if indirect { 0.02 } else { 1e-4 };
-                assert!(
-                    (hit.lux - want).abs() <= tolerance * want,
-                    "indirect {indirect}, pixel ({x}, {y}) at {}: plan {} lx, numbers {want} lx",
-                    hit.point,
-                    hit.lux
-                );
-                checked += 1;
-            }
+        assert_plan_matches_numbers(&mut session, &plan, height, indirect, "as opened");
+        // After edits the plane's indirect light is gathered again for the new state (the
+        // gather's factors are kept): light 0 aimed at a wall, light 1 dimmed.
+        let edits = [
+            haiko::session::Command::Aim {
+                light: 0,
+                spec: haiko::scene::AimSpec::Direction(DVec3::new(1.0, 0.0, -0.3)),
+            },
+            haiko::session::Command::SetDimmer {
+                light: 1,
+                dimmer: 0.2,
+            },
+        ];
+        for edit in edits {
+            session.apply(edit).unwrap();
         }
-        assert!(checked >= 25, "{checked} pixels on the plane");
+        assert_plan_matches_numbers(&mut session, &plan, height, indirect, "after edits");
     }
+}
+
+/// At ≥ 25 pixels of the work-plane plan `plan`, the picked point is on the plane at `height`,
+/// facing up, and its lux equals the session's numbers (`illuminance_at`, behind probe and grid):
+/// to 1e-4 direct only, 2 % with indirect light (interpolated between the plane's vertices).
+fn assert_plan_matches_numbers(
+    session: &mut Session,
+    plan: &FrameSpec,
+    height: f64,
+    indirect: bool,
+    when: &str,
+) {
+    session.render(plan).unwrap();
+    let mut checked = 0;
+    for y in (20..240).step_by(37) {
+        for x in (20..260).step_by(41) {
+            // Cells inside boxes are left out of the plane.
+            let Some(hit) = session.pick((x, y)) else {
+                continue;
+            };
+            assert!((hit.point.z - height).abs() < 1e-6, "{hit:?}");
+            assert!(hit.normal.z > 0.999, "the plane faces up: {hit:?}");
+            let receiver = haiko::scene::Receiver {
+                point: hit.point,
+                normal: DVec3::Z,
+            };
+            let want = session
+                .illuminance_at(&[receiver], !indirect, haiko::scene::DirectMode::Exact)
+                .unwrap()[0];
+            let tolerance = if indirect { 0.02 } else { 1e-4 };
+            assert!(
+                (hit.lux - want).abs() <= tolerance * want,
+                "{when}, indirect {indirect}, pixel ({x}, {y}) at {}: plan {} lx, numbers {want} lx",
+                hit.point,
+                hit.lux
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 25, "{when}: {checked} pixels on the plane");
 }
 
 /// The office in plan view, false colour with isolux lines and the legend, at a size where the
