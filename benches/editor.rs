@@ -61,8 +61,8 @@ fn editor(name: &str) -> (Model, Session, FrameSpec) {
 fn editor_in_view(name: &str, view: ViewChoice) -> (Model, Session, FrameSpec) {
     let scene = room(name);
     let model = Model::new(&scene, TERMINAL, FONT);
-    // The editor's engine choice (no interreflection solve on the key path).
-    let options = SessionOptions::default().interactive(&scene);
+    // The editor's options: the plan's engine, its solves off the key path.
+    let options = SessionOptions::default().interactive();
     let mut session = Session::new(scene, options, &mut |_| {}).expect("bake");
     let spec = FrameSpec {
         selected_light: Some(0),
@@ -180,8 +180,8 @@ fn light_move(c: &mut Criterion) {
     for name in ["paper", "office"] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("rooms/{name}.toml"));
         let scene = haiko::scene::load(&path).expect("a bundled room loads");
-        // The editor's engine choice (no interreflection solve on the key path).
-        let options = SessionOptions::default().interactive(&scene);
+        // The editor's options: the plan's engine, its solves off the key path.
+        let options = SessionOptions::default().interactive();
         let mut session = Session::new(scene, options, &mut |_| {}).expect("bake");
         session.relight();
         let start = session.lights()[0].position;
@@ -224,8 +224,8 @@ fn allocations_per_key(_: &mut Criterion) {
 fn bytes_per_frame(c: &mut Criterion) {
     let scene = paper();
     let model = Model::new(&scene, TERMINAL, FONT);
-    // The editor's engine choice (no interreflection solve on the key path).
-    let options = SessionOptions::default().interactive(&scene);
+    // The editor's options: the plan's engine, its solves off the key path.
+    let options = SessionOptions::default().interactive();
     let mut session = Session::new(scene, options, &mut |_| {}).expect("bake");
     let spec = frame_spec(&model).expect("the preview has pixels");
     let pixmap = session.render(&spec).expect("the frame renders").pixmap.clone();

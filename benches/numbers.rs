@@ -26,6 +26,7 @@ fn office(cache: &Path) -> Session {
             ..BakeOptions::default()
         },
         indirect: true,
+        ..SessionOptions::default()
     };
     Session::open(&room, options, &mut |_| {}).expect("the office bakes")
 }

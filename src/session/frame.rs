@@ -28,10 +28,11 @@ use crate::render::{
 };
 use crate::scene::design::{Design, Placement};
 use crate::scene::model::{PatchMesh, Surface, SurfaceKind};
-use crate::scene::{AimSpec, Camera, DirectMode, Scene};
+use crate::scene::{AimSpec, Camera, DirectMode, Receiver, Scene};
 use crate::session::light::LightEdit;
 use crate::transport::bake::Bake;
 use crate::transport::gather::GatherOperator;
+use crate::transport::indirect::HierarchicalIndirect;
 use crate::transport::occlusion::Occluders;
 
 /// Largest image side (pixels) a frame may have.
@@ -175,9 +176,9 @@ struct PlaneState {
     mesh: PatchMesh,
     /// Its one surface, with the floor's reflectance (for photo mode).
     surfaces: Vec<Surface>,
-    /// Indirect light at its vertices (lx, linear RGB) and the illuminance version it was
-    /// gathered for.
-    indirect: Option<(u64, Vec<[f32; 3]>)>,
+    /// Indirect light at its vertices (lx, linear RGB) and what it was gathered for
+    /// ([`PlaneIndirect::key`]).
+    indirect: Option<(PlaneKey, Vec<[f32; 3]>)>,
     /// The gather from the coarse patches to its vertices, built on first need.
     gather: Option<GatherOperator>,
 }
@@ -226,6 +227,30 @@ struct PixelState {
     lighting: PixelLighting,
     view: View,
     key: ViewKey,
+}
+
+/// Where the work plane's indirect light comes from: the SH basis bake through the plane's
+/// gather from the coarse patches, or the hierarchical engine's clustered gather from its leaves
+/// (what `haiko probe` and `grid` use).
+#[derive(Debug, Clone, Copy)]
+pub enum PlaneIndirect<'a> {
+    Basis(&'a Bake),
+    Leaves(&'a HierarchicalIndirect),
+}
+
+/// What a work plane's gathered indirect light was computed for ([`PlaneIndirect::key`]).
+type PlaneKey = (bool, u64);
+
+impl PlaneIndirect<'_> {
+    /// What the plane's gathered values depend on: the lights' state (`illuminance_version`)
+    /// for the basis, only the engine's solved values for the leaves — an edit whose solve is
+    /// still pending gathers nothing new.
+    fn key(&self, illuminance_version: u64) -> PlaneKey {
+        match self {
+            PlaneIndirect::Basis(_) => (false, illuminance_version),
+            PlaneIndirect::Leaves(engine) => (true, engine.revision()),
+        }
+    }
 }
 
 /// Frame buffers kept across frames: the rendered image with depth and ids, a copy of its
@@ -301,7 +326,7 @@ impl FrameBuffers {
         &mut self,
         scene: &Scene,
         (relighter, illuminance_version): (&Relighter, u64),
-        bake: Option<&Bake>,
+        indirect: Option<PlaneIndirect<'_>>,
         camera: Camera,
         spec: &FrameSpec,
         lights: &[LightEdit],
@@ -326,12 +351,8 @@ impl FrameBuffers {
         };
         self.sync_pixels(scene, camera, spec, lights, paper_mode, free_right_px)?;
         if spec.view == ViewChoice::WorkPlane {
-            self.sync_plane_light(
-                scene,
-                relighter.has_indirect().then_some(bake).flatten(),
-                lights,
-                illuminance_version,
-            );
+            let source = relighter.has_indirect().then_some(indirect).flatten();
+            self.sync_plane_light(scene, source, lights, illuminance_version);
         }
         let pixel = self
             .pixel
@@ -434,23 +455,50 @@ impl FrameBuffers {
     /// Gathers the indirect light at the work plane's vertices for the lights' current state
     /// when the light changed since (`bake`: the session's, `None` without indirect light),
     /// through the plane's gather operator (its form factors and shadow rays computed once).
-    fn sync_plane_light(&mut self, scene: &Scene, bake: Option<&Bake>, lights: &[LightEdit], version: u64) {
+    fn sync_plane_light(
+        &mut self,
+        scene: &Scene,
+        indirect: Option<PlaneIndirect<'_>>,
+        lights: &[LightEdit],
+        version: u64,
+    ) {
         let Some(plane) = self.plane.as_mut() else {
             return;
         };
-        let Some(bake) = bake else {
+        let Some(indirect) = indirect else {
             plane.indirect = None;
             return;
         };
-        if plane.indirect.as_ref().is_some_and(|(v, _)| *v == version) {
+        let key = indirect.key(version);
+        if plane.indirect.as_ref().is_some_and(|(k, _)| *k == key) {
             return;
         }
-        let states: Vec<LightState> = lights.iter().map(|l| pixel_light(l).state).collect();
-        let gather = plane
-            .gather
-            .get_or_insert_with(|| work_plane_gather(scene, &plane.mesh));
-        let values = work_plane_indirect(scene, bake, &states, gather);
-        plane.indirect = Some((version, values));
+        let values = match indirect {
+            PlaneIndirect::Basis(bake) => {
+                let gather = plane
+                    .gather
+                    .get_or_insert_with(|| work_plane_gather(scene, &plane.mesh));
+                let states: Vec<LightState> = lights.iter().map(|l| pixel_light(l).state).collect();
+                work_plane_indirect(scene, bake, &states, gather)
+            }
+            PlaneIndirect::Leaves(engine) => {
+                let receivers: Vec<Receiver> = plane
+                    .mesh
+                    .positions
+                    .iter()
+                    .map(|&point| Receiver {
+                        point,
+                        normal: DVec3::Z,
+                    })
+                    .collect();
+                engine
+                    .gather_all(&receivers)
+                    .into_iter()
+                    .map(|e| e.map(|x| x as f32))
+                    .collect()
+            }
+        };
+        plane.indirect = Some((key, values));
         self.light_version += 1;
     }
 

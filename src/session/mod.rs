@@ -27,6 +27,7 @@
 pub mod budget;
 pub mod command;
 pub mod frame;
+pub mod jobs;
 pub mod light;
 pub mod numbers;
 pub mod receivers;
@@ -37,6 +38,7 @@ use std::sync::Arc;
 
 pub use command::{Applied, Change, Command, CommandError, RoomBounds};
 pub use frame::{ExposureChoice, FrameSpec, MAX_SIDE_PX, PixelHit, ViewChoice, work_plane_height};
+pub use jobs::{BakeJob, BakeOutcome};
 pub use light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
 pub use numbers::DesignNumbers;
 pub use receivers::{IndirectSource, LightInput, ReceiverSet};
@@ -46,9 +48,9 @@ use crate::error::{Error, Result};
 use crate::photometry::IncrementalWeights;
 use crate::relight::Relighter;
 use crate::render;
-use crate::scene::{Camera, DirectMode, EngineChoice, Scene};
+use crate::scene::{Camera, DirectMode, Scene};
 use crate::transport::bake::{
-    Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, Transport, bake_planned, plan_without_basis,
+    Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, bake_planned, plan_without_basis,
 };
 use crate::transport::cache::BakeCache;
 use crate::transport::direct::Receiver;
@@ -56,7 +58,8 @@ use crate::transport::indirect::HierarchicalIndirect;
 use crate::transport::interreflection::InterreflectionOptions;
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{Plan, plan_light};
-use frame::FrameBuffers;
+use frame::{FrameBuffers, PlaneIndirect};
+use jobs::{Done, LightSnapshot, RegradeJob, Work};
 
 /// How a session is set up.
 #[derive(Debug, Clone)]
@@ -65,6 +68,11 @@ pub struct SessionOptions {
     pub bake: BakeOptions,
     /// False for direct light only: no bake, no interreflection (`--direct-only`).
     pub indirect: bool,
+    /// True for the editor: the hierarchical engine's solves (an edited light's, or the whole
+    /// engine's when a move changes its grading) leave the key path as [`BakeJob`]s, and the light
+    /// keeps its previous indirect light until [`Session::finish_bake`] installs the new one.
+    /// False (the CLI): every query waits for its solves.
+    pub background_solves: bool,
 }
 
 impl Default for SessionOptions {
@@ -72,19 +80,16 @@ impl Default for SessionOptions {
         SessionOptions {
             bake: BakeOptions::default(),
             indirect: true,
+            background_solves: false,
         }
     }
 }
 
 impl SessionOptions {
-    /// For the editor: the SH basis engine unless `scene`'s room file asks for an engine
-    /// (`indirect` other than `"auto"`), so that no interreflection solve sits on the key path
-    /// (the hierarchical engine re-solves an edited light synchronously: 88 ms per curve edit in
-    /// the paper room, docs/BENCHMARKS.md "Hierarchical engine").
-    pub fn interactive(mut self, scene: &Scene) -> Self {
-        if scene.settings.indirect == EngineChoice::Auto && self.bake.plan.engine == EngineChoice::Auto {
-            self.bake.plan.engine = EngineChoice::Basis;
-        }
+    /// For the editor: the same engines as the CLI, with the hierarchical engine's solves off
+    /// the key path ([`SessionOptions::background_solves`]).
+    pub fn interactive(mut self) -> Self {
+        self.background_solves = true;
         self
     }
 
@@ -96,6 +101,7 @@ impl SessionOptions {
                 ..BakeOptions::default()
             },
             indirect: true,
+            background_solves: false,
         }
     }
 }
@@ -141,57 +147,6 @@ struct LightSlot {
     solved: u64,
 }
 
-/// Re-bakes one light: runs on any thread, then goes back to [`Session::finish_bake`].
-#[derive(Debug, Clone)]
-pub struct BakeJob {
-    light: LightId,
-    name: String,
-    generation: u64,
-    transport: Arc<Transport>,
-    spec: LightBakeSpec,
-    cache: Option<BakeCache>,
-}
-
-/// A finished [`BakeJob`].
-#[derive(Debug)]
-pub struct BakeOutcome {
-    light: LightId,
-    generation: u64,
-    key: u64,
-    result: Result<BakedLight>,
-}
-
-impl BakeJob {
-    /// The light it bakes.
-    pub fn light(&self) -> LightId {
-        self.light
-    }
-
-    /// The light's name.
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-
-    /// Bakes the light (or loads it from the cache), reporting progress.
-    pub fn run(self, progress: &mut dyn FnMut(Progress)) -> BakeOutcome {
-        let key = self.transport.light_key(&self.spec);
-        let result = self
-            .transport
-            .bake_lights(std::slice::from_ref(&self.spec), self.cache.as_ref(), progress)
-            .and_then(|(mut lights, _)| {
-                lights
-                    .pop()
-                    .ok_or_else(|| Error::internal("the bake returned no light"))
-            });
-        BakeOutcome {
-            light: self.light,
-            generation: self.generation,
-            key,
-            result,
-        }
-    }
-}
-
 /// The headless engine under the CLI and the editor.
 #[derive(Debug)]
 pub struct Session {
@@ -213,6 +168,10 @@ pub struct Session {
     /// A light was added or removed: the hierarchical engine's grading is checked at the next
     /// solve.
     regrade: bool,
+    /// Regrades queued so far, and the one pending (its number), in background mode: while one
+    /// is pending no light is solved on the old engine.
+    regrades: u64,
+    regrading: Option<u64>,
     relighter: Option<Relighter>,
     /// Bumped whenever the fine-vertex illuminance changes.
     illuminance_version: u64,
@@ -351,6 +310,8 @@ impl Session {
             hierarchical,
             indirect_failure: None,
             regrade: false,
+            regrades: 0,
+            regrading: None,
             relighter: None,
             illuminance_version: 0,
             jobs: Vec::new(),
@@ -467,13 +428,20 @@ impl Session {
         let slot = &mut self.slots[i];
         slot.generation += 1;
         let job = BakeJob {
-            light: slot.id,
+            light: Some(slot.id),
             name: light.name,
             generation: slot.generation,
-            transport: Arc::clone(&bake.transport),
-            spec,
-            cache: self.options.bake.cache.clone(),
+            work: Work::Basis {
+                transport: Arc::clone(&bake.transport),
+                spec,
+                cache: self.options.bake.cache.clone(),
+            },
         };
+        self.push_job(job);
+    }
+
+    /// Queues `job`, replacing a queued one for the same light (or engine).
+    fn push_job(&mut self, job: BakeJob) {
         self.jobs.retain(|j| j.light != job.light);
         self.jobs.push(job);
     }
@@ -523,7 +491,7 @@ impl Session {
     fn remove_slot(&mut self, at: usize) {
         let slot = self.slots.remove(at);
         self.each_receiver_set(|set| set.remove_light(at));
-        self.jobs.retain(|j| j.light != slot.id);
+        self.jobs.retain(|j| j.light != Some(slot.id));
         if let Some(h) = &mut self.hierarchical {
             h.remove_light(at);
             self.regrade = true;
@@ -555,38 +523,96 @@ impl Session {
         std::mem::take(&mut self.jobs)
     }
 
-    /// Installs a finished bake if it is still the latest for its light (else it is dropped and
-    /// its cache entry removed). Returns the index of the light it updated.
+    /// Installs finished background work: a light's basis columns if they are still the latest
+    /// for it (else they are dropped and their cache entry removed), a light's solve if it is
+    /// newer than the one installed and made on the current engine, a rebuilt engine if it is
+    /// the pending regrade and the session still has the same lights. Returns the index of the
+    /// light it updated (the first light for a rebuilt engine).
     ///
-    /// Errors: the bake itself failed (internal); the light keeps its previous bake.
+    /// Errors: the work itself failed (internal); the light keeps its previous result (a failed
+    /// solve or regrade is tried again at the next relight).
     pub fn finish_bake(&mut self, outcome: BakeOutcome) -> Result<Option<usize>> {
-        let current = self
-            .light_index(outcome.light)
-            .filter(|&i| self.slots[i].generation == outcome.generation);
-        let Some(i) = current else {
-            if outcome.result.is_ok() {
-                self.forget_cache_entry(outcome.key);
+        let BakeOutcome {
+            light,
+            generation,
+            result,
+        } = outcome;
+        let index = light.and_then(|id| self.light_index(id));
+        let done = match result {
+            Ok(done) => done,
+            Err(e) => {
+                match (light, index) {
+                    (None, _) if self.regrading == Some(generation) => {
+                        self.regrading = None;
+                        self.regrade = true;
+                    }
+                    (Some(_), Some(i)) if self.slots[i].generation == generation => {
+                        self.slots[i].solved = 0;
+                    }
+                    _ => {}
+                }
+                return Err(e);
             }
-            return Ok(None);
         };
-        let baked = outcome.result?;
-        let slot = &mut self.slots[i];
-        slot.installed = outcome.generation;
-        slot.version += 1;
-        if let Some(old) = slot.key.replace(outcome.key)
-            && old != outcome.key
-        {
-            self.forget_cache_entry(old);
+        match done {
+            Done::Basis { key, baked } => {
+                let Some(i) = index.filter(|&i| self.slots[i].generation == generation) else {
+                    self.forget_cache_entry(key);
+                    return Ok(None);
+                };
+                let slot = &mut self.slots[i];
+                slot.installed = generation;
+                slot.version += 1;
+                if let Some(old) = slot.key.replace(key)
+                    && old != key
+                {
+                    self.forget_cache_entry(old);
+                }
+                if let Some(bake) = &mut self.bake {
+                    bake.plan.lights[i] = baked.plan.clone();
+                    bake.lights[i] = (*baked).clone();
+                }
+                if let Some(relighter) = &mut self.relighter {
+                    relighter.install_baked(i, *baked);
+                    self.illuminance_version += 1;
+                }
+                Ok(Some(i))
+            }
+            Done::Solved(solved) => {
+                let Some(i) = index.filter(|&i| self.slots[i].installed < generation) else {
+                    return Ok(None);
+                };
+                let Some(h) = self.hierarchical.as_mut() else {
+                    return Ok(None);
+                };
+                if !h.install(i, *solved) {
+                    return Ok(None);
+                }
+                let slot = &mut self.slots[i];
+                slot.installed = generation;
+                let up_to_date = slot.solved == slot.version;
+                slot.version += 1;
+                if up_to_date {
+                    slot.solved = slot.version;
+                }
+                slot.dirty.state = true;
+                Ok(Some(i))
+            }
+            Done::Regraded { engine, snapshot } => {
+                if self.regrading != Some(generation) {
+                    return Ok(None);
+                }
+                self.regrading = None;
+                let same_lights = snapshot.len() == self.slots.len()
+                    && snapshot.iter().zip(&self.slots).all(|(s, slot)| s.id == slot.id);
+                if !same_lights {
+                    self.regrade = true;
+                    return Ok(None);
+                }
+                self.install_engine(*engine, &snapshot);
+                Ok((!self.slots.is_empty()).then_some(0))
+            }
         }
-        if let Some(bake) = &mut self.bake {
-            bake.plan.lights[i] = baked.plan.clone();
-            bake.lights[i] = baked.clone();
-        }
-        if let Some(relighter) = &mut self.relighter {
-            relighter.install_baked(i, baked);
-            self.illuminance_version += 1;
-        }
-        Ok(Some(i))
     }
 
     /// Runs the queued bake jobs here and installs them (headless use).
@@ -615,7 +641,9 @@ impl Session {
         &self.scene
     }
 
-    /// Re-solves, with the hierarchical engine, every light changed since its last solve.
+    /// Re-solves, with the hierarchical engine, every light changed since its last solve, here
+    /// or — with [`SessionOptions::background_solves`] — as queued [`BakeJob`]s. A dimmer or
+    /// colour change needs no solve and is applied at once either way.
     ///
     /// Errors: a solve failed (internal); that light keeps its previous indirect light and is
     /// tried again at the next call.
@@ -623,14 +651,34 @@ impl Session {
         let Some(h) = &self.hierarchical else {
             return Ok(());
         };
+        let background = self.options.background_solves;
+        if background && self.regrading.is_some() {
+            // The rebuilt engine arrives with every light solved; lights edited meanwhile are
+            // solved on it.
+            return Ok(());
+        }
         let placed = |i: usize, l: &LightEdit| h.light_is_at(i, l.position, l.radius_m);
-        let moved = self.regrade || !self.lights.iter().enumerate().all(|(i, l)| placed(i, l));
+        let pending = |i: usize| self.slots[i].solved != self.slots[i].version;
+        let moved = self.regrade
+            || self
+                .lights
+                .iter()
+                .enumerate()
+                .any(|(i, l)| pending(i) && !placed(i, l));
         if moved {
             self.regrade = false;
             self.synced_scene();
             let h = self.hierarchical.as_ref().expect("checked above");
             if !h.grading_matches(&self.scene) {
-                self.rebuild_hierarchical()?;
+                let Some(job) = self.regrade_job() else {
+                    return Ok(());
+                };
+                if background {
+                    self.queue_regrade(job);
+                } else {
+                    let engine = job.run()?;
+                    self.install_engine(engine, &job.snapshot);
+                }
                 return Ok(());
             }
         }
@@ -638,24 +686,40 @@ impl Session {
             return Ok(());
         };
         for (i, (slot, light)) in self.slots.iter_mut().zip(&self.lights).enumerate() {
-            if slot.solved != slot.version {
-                h.set_light(i, &light.to_light())?;
-                slot.solved = slot.version;
+            if slot.solved == slot.version {
+                continue;
             }
+            let light = light.to_light();
+            match h.update_light(i, &light) {
+                None => {}
+                Some(job) if background => {
+                    slot.generation += 1;
+                    let job = BakeJob {
+                        light: Some(slot.id),
+                        name: light.name,
+                        generation: slot.generation,
+                        work: Work::Solve(job),
+                    };
+                    self.jobs.retain(|j| j.light != job.light);
+                    self.jobs.push(job);
+                }
+                Some(job) => {
+                    let solved = job.run()?;
+                    h.install(i, solved);
+                }
+            }
+            slot.solved = slot.version;
         }
         Ok(())
     }
 
-    /// Rebuilds the hierarchical engine for the current lights (its graded mesh follows where
-    /// they are) and solves every light cold; the relighter takes every light's new indirect
-    /// light at the next relight.
-    ///
-    /// Errors: the solve failing (internal).
-    fn rebuild_hierarchical(&mut self) -> Result<()> {
-        let (channels, visibility) = match &self.bake {
-            Some(b) => (b.plan.channels, b.plan.visibility.on),
-            None => return Ok(()),
-        };
+    /// The rebuild of the hierarchical engine for the current lights (its graded mesh follows
+    /// where they are), with each light's bookkeeping as it is now.
+    fn regrade_job(&mut self) -> Option<RegradeJob> {
+        let (channels, visibility) = self
+            .bake
+            .as_ref()
+            .map(|b| (b.plan.channels, b.plan.visibility.on))?;
         let options = self
             .hierarchical
             .as_ref()
@@ -665,19 +729,60 @@ impl Session {
             .bake
             .tolerance
             .unwrap_or(self.scene.settings.tolerance);
-        let scene = self.synced_scene();
-        let rebuilt =
-            HierarchicalIndirect::build(scene, &scene.lights, channels, visibility, tolerance, &options)?;
-        let engine = Arc::clone(rebuilt.engine());
-        self.hierarchical = Some(rebuilt);
-        self.each_receiver_set(|set| set.use_engine(Arc::clone(&engine)));
-        for slot in &mut self.slots {
-            // Every light's indirect light changed: receiver sets recompute them all.
-            slot.version += 1;
+        let scene = self.synced_scene().clone();
+        let snapshot = self
+            .slots
+            .iter()
+            .map(|s| LightSnapshot {
+                id: s.id,
+                version: s.version,
+                generation: s.generation,
+            })
+            .collect();
+        Some(RegradeJob {
+            scene,
+            channels,
+            visibility,
+            tolerance,
+            options,
+            snapshot,
+        })
+    }
+
+    /// Queues `job` (every light is `Updating` until it arrives); solves queued on the old
+    /// engine are dropped.
+    fn queue_regrade(&mut self, mut job: RegradeJob) {
+        self.regrades += 1;
+        self.regrading = Some(self.regrades);
+        for (slot, snap) in self.slots.iter_mut().zip(&mut job.snapshot) {
+            slot.generation += 1;
             slot.solved = slot.version;
+            snap.generation = slot.generation;
+        }
+        self.jobs.retain(|j| !matches!(j.work, Work::Solve(_)));
+        self.push_job(BakeJob {
+            light: None,
+            name: "interreflection engine".into(),
+            generation: self.regrades,
+            work: Work::Regrade(Box::new(job)),
+        });
+    }
+
+    /// Installs a rebuilt engine made for the lights as `snapshot` found them (the session's
+    /// lights, same order): receiver sets follow it, and lights edited since are solved again
+    /// at the next relight.
+    fn install_engine(&mut self, engine: HierarchicalIndirect, snapshot: &[LightSnapshot]) {
+        let shared = Arc::clone(engine.engine());
+        self.hierarchical = Some(engine);
+        self.each_receiver_set(|set| set.use_engine(Arc::clone(&shared)));
+        for (slot, snap) in self.slots.iter_mut().zip(snapshot) {
+            // Every light's indirect light changed: receiver sets recompute them all.
+            let current = slot.version == snap.version;
+            slot.version += 1;
+            slot.solved = if current { slot.version } else { 0 };
+            slot.installed = slot.installed.max(snap.generation);
             slot.dirty.state = true;
         }
-        Ok(())
     }
 
     /// [`Session::solve_indirect`], keeping a failure for the next render or query.
@@ -764,10 +869,15 @@ impl Session {
             .relighter
             .as_ref()
             .ok_or_else(|| Error::internal("session: no relighter"))?;
+        let indirect = match (&self.hierarchical, &self.bake) {
+            (Some(h), _) => Some(PlaneIndirect::Leaves(h)),
+            (None, Some(bake)) => Some(PlaneIndirect::Basis(bake)),
+            (None, None) => None,
+        };
         self.buffers.render(
             &self.scene,
             (relighter, self.illuminance_version),
-            self.bake.as_ref(),
+            indirect,
             self.camera,
             spec,
             &self.lights,

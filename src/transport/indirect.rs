@@ -10,6 +10,7 @@
 //! of a new scene are solved as one block.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use glam::{DQuat, DVec3};
@@ -51,6 +52,15 @@ pub struct HierarchicalIndirect {
     /// Wall time (s) of the lights' direct caches and of their block solve at build.
     direct_caches_s: f64,
     solve_s: f64,
+    /// Changes whenever any light's solved values do; unique across engines of a process.
+    revision: u64,
+}
+
+/// The source of [`HierarchicalIndirect::revision`]s.
+static REVISIONS: AtomicU64 = AtomicU64::new(1);
+
+fn next_revision() -> u64 {
+    REVISIONS.fetch_add(1, Ordering::Relaxed)
 }
 
 /// Sizes, memory and build times of a [`HierarchicalIndirect`].
@@ -89,6 +99,60 @@ pub struct EditCosts {
     pub move_s: f64,
     /// True when the measured move needed the rebuild.
     pub move_rebuilt: bool,
+}
+
+/// One light's solve, detached from the engine so that it runs on any thread while the
+/// session stays usable ([`HierarchicalIndirect::update_light`] → [`Self::run`] →
+/// [`HierarchicalIndirect::install`]).
+#[derive(Debug, Clone)]
+pub struct LightSolveJob {
+    engine: Arc<Interreflection>,
+    /// The light's direct sample cache; `None` when the light moved (rebuilt by the job).
+    cache: Option<Arc<PatchDirectCache>>,
+    light: Light,
+    /// The light's previous radiosity per channel (the warm start; empty before any solve).
+    initial: Vec<PatchColumns>,
+    tolerance: f64,
+}
+
+/// A finished [`LightSolveJob`].
+#[derive(Debug, Clone)]
+pub struct LightSolve {
+    engine: Arc<Interreflection>,
+    cache: Arc<PatchDirectCache>,
+    light: Light,
+    solutions: Vec<Solution>,
+    /// The light's exact direct irradiance per leaf (lx, colour not applied).
+    direct: Vec<f64>,
+}
+
+impl LightSolveJob {
+    /// The light's patch direct light (its sample cache first, when it moved) and its solve.
+    ///
+    /// Errors: the solve failing (internal).
+    pub fn run(self) -> Result<LightSolve> {
+        let cache = match self.cache {
+            Some(cache) => cache,
+            None => Arc::new(self.engine.direct_cache(&self.light)),
+        };
+        let state = LightState::from(&self.light);
+        let mut direct = vec![0.0; self.engine.n_leaves()];
+        cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
+        let emission = PatchColumns {
+            n_patches: direct.len(),
+            n_columns: 1,
+            values: direct.clone(),
+        };
+        let initial = Some(self.initial.as_slice()).filter(|x| x.len() == self.engine.channels());
+        let solutions = self.engine.solve(&emission, initial, self.tolerance)?;
+        Ok(LightSolve {
+            engine: self.engine,
+            cache,
+            light: self.light,
+            solutions,
+            direct,
+        })
+    }
 }
 
 impl HierarchicalIndirect {
@@ -134,6 +198,7 @@ impl HierarchicalIndirect {
             lights: Vec::with_capacity(k),
             direct_caches_s,
             solve_s: t.elapsed().as_secs_f64(),
+            revision: next_revision(),
         };
         for (c, (light, cache)) in lights.iter().zip(caches).enumerate() {
             let column = |block: &PatchColumns| PatchColumns::from_columns(n, &[block.column(c)]);
@@ -189,17 +254,27 @@ impl HierarchicalIndirect {
         self.lights.len()
     }
 
-    /// Solves light `i` for its current state `light`: the direct sample cache is rebuilt first
-    /// when its position or radius changed; the solve starts from its previous radiosity.
+    /// Solves light `i` for its current state `light` here: [`Self::update_light`], then the
+    /// job (if any) run and installed.
     ///
     /// Errors: the solve failing (internal); the light keeps its previous result.
     pub fn set_light(&mut self, i: usize, light: &Light) -> Result<()> {
-        let moved = {
-            let old = &self.lights[i];
-            old.position != light.position || old.radius_m != light.radius
-        };
-        // The solve is linear in the emission: a dimmer or colour change only scales it.
-        if let Some((curve, aim, dimmer)) = &self.lights[i].solved_for
+        if let Some(job) = self.update_light(i, light) {
+            let solved = job.run()?;
+            self.install(i, solved);
+        }
+        Ok(())
+    }
+
+    /// Brings light `i` to its state `light` at once when that needs no solve (the solve is
+    /// linear in the emission: a dimmer or colour change only scales the light's solution) and
+    /// returns `None`; otherwise returns the solve to run, on any thread, then to
+    /// [`Self::install`]. The job rebuilds the light's direct sample cache first when its
+    /// position or radius changed, and starts from its previous radiosity.
+    pub fn update_light(&mut self, i: usize, light: &Light) -> Option<LightSolveJob> {
+        let old = &self.lights[i];
+        let moved = old.position != light.position || old.radius_m != light.radius;
+        if let Some((curve, aim, dimmer)) = &old.solved_for
             && !moved
             && *curve == light.curve
             && *aim == light.aim
@@ -215,20 +290,31 @@ impl HierarchicalIndirect {
             }
             solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
             solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
-            return Ok(());
+            self.revision = next_revision();
+            return None;
         }
-        let cache = if moved {
-            Arc::new(self.engine.direct_cache(light))
-        } else {
-            Arc::clone(&self.lights[i].cache)
-        };
-        let (solutions, direct) = self.solve_one(&cache, light, Some(&self.lights[i].radiosity))?;
-        let solved = &mut self.lights[i];
-        solved.position = light.position;
-        solved.radius_m = light.radius;
-        solved.cache = cache;
-        store(solved, &solutions, &direct, light);
-        Ok(())
+        Some(LightSolveJob {
+            engine: Arc::clone(&self.engine),
+            cache: (!moved).then(|| Arc::clone(&old.cache)),
+            light: light.clone(),
+            initial: old.radiosity.clone(),
+            tolerance: self.tolerance,
+        })
+    }
+
+    /// Installs a finished solve of light `i`. Returns false, changing nothing, when the solve
+    /// was made on another engine (this one was rebuilt since).
+    pub fn install(&mut self, i: usize, solved: LightSolve) -> bool {
+        if !Arc::ptr_eq(&solved.engine, &self.engine) || i >= self.lights.len() {
+            return false;
+        }
+        let light = &mut self.lights[i];
+        light.position = solved.light.position;
+        light.radius_m = solved.light.radius;
+        light.cache = solved.cache;
+        store(light, &solved.solutions, &solved.direct, &solved.light);
+        self.revision = next_revision();
+        true
     }
 
     /// Adds `light` at index `at` (≤ [`Self::n_lights`]) without indirect light until the next
@@ -252,24 +338,13 @@ impl HierarchicalIndirect {
     /// Removes light `i`.
     pub fn remove_light(&mut self, i: usize) {
         self.lights.remove(i);
+        self.revision = next_revision();
     }
 
-    fn solve_one(
-        &self,
-        cache: &PatchDirectCache,
-        light: &Light,
-        initial: Option<&[PatchColumns]>,
-    ) -> Result<(Vec<Solution>, Vec<f64>)> {
-        let state = LightState::from(light);
-        let mut direct = vec![0.0; self.engine.n_leaves()];
-        cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
-        let emission = PatchColumns {
-            n_patches: direct.len(),
-            n_columns: 1,
-            values: direct.clone(),
-        };
-        let initial = initial.filter(|x| x.len() == self.engine.channels());
-        Ok((self.engine.solve(&emission, initial, self.tolerance)?, direct))
+    /// A number that changes whenever the lights' solved values do (an install, a scaling, a
+    /// removed light), never shared by two engines: what a cache of gathered values is keyed on.
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
 
     /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied).
@@ -290,6 +365,18 @@ impl HierarchicalIndirect {
             .chunks_exact(channels)
             .map(|v| [0, 1, 2].map(|ch| v[ch.min(channels - 1)]))
             .collect()
+    }
+
+    /// Every light's indirect illuminance summed (lx, linear RGB) at `receivers`, through the
+    /// clustered gather from the lights' summed leaf radiosity.
+    pub fn gather_all(&self, receivers: &[Receiver]) -> Vec<[f64; 3]> {
+        let mut radiosity = vec![[0.0; 3]; self.engine.n_leaves()];
+        for light in &self.lights {
+            for (sum, b) in radiosity.iter_mut().zip(&light.leaf_radiosity) {
+                (0..3).for_each(|ch| sum[ch] += b[ch]);
+            }
+        }
+        self.gather(&radiosity, receivers)
     }
 
     /// Indirect illuminance (lx, linear RGB) at `receivers` from the summed leaf radiosity

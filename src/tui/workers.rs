@@ -314,13 +314,6 @@ impl Engine {
                 }
             }
         }
-        for job in self.session.take_bake_jobs() {
-            // The bake worker outlives the engine's use of it; a closed queue means shutdown.
-            let _ = self.bakes.send(job);
-        }
-        if status_changed {
-            self.send(Msg::LightStatus(self.statuses()))?;
-        }
         for path in &reports {
             let answer = self.report(path);
             self.send(answer)?;
@@ -343,6 +336,16 @@ impl Engine {
         }
         if relit || picked {
             self.send_numbers()?;
+        }
+        // Commands queue re-bakes; the relight and the numbers queue the hierarchical engine's
+        // solves (docs/ARCHITECTURE.md "Threads").
+        for job in self.session.take_bake_jobs() {
+            status_changed = true;
+            // The bake worker outlives the engine's use of it; a closed queue means shutdown.
+            let _ = self.bakes.send(job);
+        }
+        if status_changed {
+            self.send(Msg::LightStatus(self.statuses()))?;
         }
         Some(())
     }

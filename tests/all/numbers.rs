@@ -87,6 +87,7 @@ fn cached_session(scene: Scene, cache: &Path, engine: EngineChoice) -> Session {
             ..BakeOptions::default()
         },
         indirect: true,
+        ..SessionOptions::default()
     };
     Session::new(scene, options, &mut |_| {}).expect("the room bakes")
 }

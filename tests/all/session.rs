@@ -40,6 +40,7 @@ fn session(scene: Scene) -> Session {
             ..BakeOptions::default()
         },
         indirect: true,
+        ..SessionOptions::default()
     };
     Session::new(scene, options, &mut |_| {}).expect("the room bakes")
 }
@@ -62,6 +63,7 @@ fn cached_session(scene: Scene, cache: &Path) -> Session {
             ..BakeOptions::default()
         },
         indirect: true,
+        ..SessionOptions::default()
     };
     Session::new(scene, options, &mut |_| {}).expect("the room bakes")
 }
@@ -125,6 +127,122 @@ fn hierarchical_edits_moves_and_inserts_match_fresh_sessions() {
     assert_fields_within(s.vertex_illuminance(), &fresh, 2e-3);
     s.apply(Command::Remove { light: 1 }).unwrap();
     assert_fields_within(s.vertex_illuminance(), &before_insert, 2e-3);
+}
+
+/// The editor's session (`SessionOptions::interactive`): the hierarchical engine's solves leave
+/// the key path as bake jobs. After a curve edit the edited light's direct light is new at once
+/// and its indirect light the previous one while its solve is pending (the light `Updating`); a
+/// dimmer edit needs no job; a solve superseded by a newer one that finished first is dropped;
+/// a move that regrades queues one engine job, during which an edit of the other light queues
+/// no solve on the old engine, and after it that light's solve. Once the jobs are in, the field
+/// is a synchronous session's within the solver's tolerance.
+#[test]
+fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
+    let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
+    assert!(
+        s.hierarchical().is_some(),
+        "the plan chose the hierarchical engine"
+    );
+    let mut sync = planned_session(paper());
+    let before = s.vertex_illuminance().to_vec();
+    let indirect_before = s.hierarchical().unwrap().light_radiosity(0).to_vec();
+
+    let raised = Curve::new(&[(0.0, 3000.0), (20.0, 2500.0), (40.0, 0.0)]).unwrap();
+    let lowered = Curve::new(&[(0.0, 1500.0), (30.0, 1200.0), (60.0, 0.0)]).unwrap();
+    for session in [&mut s, &mut sync] {
+        session
+            .apply(Command::SetCurve {
+                light: 0,
+                curve: raised.clone(),
+            })
+            .unwrap();
+    }
+    assert_eq!(s.relight(), vec![0]);
+    assert_eq!(s.light_status(0), LightStatus::Updating);
+    assert_eq!(
+        s.hierarchical().unwrap().light_radiosity(0),
+        &indirect_before[..],
+        "the indirect light waits for the solve"
+    );
+    assert_ne!(
+        s.vertex_illuminance(),
+        &before[..],
+        "the direct light is new at once"
+    );
+    let first = s.take_bake_jobs();
+    assert_eq!(first.len(), 1);
+    for session in [&mut s, &mut sync] {
+        session
+            .apply(Command::SetCurve {
+                light: 0,
+                curve: lowered.clone(),
+            })
+            .unwrap();
+    }
+    s.relight();
+    let second = s.take_bake_jobs();
+    assert_eq!(second.len(), 1);
+    // The newer solve finishes first; the older one, arriving after it, is dropped.
+    let newer = second.into_iter().next().unwrap().run(&mut |_| {});
+    let older = first.into_iter().next().unwrap().run(&mut |_| {});
+    assert_eq!(s.finish_bake(newer).unwrap(), Some(0));
+    assert_eq!(s.finish_bake(older).unwrap(), None);
+    assert_eq!(s.light_status(0), LightStatus::Ready);
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+
+    for session in [&mut s, &mut sync] {
+        session
+            .apply(Command::SetDimmer {
+                light: 1,
+                dimmer: 0.3,
+            })
+            .unwrap();
+    }
+    s.relight();
+    assert!(s.take_bake_jobs().is_empty(), "a dimmer edit scales the solve");
+    assert_eq!(s.light_status(1), LightStatus::Ready);
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+
+    // 0.1 m below the ceiling the moved light grades the mesh around it: the engine is rebuilt.
+    let position = DVec3::new(1.5, 1.0, 2.6);
+    for session in [&mut s, &mut sync] {
+        session.apply(Command::Move { light: 1, position }).unwrap();
+    }
+    s.relight();
+    let regrade = s.take_bake_jobs();
+    assert_eq!(regrade.len(), 1);
+    assert_eq!(regrade[0].light(), None, "the whole engine is rebuilt");
+    assert_eq!(s.light_status(0), LightStatus::Updating);
+    for session in [&mut s, &mut sync] {
+        session
+            .apply(Command::SetCurve {
+                light: 0,
+                curve: raised.clone(),
+            })
+            .unwrap();
+    }
+    s.relight();
+    assert!(
+        s.take_bake_jobs().is_empty(),
+        "no solve on the engine being replaced"
+    );
+    let rebuilt = regrade.into_iter().next().unwrap().run(&mut |_| {});
+    assert_eq!(s.finish_bake(rebuilt).unwrap(), Some(0));
+    assert_eq!(s.light_status(1), LightStatus::Ready);
+    s.relight();
+    let solve = s.take_bake_jobs();
+    assert_eq!(
+        solve.len(),
+        1,
+        "the light edited during the rebuild is solved on the new engine"
+    );
+    assert_eq!(solve[0].light(), s.light_id(0));
+    let outcome = solve.into_iter().next().unwrap().run(&mut |_| {});
+    assert_eq!(s.finish_bake(outcome).unwrap(), Some(0));
+    assert_eq!(s.light_status(0), LightStatus::Ready);
+    s.relight();
+    assert!(s.take_bake_jobs().is_empty());
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
 }
 
 fn spec(size: (u32, u32)) -> FrameSpec {
