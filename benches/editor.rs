@@ -149,6 +149,37 @@ fn key_to_pixmap(c: &mut Criterion) {
     group.finish();
 }
 
+/// A key press until the picture is final, on one core: the press as [`key_to_pixmap`] times
+/// it, then the background work it queued (the hierarchical engine's solve of the edited light,
+/// where the plan chose that engine) run here and installed, and the frame rendered again.
+fn key_to_settled(c: &mut Criterion) {
+    let pool = one_core();
+    let mut group = c.benchmark_group("editor/key_to_settled_1024x768");
+    for name in ["paper", "gallery"] {
+        let (mut model, mut session, spec) = pool.install(|| editor(name));
+        let engine = if session.hierarchical().is_some() {
+            "hierarchical"
+        } else {
+            "SH basis"
+        };
+        println!("{name}: the {engine} engine");
+        let mut up = true;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    press(&mut model, &mut session, &spec, up);
+                    session
+                        .run_bake_jobs(&mut |_| {})
+                        .expect("the queued work finishes");
+                    black_box(&session.render(&spec).expect("the frame renders").pixmap);
+                });
+                up = !up;
+            })
+        });
+    }
+    group.finish();
+}
+
 /// One 5° orbit step (alternately left and right), on one core: new per-pixel surfaces, every
 /// light's shadow rays and direct light, shading and overlays.
 fn camera_orbit(c: &mut Criterion) {
@@ -173,8 +204,9 @@ fn camera_orbit(c: &mut Criterion) {
 }
 
 /// One 0.1 m move of light 0 (alternating back and forth), as the editor completes it: the
-/// command (its direct cache rebuilt), that light's bake on the shared transport (the other
-/// lights are not solved again), the bake installed, the light recomputed.
+/// command (its direct cache rebuilt), the queued work (with the SH engine that light's bake on
+/// the shared transport; with the hierarchical engine the grading check, then the light's solve
+/// or the engine rebuilt), installed, the light recomputed; and the key path alone.
 fn light_move(c: &mut Criterion) {
     let mut group = c.benchmark_group("editor/light_move");
     for name in ["paper", "office"] {
@@ -197,6 +229,20 @@ fn light_move(c: &mut Criterion) {
                 session.relight();
                 session.run_bake_jobs(&mut |_| {}).expect("the light bakes");
                 black_box(session.relight())
+            })
+        });
+        // What the key press itself costs: the command and the relight (the moved light's
+        // direct light exact); the queued work is dropped here, the editor's bake worker runs it.
+        group.bench_function(format!("{name}-key-path"), |b| {
+            b.iter(|| {
+                let offset = if forth { 0.1 } else { 0.0 };
+                forth = !forth;
+                let position = start + glam::DVec3::new(offset, 0.0, 0.0);
+                session
+                    .apply(haiko::session::Command::Move { light: 0, position })
+                    .expect("a valid move");
+                black_box(session.relight());
+                black_box(session.take_bake_jobs())
             })
         });
     }
@@ -287,6 +333,6 @@ fn configured() -> Criterion {
 criterion_group! {
     name = benches;
     config = configured();
-    targets = key_to_pixmap, camera_orbit, light_move, allocations_per_key, bytes_per_frame
+    targets = key_to_pixmap, key_to_settled, camera_orbit, light_move, allocations_per_key, bytes_per_frame
 }
 criterion_main!(benches);

@@ -11,7 +11,7 @@ use crate::scene::Scene;
 use crate::transport::bake::{BakedLight, LightBakeSpec, Progress, Transport};
 use crate::transport::cache::BakeCache;
 use crate::transport::indirect::{HierarchicalIndirect, LightSolve, LightSolveJob};
-use crate::transport::interreflection::InterreflectionOptions;
+use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
 
 use super::LightId;
 
@@ -38,20 +38,35 @@ pub(super) enum Work {
     },
     /// A light's solve through the hierarchical engine.
     Solve(LightSolveJob),
-    /// The hierarchical engine rebuilt for the scene's lights where they are now.
+    /// Lights moved, or were added or removed: the graded mesh checked, then their solves or
+    /// the whole engine rebuilt.
     Regrade(Box<RegradeJob>),
 }
 
-/// The hierarchical engine rebuilt for `scene` (its lights where they stand), with what each
-/// light's bookkeeping was when the job was queued.
+/// After lights moved (or were added or removed): whether `engine`'s graded mesh is still the
+/// one `scene` (its lights where they stand now) calls for; if so the pending lights' `solves`,
+/// else the engine rebuilt for `scene`. With what each light's bookkeeping was when the job was
+/// queued.
 #[derive(Debug, Clone)]
 pub(super) struct RegradeJob {
     pub(super) scene: Scene,
+    pub(super) engine: Arc<Interreflection>,
     pub(super) channels: usize,
     pub(super) visibility: bool,
     pub(super) tolerance: f64,
     pub(super) options: InterreflectionOptions,
     pub(super) snapshot: Vec<LightSnapshot>,
+    /// The solves the lights need on `engine` (light index, job) if its grading holds.
+    pub(super) solves: Vec<(usize, LightSolveJob)>,
+}
+
+/// What a [`RegradeJob`] found.
+#[derive(Debug)]
+pub(super) enum Placed {
+    /// The grading holds: the pending lights' solves on the current engine.
+    Kept(Vec<(usize, Result<LightSolve>)>),
+    /// The engine rebuilt for the new grading, every light solved.
+    Rebuilt(Box<HierarchicalIndirect>),
 }
 
 /// A light as a regrade found it: its id, version and generation.
@@ -63,10 +78,26 @@ pub(super) struct LightSnapshot {
 }
 
 impl RegradeJob {
-    /// Builds and solves the engine.
+    /// Checks the grading, then solves the pending lights or rebuilds the engine.
+    ///
+    /// Errors: the rebuilt engine's solve failing (internal; a failed light solve is kept in
+    /// [`Placed::Kept`]).
+    pub(super) fn run(&self) -> Result<Placed> {
+        if self.engine.grading_matches(&self.scene) {
+            let solves = self
+                .solves
+                .iter()
+                .map(|(i, job)| (*i, job.clone().run()))
+                .collect();
+            return Ok(Placed::Kept(solves));
+        }
+        self.build().map(|engine| Placed::Rebuilt(Box::new(engine)))
+    }
+
+    /// Builds and solves the engine for the scene.
     ///
     /// Errors: the solve failing (internal).
-    pub(super) fn run(&self) -> Result<HierarchicalIndirect> {
+    pub(super) fn build(&self) -> Result<HierarchicalIndirect> {
         HierarchicalIndirect::build(
             &self.scene,
             &self.scene.lights,
@@ -93,9 +124,9 @@ pub(super) enum Done {
     Basis { key: u64, baked: Box<BakedLight> },
     /// A light's solve.
     Solved(Box<LightSolve>),
-    /// The rebuilt engine, with the lights as the job found them.
+    /// The lights' solves or the rebuilt engine, with the lights as the job found them.
     Regraded {
-        engine: Box<HierarchicalIndirect>,
+        placed: Placed,
         snapshot: Vec<LightSnapshot>,
     },
 }
@@ -134,8 +165,8 @@ impl BakeJob {
                     })
             }
             Work::Solve(job) => job.run().map(|solved| Done::Solved(Box::new(solved))),
-            Work::Regrade(job) => job.run().map(|engine| Done::Regraded {
-                engine: Box::new(engine),
+            Work::Regrade(job) => job.run().map(|placed| Done::Regraded {
+                placed,
                 snapshot: job.snapshot,
             }),
         };

@@ -54,12 +54,12 @@ use crate::transport::bake::{
 };
 use crate::transport::cache::BakeCache;
 use crate::transport::direct::Receiver;
-use crate::transport::indirect::HierarchicalIndirect;
+use crate::transport::indirect::{HierarchicalIndirect, LightSolve};
 use crate::transport::interreflection::InterreflectionOptions;
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{Plan, plan_light};
 use frame::{FrameBuffers, PlaneIndirect};
-use jobs::{Done, LightSnapshot, RegradeJob, Work};
+use jobs::{Done, LightSnapshot, Placed, RegradeJob, Work};
 
 /// How a session is set up.
 #[derive(Debug, Clone)]
@@ -578,27 +578,8 @@ impl Session {
                 }
                 Ok(Some(i))
             }
-            Done::Solved(solved) => {
-                let Some(i) = index.filter(|&i| self.slots[i].installed < generation) else {
-                    return Ok(None);
-                };
-                let Some(h) = self.hierarchical.as_mut() else {
-                    return Ok(None);
-                };
-                if !h.install(i, *solved) {
-                    return Ok(None);
-                }
-                let slot = &mut self.slots[i];
-                slot.installed = generation;
-                let up_to_date = slot.solved == slot.version;
-                slot.version += 1;
-                if up_to_date {
-                    slot.solved = slot.version;
-                }
-                slot.dirty.state = true;
-                Ok(Some(i))
-            }
-            Done::Regraded { engine, snapshot } => {
+            Done::Solved(solved) => Ok(index.filter(|&i| self.install_solve(i, generation, *solved))),
+            Done::Regraded { placed, snapshot } => {
                 if self.regrading != Some(generation) {
                     return Ok(None);
                 }
@@ -609,10 +590,64 @@ impl Session {
                     self.regrade = true;
                     return Ok(None);
                 }
-                self.install_engine(*engine, &snapshot);
+                match placed {
+                    Placed::Rebuilt(engine) => self.install_engine(*engine, &snapshot),
+                    Placed::Kept(solves) => self.install_kept(solves, &snapshot)?,
+                }
                 Ok((!self.slots.is_empty()).then_some(0))
             }
         }
+    }
+
+    /// Installs light `i`'s solve queued at `generation` unless a newer one is installed or it
+    /// was made on an engine since replaced; true when installed.
+    fn install_solve(&mut self, i: usize, generation: u64, solved: LightSolve) -> bool {
+        if self.slots[i].installed >= generation {
+            return false;
+        }
+        let Some(h) = self.hierarchical.as_mut() else {
+            return false;
+        };
+        if !h.install(i, solved) {
+            return false;
+        }
+        let slot = &mut self.slots[i];
+        slot.installed = generation;
+        let up_to_date = slot.solved == slot.version;
+        slot.version += 1;
+        if up_to_date {
+            slot.solved = slot.version;
+        }
+        slot.dirty.state = true;
+        true
+    }
+
+    /// Installs the solves of a grading check that kept the engine; every light the check
+    /// covered is then `Ready` unless edited since. A failed solve is tried again at the next
+    /// relight.
+    ///
+    /// Errors: the first failed solve (internal).
+    fn install_kept(
+        &mut self,
+        solves: Vec<(usize, Result<LightSolve>)>,
+        snapshot: &[LightSnapshot],
+    ) -> Result<()> {
+        let mut failure = None;
+        for (i, result) in solves {
+            match result {
+                Ok(solved) => {
+                    self.install_solve(i, snapshot[i].generation, solved);
+                }
+                Err(e) => {
+                    self.slots[i].solved = 0;
+                    failure.get_or_insert(e);
+                }
+            }
+        }
+        for (slot, snap) in self.slots.iter_mut().zip(snapshot) {
+            slot.installed = slot.installed.max(snap.generation);
+        }
+        failure.map_or(Ok(()), Err)
     }
 
     /// Runs the queued bake jobs here and installs them (headless use).
@@ -668,17 +703,18 @@ impl Session {
         if moved {
             self.regrade = false;
             self.synced_scene();
+            if background {
+                // The grading check (a refinement of the whole scene) leaves the key path too.
+                self.queue_placement();
+                return Ok(());
+            }
             let h = self.hierarchical.as_ref().expect("checked above");
-            if !h.grading_matches(&self.scene) {
+            if !h.engine().grading_matches(&self.scene) {
                 let Some(job) = self.regrade_job() else {
                     return Ok(());
                 };
-                if background {
-                    self.queue_regrade(job);
-                } else {
-                    let engine = job.run()?;
-                    self.install_engine(engine, &job.snapshot);
-                }
+                let engine = job.build()?;
+                self.install_engine(engine, &job.snapshot);
                 return Ok(());
             }
         }
@@ -713,17 +749,16 @@ impl Session {
         Ok(())
     }
 
-    /// The rebuild of the hierarchical engine for the current lights (its graded mesh follows
-    /// where they are), with each light's bookkeeping as it is now.
+    /// The check of the hierarchical engine's grading for the current lights and its rebuild
+    /// when they call for another (its graded mesh follows where they are), with each light's
+    /// bookkeeping as it is now and no solves yet.
     fn regrade_job(&mut self) -> Option<RegradeJob> {
         let (channels, visibility) = self
             .bake
             .as_ref()
             .map(|b| (b.plan.channels, b.plan.visibility.on))?;
-        let options = self
-            .hierarchical
-            .as_ref()
-            .map_or_else(InterreflectionOptions::default, |h| *h.engine().options());
+        let engine = Arc::clone(self.hierarchical.as_ref()?.engine());
+        let options = *engine.options();
         let tolerance = self
             .options
             .bake
@@ -741,12 +776,32 @@ impl Session {
             .collect();
         Some(RegradeJob {
             scene,
+            engine,
             channels,
             visibility,
             tolerance,
             options,
             snapshot,
+            solves: Vec::new(),
         })
+    }
+
+    /// Queues the grading check after lights moved (or were added or removed), with the solves
+    /// the changed lights need if the grading holds.
+    fn queue_placement(&mut self) {
+        let Some(mut job) = self.regrade_job() else {
+            return;
+        };
+        if let Some(h) = self.hierarchical.as_mut() {
+            for (i, (slot, light)) in self.slots.iter().zip(&self.lights).enumerate() {
+                if slot.solved != slot.version
+                    && let Some(solve) = h.update_light(i, &light.to_light())
+                {
+                    job.solves.push((i, solve));
+                }
+            }
+        }
+        self.queue_regrade(job);
     }
 
     /// Queues `job` (every light is `Updating` until it arrives); solves queued on the old

@@ -23,7 +23,6 @@ use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions, InterreflectionStats};
 use crate::transport::patchdirect::PatchDirectCache;
 use crate::transport::radiosity::{PatchColumns, Solution};
-use crate::transport::refine::refine;
 
 /// One light as the engine keeps it.
 #[derive(Debug, Clone)]
@@ -233,15 +232,6 @@ impl HierarchicalIndirect {
         &self.engine
     }
 
-    /// True when the graded mesh `scene` calls for (its lights where they are now) is the
-    /// engine's: a light that moved or was added or removed can change the refinement near
-    /// lamps, and then the engine must be rebuilt to stay as exact as a fresh one.
-    pub fn grading_matches(&self, scene: &Scene) -> bool {
-        let graded = refine(scene, &self.engine.options().refine);
-        let mesh = &self.engine.solver.mesh;
-        graded.mesh.patches.len() == mesh.patches.len() && graded.mesh.positions == mesh.positions
-    }
-
     /// Whether light `i` sits at `position` with luminous radius `radius_m` in the engine.
     pub fn light_is_at(&self, i: usize, position: DVec3, radius_m: f64) -> bool {
         self.lights
@@ -442,7 +432,7 @@ impl HierarchicalIndirect {
         let mut moved_scene = scene.clone();
         moved_scene.lights[i].position.x += step;
         let t = Instant::now();
-        let move_rebuilt = !self.grading_matches(&moved_scene);
+        let move_rebuilt = !self.engine.grading_matches(&moved_scene);
         if move_rebuilt {
             let rebuilt = HierarchicalIndirect::build(
                 &moved_scene,

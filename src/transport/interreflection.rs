@@ -105,6 +105,15 @@ pub struct Interreflection {
 }
 
 impl Interreflection {
+    /// True when the graded mesh `scene` calls for (its lights where they are now) is this
+    /// engine's: a light that moved or was added or removed can change the refinement near
+    /// lamps, and then the engine must be rebuilt to stay as exact as a fresh one.
+    pub fn grading_matches(&self, scene: &Scene) -> bool {
+        let graded = refine(scene, &self.options().refine);
+        let mesh = &self.solver.mesh;
+        graded.mesh.patches.len() == mesh.patches.len() && graded.mesh.positions == mesh.positions
+    }
+
     /// Builds the engine for `scene`: `channels` reflectance channels (1 or 3), visibility rays
     /// only when `visibility` (an empty convex room needs none).
     pub fn build(scene: &Scene, channels: usize, visibility: bool, options: &InterreflectionOptions) -> Self {

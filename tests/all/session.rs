@@ -133,9 +133,11 @@ fn hierarchical_edits_moves_and_inserts_match_fresh_sessions() {
 /// the key path as bake jobs. After a curve edit the edited light's direct light is new at once
 /// and its indirect light the previous one while its solve is pending (the light `Updating`); a
 /// dimmer edit needs no job; a solve superseded by a newer one that finished first is dropped;
-/// a move that regrades queues one engine job, during which an edit of the other light queues
-/// no solve on the old engine, and after it that light's solve. Once the jobs are in, the field
-/// is a synchronous session's within the solver's tolerance.
+/// a move queues one job that checks the grading off the key path and rebuilds the engine (a
+/// move near the ceiling), during which an edit of the other light queues no solve on the old
+/// engine and after which that light is solved on the new one, or keeps the engine and solves
+/// the moved light (a step at mid-height). Once the jobs are in, the field is a synchronous
+/// session's within the solver's tolerance.
 #[test]
 fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
@@ -243,6 +245,35 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     s.relight();
     assert!(s.take_bake_jobs().is_empty());
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+
+    // Mid-height, 1.3 m from every surface, a 0.1 m step keeps the grading: the same job finds
+    // that and solves the moved light on the engine it has.
+    let mut engine = None;
+    for position in [DVec3::new(2.0, 2.0, 1.4), DVec3::new(2.1, 2.0, 1.4)] {
+        for session in [&mut s, &mut sync] {
+            session.apply(Command::Move { light: 1, position }).unwrap();
+        }
+        engine = Some(std::sync::Arc::clone(s.hierarchical().unwrap().engine()));
+        s.relight();
+        let placement = s.take_bake_jobs();
+        assert_eq!(placement.len(), 1);
+        assert_eq!(
+            placement[0].light(),
+            None,
+            "the grading is checked off the key path"
+        );
+        assert_eq!(s.light_status(1), LightStatus::Updating);
+        let outcome = placement.into_iter().next().unwrap().run(&mut |_| {});
+        assert_eq!(s.finish_bake(outcome).unwrap(), Some(0));
+        assert_eq!(s.light_status(1), LightStatus::Ready);
+        s.relight();
+        assert!(s.take_bake_jobs().is_empty());
+        assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+    }
+    assert!(
+        std::sync::Arc::ptr_eq(&engine.unwrap(), s.hierarchical().unwrap().engine()),
+        "the step kept the engine"
+    );
 }
 
 fn spec(size: (u32, u32)) -> FrameSpec {
