@@ -218,14 +218,18 @@ fn light_move(c: &mut Criterion) {
         session.relight();
         let start = session.lights()[0].position;
         let mut forth = true;
+        // Light 0 0.1 m along x and back, alternately.
+        let mut step = move |session: &mut Session| {
+            let offset = if forth { 0.1 } else { 0.0 };
+            forth = !forth;
+            let position = start + glam::DVec3::new(offset, 0.0, 0.0);
+            session
+                .apply(haiko::session::Command::Move { light: 0, position })
+                .expect("a valid move");
+        };
         group.bench_function(name, |b| {
             b.iter(|| {
-                let offset = if forth { 0.1 } else { 0.0 };
-                forth = !forth;
-                let position = start + glam::DVec3::new(offset, 0.0, 0.0);
-                session
-                    .apply(haiko::session::Command::Move { light: 0, position })
-                    .expect("a valid move");
+                step(&mut session);
                 session.relight();
                 session.run_bake_jobs(&mut |_| {}).expect("the light bakes");
                 black_box(session.relight())
@@ -235,12 +239,7 @@ fn light_move(c: &mut Criterion) {
         // direct light exact); the queued work is dropped here, the editor's bake worker runs it.
         group.bench_function(format!("{name}-key-path"), |b| {
             b.iter(|| {
-                let offset = if forth { 0.1 } else { 0.0 };
-                forth = !forth;
-                let position = start + glam::DVec3::new(offset, 0.0, 0.0);
-                session
-                    .apply(haiko::session::Command::Move { light: 0, position })
-                    .expect("a valid move");
+                step(&mut session);
                 black_box(session.relight());
                 black_box(session.take_bake_jobs())
             })

@@ -167,15 +167,23 @@ pub fn work_plane_mesh(
 /// their shadow rays; built once per plane, then [`work_plane_indirect`] costs one pass over the
 /// stored factors per light change.
 pub fn work_plane_gather(scene: &Scene, plane: &PatchMesh) -> GatherOperator {
-    let receivers: Vec<Receiver> = plane
+    GatherOperator::build(
+        scene,
+        Occluders::of_scene(scene).as_ref(),
+        &work_plane_receivers(plane),
+    )
+}
+
+/// The vertices of a work plane ([`work_plane_mesh`]) as receivers facing up.
+pub fn work_plane_receivers(plane: &PatchMesh) -> Vec<Receiver> {
+    plane
         .positions
         .iter()
         .map(|&point| Receiver {
             point,
             normal: DVec3::Z,
         })
-        .collect();
-    GatherOperator::build(scene, Occluders::of_scene(scene).as_ref(), &receivers)
+        .collect()
 }
 
 /// Indirect illuminance (lx, linear RGB) at every vertex of a work plane for the lights' current

@@ -19,6 +19,7 @@ use crate::relight::Relighter;
 use crate::render::exposure::room_ev100;
 use crate::render::plan::{
     PlanLight, draw_plan_lights, plan_view_beside, work_plane_gather, work_plane_indirect, work_plane_mesh,
+    work_plane_receivers,
 };
 use crate::render::shade::luma;
 use crate::render::{
@@ -28,7 +29,7 @@ use crate::render::{
 };
 use crate::scene::design::{Design, Placement};
 use crate::scene::model::{PatchMesh, Surface, SurfaceKind};
-use crate::scene::{AimSpec, Camera, DirectMode, Receiver, Scene};
+use crate::scene::{AimSpec, Camera, DirectMode, Scene};
 use crate::session::light::LightEdit;
 use crate::transport::bake::Bake;
 use crate::transport::gather::GatherOperator;
@@ -481,22 +482,11 @@ impl FrameBuffers {
                 let states: Vec<LightState> = lights.iter().map(|l| pixel_light(l).state).collect();
                 work_plane_indirect(scene, bake, &states, gather)
             }
-            PlaneIndirect::Leaves(engine) => {
-                let receivers: Vec<Receiver> = plane
-                    .mesh
-                    .positions
-                    .iter()
-                    .map(|&point| Receiver {
-                        point,
-                        normal: DVec3::Z,
-                    })
-                    .collect();
-                engine
-                    .gather_all(&receivers)
-                    .into_iter()
-                    .map(|e| e.map(|x| x as f32))
-                    .collect()
-            }
+            PlaneIndirect::Leaves(engine) => engine
+                .gather_all(&work_plane_receivers(&plane.mesh))
+                .into_iter()
+                .map(|e| e.map(|x| x as f32))
+                .collect(),
         };
         plane.indirect = Some((key, values));
         self.light_version += 1;

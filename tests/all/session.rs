@@ -113,14 +113,7 @@ fn hierarchical_edits_moves_and_inserts_match_fresh_sessions() {
     assert_eq!(s.light_status(1), LightStatus::Ready);
     assert_eq!(s.relight(), vec![0, 1]);
     let before_insert = s.vertex_illuminance().to_vec();
-    let mut copy: LightEdit = s.lights()[0].clone();
-    copy.name = "copy".into();
-    copy.position = DVec3::new(1.5, 1.0, 2.6);
-    s.apply(Command::Insert {
-        at: 1,
-        light: Box::new(copy.clone()),
-    })
-    .unwrap();
+    insert_copy(&mut s);
     let mut edited = paper();
     edited.lights = s.lights().iter().map(LightEdit::to_light).collect();
     let fresh = planned_session(edited).vertex_illuminance().to_vec();
@@ -151,14 +144,11 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
 
     let raised = Curve::new(&[(0.0, 3000.0), (20.0, 2500.0), (40.0, 0.0)]).unwrap();
     let lowered = Curve::new(&[(0.0, 1500.0), (30.0, 1200.0), (60.0, 0.0)]).unwrap();
-    for session in [&mut s, &mut sync] {
-        session
-            .apply(Command::SetCurve {
-                light: 0,
-                curve: raised.clone(),
-            })
-            .unwrap();
-    }
+    let raise = Command::SetCurve {
+        light: 0,
+        curve: raised,
+    };
+    apply_both(&mut s, &mut sync, raise.clone());
     assert_eq!(s.relight(), vec![0]);
     assert_eq!(s.light_status(0), LightStatus::Updating);
     assert_eq!(
@@ -173,14 +163,14 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     );
     let first = s.take_bake_jobs();
     assert_eq!(first.len(), 1);
-    for session in [&mut s, &mut sync] {
-        session
-            .apply(Command::SetCurve {
-                light: 0,
-                curve: lowered.clone(),
-            })
-            .unwrap();
-    }
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::SetCurve {
+            light: 0,
+            curve: lowered.clone(),
+        },
+    );
     s.relight();
     let second = s.take_bake_jobs();
     assert_eq!(second.len(), 1);
@@ -192,14 +182,14 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     assert_eq!(s.light_status(0), LightStatus::Ready);
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
 
-    for session in [&mut s, &mut sync] {
-        session
-            .apply(Command::SetDimmer {
-                light: 1,
-                dimmer: 0.3,
-            })
-            .unwrap();
-    }
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::SetDimmer {
+            light: 1,
+            dimmer: 0.3,
+        },
+    );
     s.relight();
     assert!(s.take_bake_jobs().is_empty(), "a dimmer edit scales the solve");
     assert_eq!(s.light_status(1), LightStatus::Ready);
@@ -207,22 +197,13 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
 
     // 0.1 m below the ceiling the moved light grades the mesh around it: the engine is rebuilt.
     let position = DVec3::new(1.5, 1.0, 2.6);
-    for session in [&mut s, &mut sync] {
-        session.apply(Command::Move { light: 1, position }).unwrap();
-    }
+    apply_both(&mut s, &mut sync, Command::Move { light: 1, position });
     s.relight();
     let regrade = s.take_bake_jobs();
     assert_eq!(regrade.len(), 1);
     assert_eq!(regrade[0].light(), None, "the whole engine is rebuilt");
     assert_eq!(s.light_status(0), LightStatus::Updating);
-    for session in [&mut s, &mut sync] {
-        session
-            .apply(Command::SetCurve {
-                light: 0,
-                curve: raised.clone(),
-            })
-            .unwrap();
-    }
+    apply_both(&mut s, &mut sync, raise.clone());
     s.relight();
     assert!(
         s.take_bake_jobs().is_empty(),
@@ -250,9 +231,7 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     // that and solves the moved light on the engine it has.
     let mut engine = None;
     for position in [DVec3::new(2.0, 2.0, 1.4), DVec3::new(2.1, 2.0, 1.4)] {
-        for session in [&mut s, &mut sync] {
-            session.apply(Command::Move { light: 1, position }).unwrap();
-        }
+        apply_both(&mut s, &mut sync, Command::Move { light: 1, position });
         engine = Some(std::sync::Arc::clone(s.hierarchical().unwrap().engine()));
         s.relight();
         let placement = s.take_bake_jobs();
@@ -274,6 +253,26 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
         std::sync::Arc::ptr_eq(&engine.unwrap(), s.hierarchical().unwrap().engine()),
         "the step kept the engine"
     );
+}
+
+/// Inserts a copy of light 0, named "copy", at index 1, 0.1 m under the ceiling at x 1.5 m,
+/// y 1 m; returns it.
+fn insert_copy(s: &mut Session) -> LightEdit {
+    let mut copy: LightEdit = s.lights()[0].clone();
+    copy.name = "copy".into();
+    copy.position = DVec3::new(1.5, 1.0, 2.6);
+    s.apply(Command::Insert {
+        at: 1,
+        light: Box::new(copy.clone()),
+    })
+    .unwrap();
+    copy
+}
+
+/// Applies `command` to both sessions.
+fn apply_both(a: &mut Session, b: &mut Session, command: Command) {
+    a.apply(command.clone()).unwrap();
+    b.apply(command).unwrap();
 }
 
 fn spec(size: (u32, u32)) -> FrameSpec {
@@ -400,14 +399,7 @@ fn a_superseded_bake_is_dropped_with_its_cache_entry() {
 fn inserted_and_removed_lights_match_fresh_sessions() {
     let mut s = session(paper());
     let original = s.vertex_illuminance().to_vec();
-    let mut copy: LightEdit = s.lights()[0].clone();
-    copy.name = "copy".into();
-    copy.position = DVec3::new(1.5, 1.0, 2.6);
-    s.apply(Command::Insert {
-        at: 1,
-        light: Box::new(copy.clone()),
-    })
-    .unwrap();
+    let copy = insert_copy(&mut s);
     assert_eq!(s.light_status(1), LightStatus::Updating);
     s.run_bake_jobs(&mut |_| {}).unwrap();
     let mut three = paper();
