@@ -22,7 +22,8 @@ use crate::transport::direct::Receiver;
 use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions, InterreflectionStats};
 use crate::transport::patchdirect::PatchDirectCache;
-use crate::transport::radiosity::{PatchColumns, Solution};
+use crate::transport::radiosity::PatchColumns;
+use crate::transport::response::{CurveResponse, LightValues, MAX_RESPONSE_POINTS};
 
 /// One light as the engine keeps it.
 #[derive(Debug, Clone)]
@@ -38,6 +39,10 @@ struct SolvedLight {
     leaf_indirect: Vec<Vec<f64>>,
     /// The curve, aim and dimmer the values above are for (`None` before the first solve).
     solved_for: Option<(Curve, DVec3, f64)>,
+    /// Its values per control point, once a curve edit solved them (where it stands, as aimed,
+    /// at its control-point angles then): an intensity edit that [`CurveResponse::fits`] needs
+    /// no solve.
+    response: Option<Arc<CurveResponse>>,
 }
 
 /// The indirect light of a scene's lights through one shared [`Interreflection`] engine.
@@ -90,6 +95,9 @@ pub struct EditCosts {
     /// A curve edit (every second control point, from the second, scaled by 0.7: a change of
     /// shape for any curve with light off its axis, a narrow spot's included).
     pub curve_s: f64,
+    /// After that curve edit, one control point's intensity raised by 10 %: a weighted sum of
+    /// the light's response when the curve edit solved one, else a solve.
+    pub point_s: f64,
     /// A re-aim by 10°.
     pub aim_s: f64,
     /// A dimmer change to 0.8 of the current value.
@@ -113,6 +121,9 @@ pub struct LightSolveJob {
     /// The light's previous radiosity per channel (the warm start; empty before any solve).
     initial: Vec<PatchColumns>,
     tolerance: f64,
+    /// Solve the light's [`CurveResponse`] (a column per control point) and take its values
+    /// from it, instead of one column.
+    response: bool,
 }
 
 /// A finished [`LightSolveJob`].
@@ -121,9 +132,8 @@ pub struct LightSolve {
     engine: Arc<Interreflection>,
     cache: Arc<PatchDirectCache>,
     light: Light,
-    solutions: Vec<Solution>,
-    /// The light's exact direct irradiance per leaf (lx, colour not applied).
-    direct: Vec<f64>,
+    values: LightValues,
+    response: Option<Arc<CurveResponse>>,
 }
 
 impl LightSolveJob {
@@ -135,6 +145,16 @@ impl LightSolveJob {
             Some(cache) => cache,
             None => Arc::new(self.engine.direct_cache(&self.light)),
         };
+        if self.response {
+            let response = CurveResponse::solve(&self.engine, &cache, &self.light, self.tolerance)?;
+            return Ok(LightSolve {
+                values: response.values(&self.light),
+                engine: self.engine,
+                cache,
+                light: self.light,
+                response: Some(Arc::new(response)),
+            });
+        }
         let state = LightState::from(&self.light);
         let mut direct = vec![0.0; self.engine.n_leaves()];
         cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
@@ -149,8 +169,8 @@ impl LightSolveJob {
             engine: self.engine,
             cache,
             light: self.light,
-            solutions,
-            direct,
+            values: LightValues::of_column(&solutions, 0, direct),
+            response: None,
         })
     }
 }
@@ -201,17 +221,6 @@ impl HierarchicalIndirect {
             revision: next_revision(),
         };
         for (c, (light, cache)) in lights.iter().zip(caches).enumerate() {
-            let column = |block: &PatchColumns| PatchColumns::from_columns(n, &[block.column(c)]);
-            let per_channel: Vec<Solution> = solutions
-                .iter()
-                .map(|s| Solution {
-                    irradiance: column(&s.irradiance),
-                    radiosity: column(&s.radiosity),
-                    columns: vec![s.columns[c]],
-                    contraction: s.contraction,
-                    max_row_sum: s.max_row_sum,
-                })
-                .collect();
             let direct: Vec<f64> = (0..n).map(|p| emission.get(p, c)).collect();
             let mut solved = SolvedLight {
                 position: light.position,
@@ -221,8 +230,9 @@ impl HierarchicalIndirect {
                 leaf_radiosity: Vec::new(),
                 leaf_indirect: Vec::new(),
                 solved_for: None,
+                response: None,
             };
-            store(&mut solved, &per_channel, &direct, light);
+            store(&mut solved, LightValues::of_column(&solutions, c, direct), light);
             indirect.lights.push(solved);
         }
         Ok(indirect)
@@ -284,12 +294,27 @@ impl HierarchicalIndirect {
             self.revision = next_revision();
             return None;
         }
+        if let Some(response) = old.response.as_ref().filter(|r| r.fits(light)) {
+            let values = response.values(light);
+            store(&mut self.lights[i], values, light);
+            self.revision = next_revision();
+            return None;
+        }
+        // A curve edit where the light stands, as aimed: more curve edits are likely to follow,
+        // so the job solves the response that makes intensity edits solve-free.
+        let curve_edit = !moved
+            && light.curve.len() <= MAX_RESPONSE_POINTS
+            && old
+                .solved_for
+                .as_ref()
+                .is_some_and(|(curve, aim, _)| *aim == light.aim && *curve != light.curve);
         Some(LightSolveJob {
             engine: Arc::clone(&self.engine),
             cache: (!moved).then(|| Arc::clone(&old.cache)),
             light: light.clone(),
             initial: old.radiosity.clone(),
             tolerance: self.tolerance,
+            response: curve_edit,
         })
     }
 
@@ -303,7 +328,10 @@ impl HierarchicalIndirect {
         light.position = solved.light.position;
         light.radius_m = solved.light.radius;
         light.cache = solved.cache;
-        store(light, &solved.solutions, &solved.direct, &solved.light);
+        if solved.response.is_some() {
+            light.response = solved.response;
+        }
+        store(light, solved.values, &solved.light);
         self.revision = next_revision();
         true
     }
@@ -322,6 +350,7 @@ impl HierarchicalIndirect {
                 leaf_radiosity: vec![[0.0; 3]; n],
                 leaf_indirect: vec![vec![0.0; n]; self.engine.channels()],
                 solved_for: None,
+                response: None,
             },
         );
     }
@@ -392,7 +421,8 @@ impl HierarchicalIndirect {
         }
     }
 
-    /// Measures, on a copy, what a curve edit, a re-aim, a dimmer change and a 0.1 m move (along
+    /// Measures, on a copy, what a curve edit (then an intensity edit after it), a re-aim, a
+    /// dimmer change and a 0.1 m move (along
     /// x, or back when that leaves the room) of light `i` of `scene` cost, each from the light's
     /// current state, including the interpolation of its indirect light to the fine vertices.
     ///
@@ -425,7 +455,23 @@ impl HierarchicalIndirect {
             dimmer: 0.8 * light.dimmer,
             ..light.clone()
         };
-        let (curve_s, aim_s, dimmer_s) = (timed(&curve)?, timed(&aim)?, timed(&dimmer)?);
+        let (aim_s, dimmer_s) = (timed(&aim)?, timed(&dimmer)?);
+        let mut copy = self.clone();
+        let t = Instant::now();
+        copy.set_light(i, &curve)?;
+        let _ = copy.vertex_indirect(i);
+        let curve_s = t.elapsed().as_secs_f64();
+        let mut point = curve.clone();
+        let k = usize::from(point.curve.len() > 1);
+        let raised = 1.1 * point.curve.intensities_cd()[k];
+        point
+            .curve
+            .set_intensity(k, raised)
+            .map_err(|e| crate::error::Error::internal(e.to_string()))?;
+        let t = Instant::now();
+        copy.set_light(i, &point)?;
+        let _ = copy.vertex_indirect(i);
+        let point_s = t.elapsed().as_secs_f64();
         let step = if light.position.x + 0.1 < scene.room_size.x {
             0.1
         } else {
@@ -453,6 +499,7 @@ impl HierarchicalIndirect {
         let move_s = t.elapsed().as_secs_f64();
         Ok(EditCosts {
             curve_s,
+            point_s,
             aim_s,
             dimmer_s,
             move_s,
@@ -466,6 +513,7 @@ impl HierarchicalIndirect {
             .iter()
             .map(|l| {
                 l.cache.bytes()
+                    + l.response.as_ref().map_or(0, |r| r.bytes())
                     + 8 * (l.radiosity.iter().map(|r| r.values.len()).sum::<usize>()
                         + 3 * l.leaf_radiosity.len()
                         + l.leaf_indirect.iter().map(Vec::len).sum::<usize>())
@@ -476,13 +524,13 @@ impl HierarchicalIndirect {
 
 /// Keeps what a light's solve for `light` gives: the radiosity for warm starts, the coloured
 /// leaf radiosity, the leaf indirect irradiance `H − E` per channel.
-fn store(solved: &mut SolvedLight, solutions: &[Solution], direct: &[f64], light: &Light) {
-    let n = direct.len();
-    solved.radiosity = solutions.iter().map(|s| s.radiosity.clone()).collect();
-    solved.leaf_indirect = solutions
+fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
+    solved.leaf_indirect = values
+        .irradiance
         .iter()
-        .map(|s| (0..n).map(|p| s.irradiance.get(p, 0) - direct[p]).collect())
+        .map(|h| h.iter().zip(&values.direct).map(|(h, e)| h - e).collect())
         .collect();
+    solved.radiosity = values.radiosity;
     solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
     solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
 }
@@ -543,6 +591,48 @@ solver_patch_size = 0.5
             .zip(b)
             .map(|(x, y)| (x[0] - y[0]).abs())
             .fold(0.0, f64::max)
+    }
+
+    /// A curve edit solves the light's response (a column per control point); an intensity
+    /// edit after it needs no solve and equals a fresh engine of the edited room within the
+    /// tolerance; a re-aim does not fit the response and asks for a solve again.
+    #[test]
+    fn intensity_edits_after_a_curve_edit_need_no_solve() {
+        let scene = room();
+        let mut engine = build(&scene);
+        let mut edited = scene.clone();
+        edited.lights[0].curve =
+            Curve::new(&[(0.0, 900.0), (40.0, 700.0), (90.0, 400.0), (180.0, 50.0)]).expect("a curve");
+        let job = engine
+            .update_light(0, &edited.lights[0])
+            .expect("a curve edit is solved");
+        let solved = job.run().expect("solves");
+        assert!(engine.install(0, solved));
+        for (point, factor) in [(1, 1.5), (3, 0.0), (0, 0.25)] {
+            let candela = edited.lights[0].curve.intensities_cd()[point] * factor;
+            edited.lights[0]
+                .curve
+                .set_intensity(point, candela)
+                .expect("a valid intensity");
+            assert!(
+                engine.update_light(0, &edited.lights[0]).is_none(),
+                "point {point}: no solve"
+            );
+            let fresh = build(&edited);
+            let peak = fresh.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
+            assert!(peak > 0.0);
+            let difference = peak_difference(engine.light_radiosity(0), fresh.light_radiosity(0));
+            assert!(difference < 1e-5 * peak, "point {point}: {difference} of {peak}");
+            let indirect = engine.vertex_indirect(0);
+            let fresh_indirect = fresh.vertex_indirect(0);
+            let peak = fresh_indirect.iter().map(|v| v[0]).fold(0.0, f64::max);
+            assert!(peak_difference(&indirect, &fresh_indirect) < 1e-5 * peak);
+        }
+        edited.lights[0].aim = DVec3::new(0.3, 0.0, -1.0).normalize();
+        assert!(
+            engine.update_light(0, &edited.lights[0]).is_some(),
+            "a re-aim is solved"
+        );
     }
 
     /// The block solve at build equals solving each light alone; a dimmer change scales the

@@ -16,4 +16,5 @@ pub mod patchdirect;
 pub mod plan;
 pub mod radiosity;
 pub mod refine;
+pub mod response;
 pub mod visibility;

@@ -125,7 +125,8 @@ fn hierarchical_edits_moves_and_inserts_match_fresh_sessions() {
 /// The editor's session (`SessionOptions::interactive`): the hierarchical engine's solves leave
 /// the key path as bake jobs. After a curve edit the edited light's direct light is new at once
 /// and its indirect light the previous one while its solve is pending (the light `Updating`); a
-/// dimmer edit needs no job; a solve superseded by a newer one that finished first is dropped;
+/// solve superseded by a newer one that finished first is dropped; the curve edit's solve makes
+/// a later intensity edit and a dimmer edit need no job;
 /// a move queues one job that checks the grading off the key path and rebuilds the engine (a
 /// move near the ceiling), during which an edit of the other light queues no solve on the old
 /// engine and after which that light is solved on the new one, or keeps the engine and solves
@@ -179,6 +180,25 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     let older = first.into_iter().next().unwrap().run(&mut |_| {});
     assert_eq!(s.finish_bake(newer).unwrap(), Some(0));
     assert_eq!(s.finish_bake(older).unwrap(), None);
+    assert_eq!(s.light_status(0), LightStatus::Ready);
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+
+    // That solve was a curve edit's: it solved the light per control point, so ↑ on a point
+    // needs no solve at all.
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::SetIntensity {
+            light: 0,
+            point: 1,
+            candela: 1800.0,
+        },
+    );
+    assert_eq!(s.relight(), vec![0]);
+    assert!(
+        s.take_bake_jobs().is_empty(),
+        "an intensity edit is a weighted sum"
+    );
     assert_eq!(s.light_status(0), LightStatus::Ready);
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
 
