@@ -59,6 +59,15 @@ pub(crate) fn format_plan(p: &Plan) -> String {
             }
         ));
     }
+    if p.hierarchical.on {
+        // No basis is baked: the orders above only draw the polar diagram's series.
+        s.push_str(&format!(
+            "mesh: {} fine vertices, {} coarse patches, {} solver leaves; no SH basis is baked (the orders above draw the polar diagram's series)\n",
+            p.fine_vertices, p.coarse_patches, p.leaves
+        ));
+        s.push_str("expected: the engine's memory by part and its per-edit costs are measured by `haiko bake --json`\n");
+        return s;
+    }
     s.push_str(&format!(
         "mesh: {} fine vertices, {} coarse patches; {} basis columns in all\n",
         p.fine_vertices, p.coarse_patches, p.columns

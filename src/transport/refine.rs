@@ -103,15 +103,16 @@ pub struct SolverMesh {
     pub near_lamp: Vec<bool>,
     /// Per light that caused splits, what it did.
     pub lamps: Vec<LampRefinement>,
-    /// Box contact edges graded towards, and the leaves made along them (beyond the coarse
-    /// patches they replaced).
+    /// Contact edges graded towards (where a box meets its support, and room edges beside a
+    /// lamp close to them), and the leaves made along them (beyond the coarse patches they
+    /// replaced).
     pub contacts: usize,
     pub contact_leaves_added: usize,
 }
 
 impl SolverMesh {
     /// One line per refinement decision, for the plan ("refined near light L0: 0.20 m below
-    /// the ceiling", "graded along 4 box contacts"); empty when nothing was refined.
+    /// the ceiling", "graded along 4 contact edges"); empty when nothing was refined.
     pub fn notes(&self, scene: &Scene) -> Vec<String> {
         let mut notes: Vec<String> = self
             .lamps
@@ -125,7 +126,7 @@ impl SolverMesh {
             .collect();
         if self.contacts > 0 && self.contact_leaves_added > 0 {
             notes.push(format!(
-                "graded along {} box contact edges: +{} patches",
+                "graded along {} contact edges (boxes on their supports, room edges beside lamps): +{} patches",
                 self.contacts, self.contact_leaves_added
             ));
         }
@@ -794,7 +795,7 @@ solver_patch_size = 0.5
             solver
                 .notes(&s)
                 .iter()
-                .any(|n| n.contains("graded along 4 box contact edges"))
+                .any(|n| n.contains("graded along 4 contact edges"))
         );
     }
 

@@ -437,9 +437,21 @@ fn plan_and_bake_commands_report_their_decisions() {
     assert!(
         notes
             .iter()
-            .any(|n| n.starts_with("graded along 3 box contact edges")),
+            .any(|n| n.starts_with("graded along 3 contact edges")),
         "{notes:?}"
     );
+    // The text says the same, and that no SH basis is baked for the hierarchical engine.
+    let o = haiko(
+        cache.path(),
+        &["plan", repo("rooms/paper.toml").to_str().unwrap()],
+    );
+    let text = stdout(&o);
+    assert!(text.contains("hierarchical     on   1355 leaves"), "{text}");
+    assert!(
+        text.contains("1355 solver leaves; no SH basis is baked"),
+        "{text}"
+    );
+    assert!(!text.contains("basis columns in all"), "{text}");
     let paper = paper_with_basis(rooms.path());
     for run in 0..2 {
         let o = haiko(cache.path(), &["bake", paper.to_str().unwrap()]);
