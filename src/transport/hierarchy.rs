@@ -483,14 +483,16 @@ impl Operator {
             .zip(&targets)
             .map(|(r, t)| (r - t).abs() / t.max(1e-300))
             .fold(0.0, f64::max);
-        let column_defect = raw_columns(&ones)
+        // The area-weighted column sums for the current row scaling (none yet): computed once
+        // per iteration below, for the check and then for the next column scaling.
+        let mut cd = raw_columns(&ones);
+        let column_defect = cd
             .iter()
             .map(|c| (c - 1.0).abs())
             .fold(0.0, f64::max);
         let mut row = vec![1.0; n];
         let mut col = vec![1.0; n];
         for _ in 0..200 {
-            let cd = raw_columns(&row);
             for j in 0..n {
                 col[j] = if cd[j] > 0.0 { 1.0 / cd[j] } else { 1.0 };
             }
@@ -499,7 +501,7 @@ impl Operator {
                 row[i] = if rd[i] > 0.0 { targets[i] / rd[i] } else { 1.0 };
             }
             // Rows now hit their targets exactly; check the columns.
-            let cd = raw_columns(&row);
+            cd = raw_columns(&row);
             let worst = (0..n)
                 .filter(|&j| cd[j] > 0.0)
                 .map(|j| (col[j] * cd[j] - 1.0).abs())
@@ -538,13 +540,27 @@ impl Operator {
             moment[p][1] += m_i[1] + s_i * dv;
         }
         // Transposed links: entry (r ← s) sends back coefficient × Σ_r y + gradient · moment_r.
+        // The links are stored by receiver, so the sources are scattered: a few contiguous runs
+        // of receivers each scatter into their own vector, summed afterwards.
+        let per_run = nodes.len().div_ceil(4 * rayon::current_num_threads()).max(1);
+        let runs: Vec<Vec<f64>> = (0..nodes.len().div_ceil(per_run))
+            .into_par_iter()
+            .map(|run| {
+                let mut back = vec![0.0; nodes.len()];
+                for r in run * per_run..((run + 1) * per_run).min(nodes.len()) {
+                    for e in self.offsets[r]..self.offsets[r + 1] {
+                        let [gu, gv] = self.gradients[e].map(f64::from);
+                        back[self.sources[e] as usize] += f64::from(self.coefficients[e]) * sum[r]
+                            + gu * moment[r][0]
+                            + gv * moment[r][1];
+                    }
+                }
+                back
+            })
+            .collect();
         let mut back = vec![0.0; nodes.len()];
-        for r in 0..nodes.len() {
-            for e in self.offsets[r]..self.offsets[r + 1] {
-                let [gu, gv] = self.gradients[e].map(f64::from);
-                back[self.sources[e] as usize] +=
-                    f64::from(self.coefficients[e]) * sum[r] + gu * moment[r][0] + gv * moment[r][1];
-            }
+        for run in runs {
+            back.iter_mut().zip(run).for_each(|(b, x)| *b += x);
         }
         // Transposed pull: top-down, each node passes its value to its children by area share.
         for i in 0..nodes.len() {
