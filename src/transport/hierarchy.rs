@@ -486,10 +486,7 @@ impl Operator {
         // The area-weighted column sums for the current row scaling (none yet): computed once
         // per iteration below, for the check and then for the next column scaling.
         let mut cd = raw_columns(&ones);
-        let column_defect = cd
-            .iter()
-            .map(|c| (c - 1.0).abs())
-            .fold(0.0, f64::max);
+        let column_defect = cd.iter().map(|c| (c - 1.0).abs()).fold(0.0, f64::max);
         let mut row = vec![1.0; n];
         let mut col = vec![1.0; n];
         for _ in 0..200 {
@@ -550,9 +547,8 @@ impl Operator {
                 for r in run * per_run..((run + 1) * per_run).min(nodes.len()) {
                     for e in self.offsets[r]..self.offsets[r + 1] {
                         let [gu, gv] = self.gradients[e].map(f64::from);
-                        back[self.sources[e] as usize] += f64::from(self.coefficients[e]) * sum[r]
-                            + gu * moment[r][0]
-                            + gv * moment[r][1];
+                        back[self.sources[e] as usize] +=
+                            f64::from(self.coefficients[e]) * sum[r] + gu * moment[r][0] + gv * moment[r][1];
                     }
                 }
                 back
