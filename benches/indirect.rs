@@ -1,7 +1,9 @@
 //! The hierarchical indirect engine (docs/BENCHMARKS.md "Hierarchical engine"): on
-//! `rooms/paper.toml`, the engine's build with every light solved (target: paper bake ≤ 0.5 s),
-//! a curve edit of light 0 (its leaf direct light and warm-started solve, and its indirect light
-//! interpolated to the fine vertices; target ≤ 1 ms), a dimmer edit (a scaling) and a 0.1 m move
+//! `rooms/paper.toml`, the engine's build with every light solved (target: paper bake ≤ 0.5 s);
+//! edits of light 0, each with its indirect light interpolated to the fine vertices (target for
+//! a curve edit ≤ 1 ms): one control point's intensity (a weighted sum of the light's
+//! per-control-point solve), one control point's angle (a curve edit: the block solve of that
+//! response), a re-aim between ±5° (a warm-started solve), a dimmer edit (a scaling) and a 0.1 m move
 //! that keeps the refinement (a new direct cache and a solve).
 
 use std::hint::black_box;
@@ -41,24 +43,44 @@ fn paper(c: &mut Criterion) {
     group.bench_function("paper_build", |b| b.iter(|| black_box(build())));
     let mut engine = build();
     let light = scene.lights[0].clone();
-    let lowered: Vec<(f64, f64)> = light.curve.points().map(|(g, i)| (g, 0.9 * i)).collect();
-    let variants = [
-        light.clone(),
-        Light {
-            curve: Curve::new(&lowered).unwrap_or_else(|e| panic!("{e}")),
-            ..light.clone()
-        },
-    ];
+    // Light 0 as it is and with one change; each iteration switches between the two.
+    let with_curve = |change: &dyn Fn(&mut Curve)| {
+        let mut curve = light.curve.clone();
+        change(&mut curve);
+        [
+            light.clone(),
+            Light {
+                curve,
+                ..light.clone()
+            },
+        ]
+    };
+    let raised = with_curve(&|c| {
+        let raised = 1.1 * c.intensities_cd()[1];
+        c.set_intensity(1, raised).unwrap_or_else(|e| panic!("{e}"));
+    });
+    let widened = with_curve(&|c| {
+        let wider = c.gammas_deg()[1] + 2.0;
+        c.set_gamma(1, wider).unwrap_or_else(|e| panic!("{e}"));
+    });
     let mut k = 0;
-    group.bench_function("paper_curve_edit", |b| {
+    let mut edit = |b: &mut criterion::Bencher, pair: &[Light; 2]| {
         b.iter(|| {
             k ^= 1;
-            engine
-                .set_light(0, &variants[k])
-                .unwrap_or_else(|e| panic!("{e}"));
+            engine.set_light(0, &pair[k]).unwrap_or_else(|e| panic!("{e}"));
             black_box(engine.vertex_indirect(0))
         })
+    };
+    // A curve edit first, so that the light's per-control-point solve is in place.
+    group.bench_function("paper_gamma_edit", |b| edit(b, &widened));
+    group.bench_function("paper_intensity_edit", |b| edit(b, &raised));
+    let axis = light.aim.any_orthonormal_vector();
+    // Both aims differ from the one the light's per-control-point solve was made for.
+    let reaimed = [5f64, -5.0].map(|degrees| Light {
+        aim: glam::DQuat::from_axis_angle(axis, degrees.to_radians()) * light.aim,
+        ..light.clone()
     });
+    group.bench_function("paper_reaim", |b| edit(b, &reaimed));
     let dimmed = [
         light.clone(),
         Light {
@@ -66,13 +88,7 @@ fn paper(c: &mut Criterion) {
             ..light.clone()
         },
     ];
-    group.bench_function("paper_dimmer_edit", |b| {
-        b.iter(|| {
-            k ^= 1;
-            engine.set_light(0, &dimmed[k]).unwrap_or_else(|e| panic!("{e}"));
-            black_box(engine.vertex_indirect(0))
-        })
-    });
+    group.bench_function("paper_dimmer_edit", |b| edit(b, &dimmed));
     // Light 0 hangs in the middle of the ceiling: a 0.1 m step keeps its refinement pattern's
     // size only by chance, so the move measured is the engine's part (cache and solve).
     let moved = [
@@ -82,13 +98,7 @@ fn paper(c: &mut Criterion) {
             ..light.clone()
         },
     ];
-    group.bench_function("paper_move_without_regrade", |b| {
-        b.iter(|| {
-            k ^= 1;
-            engine.set_light(0, &moved[k]).unwrap_or_else(|e| panic!("{e}"));
-            black_box(engine.vertex_indirect(0))
-        })
-    });
+    group.bench_function("paper_move_without_regrade", |b| edit(b, &moved));
     group.finish();
 }
 

@@ -294,7 +294,7 @@ impl HierarchicalIndirect {
             self.revision = next_revision();
             return None;
         }
-        if let Some(response) = old.response.as_ref().filter(|r| r.fits(light)) {
+        if let Some(response) = old.response.as_ref().filter(|r| !moved && r.fits(light)) {
             let values = response.values(light);
             store(&mut self.lights[i], values, light);
             self.revision = next_revision();
@@ -595,7 +595,7 @@ solver_patch_size = 0.5
 
     /// A curve edit solves the light's response (a column per control point); an intensity
     /// edit after it needs no solve and equals a fresh engine of the edited room within the
-    /// tolerance; a re-aim does not fit the response and asks for a solve again.
+    /// tolerance; a light moved away and back, and a re-aim, ask for a solve again.
     #[test]
     fn intensity_edits_after_a_curve_edit_need_no_solve() {
         let scene = room();
@@ -628,6 +628,18 @@ solver_patch_size = 0.5
             let peak = fresh_indirect.iter().map(|v| v[0]).fold(0.0, f64::max);
             assert!(peak_difference(&indirect, &fresh_indirect) < 1e-5 * peak);
         }
+        // Moved away and back: the response fits the light again, but the engine's light stands
+        // elsewhere, so the way back is a solve that puts it where it is.
+        let home = edited.lights[0].clone();
+        let away = Light {
+            position: home.position + DVec3::new(0.2, 0.0, 0.0),
+            ..home.clone()
+        };
+        engine.set_light(0, &away).expect("solves");
+        let back = engine.update_light(0, &home).expect("moving back is solved");
+        let solved = back.run().expect("solves");
+        assert!(engine.install(0, solved));
+        assert!(engine.light_is_at(0, home.position, home.radius));
         edited.lights[0].aim = DVec3::new(0.3, 0.0, -1.0).normalize();
         assert!(
             engine.update_light(0, &edited.lights[0]).is_some(),
