@@ -296,12 +296,17 @@ const TABLE_SHIFT: u32 = 13;
 /// (a linear scale from 0 would otherwise need entries down to the smallest f32).
 const TABLE_FLOOR: f64 = 1e-6;
 
+/// Widest entry a [`FalseColorTable`] may have, as a fraction of its scale: well under one of the
+/// 255 colour levels, so that an entry's middle colour is within one level of every value's.
+const TABLE_MAX_ENTRY: f64 = 1.1e-3;
+
 /// A [`FalseColor`] tabulated for one frame's pixels: positive f32 values order like their bit
 /// patterns, so the pattern with its low mantissa bits dropped indexes entries 2⁻¹⁰ of the value
 /// wide, each holding the colour at its middle — one table load per pixel instead of a
-/// logarithm and the viridis blend. An entry spans less than 1.1e-3 of the scale (log scales span
-/// at least a factor 10), so a pixel's colour is within one level of [`FalseColor::shade`]'s.
-/// Values outside the table's span are shaded exactly.
+/// logarithm and the viridis blend. The table is built only when an entry spans at most
+/// [`TABLE_MAX_ENTRY`] of the scale, so that a pixel's colour is within one level of
+/// [`FalseColor::shade`]'s; a narrower range (a fitted scale over a nearly uniform room) gets an
+/// empty table and every pixel is shaded exactly, as are values outside the table's span.
 #[derive(Debug, Clone)]
 pub struct FalseColorTable {
     scale: FalseColor,
@@ -319,7 +324,14 @@ impl FalseColorTable {
         let start = (min_lx.max(max_lx * TABLE_FLOOR) as f32).max(f32::MIN_POSITIVE);
         let end = max_lx as f32;
         let start_bits = start.to_bits() >> TABLE_SHIFT << TABLE_SHIFT;
-        let n = if end > start {
+        // An entry is 2⁻¹⁰ of its value wide: on a log scale that is the same share of the scale
+        // everywhere, on a linear one it is widest at the top.
+        let relative = f64::from(2f32.powi(-10));
+        let widest = match scale.scale {
+            LuxScale::Log => relative * scale.inv_span,
+            LuxScale::Linear => relative * max_lx * scale.inv_span,
+        };
+        let n = if end > start && widest <= TABLE_MAX_ENTRY {
             ((end.to_bits() - start_bits) >> TABLE_SHIFT) as usize + 1
         } else {
             0
@@ -350,10 +362,15 @@ impl FalseColorTable {
     pub fn shade(&self, illuminance_lx: [f32; 3]) -> [u8; 3] {
         let [r, g, b] = illuminance_lx;
         let y = 0.2126 * r + 0.7152 * g + 0.0722 * b;
-        if y >= self.start && y < self.end {
-            self.colors[((y.to_bits() - self.start_bits) >> TABLE_SHIFT) as usize]
-        } else {
-            self.scale.shade(illuminance_lx)
+        let entry = (y >= self.start && y < self.end)
+            .then(|| {
+                self.colors
+                    .get(((y.to_bits() - self.start_bits) >> TABLE_SHIFT) as usize)
+            })
+            .flatten();
+        match entry {
+            Some(color) => *color,
+            None => self.scale.shade(illuminance_lx),
         }
     }
 }

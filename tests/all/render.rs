@@ -893,6 +893,19 @@ fn the_false_colour_table_is_within_one_level_of_the_exact_shade() {
         assert_eq!(table.shade([-1.0; 3]), VIRIDIS[0]);
         assert_eq!(table.shade([f32::NAN; 3]), VIRIDIS[0]);
     }
+    // A narrow range (a fitted scale over a nearly uniform room) would need entries narrower
+    // than 2⁻¹⁰ of the value: no table, every value shaded exactly.
+    for scale in [
+        FalseColor::new(480.0, 500.0, LuxScale::Log).unwrap(),
+        FalseColor::new(480.0, 500.0, LuxScale::Linear).unwrap(),
+    ] {
+        let table = FalseColorTable::new(&scale);
+        assert_eq!(table.entries(), 0, "{scale:?}");
+        for k in 0..=2000 {
+            let y = 470.0 + 0.02 * k as f32;
+            assert_eq!(table.shade([y; 3]), scale.shade([y; 3]), "{scale:?} at {y}");
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
