@@ -145,6 +145,8 @@ struct LightSlot {
     version: u64,
     /// The version the hierarchical engine last solved the light for.
     solved: u64,
+    /// The engine's revision of the light's values that the relighter holds (0: none).
+    given: u64,
 }
 
 /// The headless engine under the CLI and the editor.
@@ -291,6 +293,7 @@ impl Session {
                 installed: 0,
                 version: 1,
                 solved: 1,
+                given: 0,
                 key: bake.as_ref().map(|b| {
                     b.transport
                         .light_key(&LightBakeSpec::new(&scene.lights[i], &b.plan.lights[i]))
@@ -463,6 +466,7 @@ impl Session {
                 version: 1,
                 // Solved below (or never, without the hierarchical engine).
                 solved: 1,
+                given: 0,
             },
         );
         if let Some(h) = &mut self.hierarchical {
@@ -701,10 +705,10 @@ impl Session {
                 .enumerate()
                 .any(|(i, l)| pending(i) && !placed(i, l));
         if moved {
-            self.regrade = false;
             self.synced_scene();
             if background {
                 // The grading check (a refinement of the whole scene) leaves the key path too.
+                self.regrade = false;
                 self.queue_placement();
                 return Ok(());
             }
@@ -715,8 +719,10 @@ impl Session {
                 };
                 let engine = job.build()?;
                 self.install_engine(engine, &job.snapshot);
+                self.regrade = false;
                 return Ok(());
             }
+            self.regrade = false;
         }
         let Some(h) = &mut self.hierarchical else {
             return Ok(());
@@ -726,23 +732,24 @@ impl Session {
                 continue;
             }
             let light = light.to_light();
-            match h.update_light(i, &light) {
-                None => {}
-                Some(job) if background => {
-                    slot.generation += 1;
-                    let job = BakeJob {
-                        light: Some(slot.id),
-                        name: light.name,
-                        generation: slot.generation,
-                        work: Work::Solve(job),
-                    };
-                    self.jobs.retain(|j| j.light != job.light);
-                    self.jobs.push(job);
-                }
-                Some(job) => {
-                    let solved = job.run()?;
-                    h.install(i, solved);
-                }
+            if !background {
+                h.set_light(i, &light)?;
+            } else if let Some(job) = h.update_light(i, &light) {
+                slot.generation += 1;
+                let job = BakeJob {
+                    light: Some(slot.id),
+                    name: light.name,
+                    generation: slot.generation,
+                    work: Work::Solve(job),
+                };
+                self.jobs.retain(|j| j.light != job.light);
+                self.jobs.push(job);
+            } else {
+                // Brought up to date at once (a scaling, or the light's response): work still
+                // queued or running for it is for an older state and must not land.
+                slot.generation += 1;
+                slot.installed = slot.generation;
+                self.jobs.retain(|j| j.light != Some(slot.id));
             }
             slot.solved = slot.version;
         }
@@ -860,11 +867,10 @@ impl Session {
                 None => Relighter::new(&self.scene),
             };
             self.relighter = Some(relighter);
-            let given = self.hierarchical.is_some();
             for slot in &mut self.slots {
                 slot.dirty.moved = false;
                 // The hierarchical engine's indirect light is given to the new relighter below.
-                slot.dirty.state |= given;
+                slot.given = 0;
             }
         }
         let Some(relighter) = self.relighter.as_mut() else {
@@ -875,12 +881,14 @@ impl Session {
             if slot.dirty.moved {
                 relighter.move_light(i, light.position);
             }
-            if let Some(h) = self
-                .hierarchical
-                .as_ref()
-                .filter(|_| slot.dirty.state || slot.dirty.moved)
+            // The engine's values for the light, interpolated to the vertices only when they
+            // changed (not at an edit whose solve is still pending).
+            if let Some(h) = &self.hierarchical
+                && h.light_revision(i) != slot.given
             {
                 relighter.give_indirect(i, h.vertex_indirect(i));
+                slot.given = h.light_revision(i);
+                slot.dirty.state = true;
             }
             if slot.dirty.state || slot.dirty.moved {
                 relighter.set_light(

@@ -43,6 +43,8 @@ struct SolvedLight {
     /// at its control-point angles then): an intensity edit that [`CurveResponse::fits`] needs
     /// no solve.
     response: Option<Arc<CurveResponse>>,
+    /// Changes whenever the values above do; unique across lights and engines of a process.
+    revision: u64,
 }
 
 /// The indirect light of a scene's lights through one shared [`Interreflection`] engine.
@@ -221,7 +223,7 @@ impl HierarchicalIndirect {
             revision: next_revision(),
         };
         for (c, (light, cache)) in lights.iter().zip(caches).enumerate() {
-            let direct: Vec<f64> = (0..n).map(|p| emission.get(p, c)).collect();
+            let direct = emission.column(c);
             let mut solved = SolvedLight {
                 position: light.position,
                 radius_m: light.radius,
@@ -231,6 +233,7 @@ impl HierarchicalIndirect {
                 leaf_indirect: Vec::new(),
                 solved_for: None,
                 response: None,
+                revision: 0,
             };
             store(&mut solved, LightValues::of_column(&solutions, c, direct), light);
             indirect.lights.push(solved);
@@ -248,11 +251,6 @@ impl HierarchicalIndirect {
         self.lights
             .get(i)
             .is_some_and(|l| l.position == position && l.radius_m == radius_m)
-    }
-
-    /// Number of lights.
-    pub fn n_lights(&self) -> usize {
-        self.lights.len()
     }
 
     /// Solves light `i` for its current state `light` here: [`Self::update_light`], then the
@@ -291,6 +289,7 @@ impl HierarchicalIndirect {
             }
             solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
             solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
+            solved.revision = next_revision();
             self.revision = next_revision();
             return None;
         }
@@ -351,6 +350,7 @@ impl HierarchicalIndirect {
                 leaf_indirect: vec![vec![0.0; n]; self.engine.channels()],
                 solved_for: None,
                 response: None,
+                revision: next_revision(),
             },
         );
     }
@@ -365,6 +365,12 @@ impl HierarchicalIndirect {
     /// removed light), never shared by two engines: what a cache of gathered values is keyed on.
     pub fn revision(&self) -> u64 {
         self.revision
+    }
+
+    /// A number that changes whenever light `i`'s solved values do, never shared by two lights
+    /// or engines: what a copy of its interpolated indirect light is keyed on.
+    pub fn light_revision(&self, i: usize) -> u64 {
+        self.lights[i].revision
     }
 
     /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied).
@@ -533,6 +539,7 @@ fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
     solved.radiosity = values.radiosity;
     solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
     solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
+    solved.revision = next_revision();
 }
 
 /// Leaf radiosity (linear RGB) from the per-channel radiosity (one column each) and `color`.

@@ -215,6 +215,37 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     assert_eq!(s.light_status(1), LightStatus::Ready);
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
 
+    // Aimed at a wall, then back before that solve lands: the way back needs no solve (the
+    // light's values are still those of its first aim), and the wall solve, landing late, is
+    // dropped instead of leaving the light lit as if aimed at the wall.
+    let aim_back = s.lights()[0].aim;
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::Aim {
+            light: 0,
+            spec: AimSpec::Direction(DVec3::new(1.0, 0.0, -0.3)),
+        },
+    );
+    s.relight();
+    let at_wall = s.take_bake_jobs();
+    assert_eq!(at_wall.len(), 1);
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::Aim {
+            light: 0,
+            spec: AimSpec::Direction(aim_back),
+        },
+    );
+    s.relight();
+    assert!(s.take_bake_jobs().is_empty(), "back where it was solved");
+    let late = at_wall.into_iter().next().unwrap().run(&mut |_| {});
+    assert_eq!(s.finish_bake(late).unwrap(), None, "the late solve is dropped");
+    assert_eq!(s.light_status(0), LightStatus::Ready);
+    s.relight();
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+
     // 0.1 m below the ceiling the moved light grades the mesh around it: the engine is rebuilt.
     let position = DVec3::new(1.5, 1.0, 2.6);
     apply_both(&mut s, &mut sync, Command::Move { light: 1, position });
