@@ -65,7 +65,9 @@ pub(crate) fn format_plan(p: &Plan) -> String {
             "mesh: {} fine vertices, {} coarse patches, {} solver leaves; no SH basis is baked (the orders above draw the polar diagram's series)\n",
             p.fine_vertices, p.coarse_patches, p.leaves
         ));
-        s.push_str("expected: the engine's memory by part and its per-edit costs are measured by `haiko bake --json`\n");
+        s.push_str(
+            "expected: the engine's memory by part and its per-edit costs are measured by `haiko bake`\n",
+        );
         return s;
     }
     s.push_str(&format!(

@@ -19,6 +19,9 @@ use rayon::prelude::*;
 
 use crate::scene::PatchMesh;
 
+/// Runs the transposed links of [`Operator::balance`] are split into (summed in order).
+const TRANSPOSE_RUNS: usize = 16;
+
 /// Marks a missing index (no parent, no children, not a leaf).
 pub const NONE: u32 = u32::MAX;
 
@@ -538,8 +541,9 @@ impl Operator {
         }
         // Transposed links: entry (r ← s) sends back coefficient × Σ_r y + gradient · moment_r.
         // The links are stored by receiver, so the sources are scattered: a few contiguous runs
-        // of receivers each scatter into their own vector, summed afterwards.
-        let per_run = nodes.len().div_ceil(4 * rayon::current_num_threads()).max(1);
+        // of receivers each scatter into their own vector, summed afterwards in order (a fixed
+        // number of runs, so that the sums do not depend on the machine's thread count).
+        let per_run = nodes.len().div_ceil(TRANSPOSE_RUNS).max(1);
         let runs: Vec<Vec<f64>> = (0..nodes.len().div_ceil(per_run))
             .into_par_iter()
             .map(|run| {

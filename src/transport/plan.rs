@@ -97,7 +97,8 @@ pub struct Plan {
     /// The indirect engine: on = the hierarchical engine (graded leaves, exact patch direct light
     /// per edit, clustered gather), off = the SH basis bake.
     pub hierarchical: Decision,
-    /// Leaves of the graded solver mesh (0 without interreflection).
+    /// Leaves of the graded solver mesh (0 when the hierarchical engine cannot be used: without
+    /// interreflection, in paper mode, or with the SH basis forced).
     pub leaves: usize,
     /// One sentence per refinement of the solver mesh; empty when the scene calls for none.
     pub refinement: Vec<String>,

@@ -9,7 +9,6 @@
 use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::photometry::LightState;
 use crate::scene::Light;
 use crate::transport::interreflection::Interreflection;
 use crate::transport::patchdirect::PatchDirectCache;
@@ -73,14 +72,13 @@ impl CurveResponse {
         light: &Light,
         tolerance: f64,
     ) -> Result<Self> {
-        let state = LightState::from(light);
         let n = engine.n_leaves();
-        let k = state.curve.len();
+        let k = light.curve.len();
         let mut direct = PatchColumns::zeros(n, k);
         let mut e = vec![0.0; n];
-        let aim = state.aim.normalize();
+        let aim = light.aim.normalize();
         for j in 0..k {
-            let mut unit = state.curve.clone();
+            let mut unit = light.curve.clone();
             for point in 0..k {
                 unit.set_intensity(point, if point == j { 1.0 } else { 0.0 })
                     .map_err(|e| Error::internal(format!("response: control point {point}: {e}")))?;
@@ -90,37 +88,39 @@ impl CurveResponse {
                 direct.values[p * k + j] = *v;
             }
         }
-        let solutions = engine.solve(&direct, None, tolerance)?;
+        let (irradiance, radiosity) = engine
+            .solve(&direct, None, tolerance)?
+            .into_iter()
+            .map(|s| (s.irradiance, s.radiosity))
+            .unzip();
         Ok(CurveResponse {
             position: light.position,
             radius_m: light.radius,
-            aim: state.aim,
-            gammas_deg: state.curve.gammas_deg().to_vec(),
+            aim: light.aim,
+            gammas_deg: light.curve.gammas_deg().to_vec(),
             direct,
-            irradiance: solutions.iter().map(|s| s.irradiance.clone()).collect(),
-            radiosity: solutions.into_iter().map(|s| s.radiosity).collect(),
+            irradiance,
+            radiosity,
         })
     }
 
     /// True when `light` stands where the response was solved, aimed the same way, with a
     /// curve of the same control-point angles: then [`Self::values`] is its solve.
     pub fn fits(&self, light: &Light) -> bool {
-        let state = LightState::from(light);
         light.position == self.position
             && light.radius == self.radius_m
-            && state.aim == self.aim
-            && state.curve.gammas_deg() == self.gammas_deg
+            && light.aim == self.aim
+            && light.curve.gammas_deg() == self.gammas_deg
     }
 
     /// The solved values of `light` (which [`Self::fits`]): the columns weighted by its
     /// intensities times its dimmer.
     pub(crate) fn values(&self, light: &Light) -> LightValues {
-        let state = LightState::from(light);
-        let weights: Vec<f64> = state
+        let weights: Vec<f64> = light
             .curve
             .intensities_cd()
             .iter()
-            .map(|i| i * state.dimmer)
+            .map(|i| i * light.dimmer)
             .collect();
         let combine = |block: &PatchColumns| -> Vec<f64> {
             block
