@@ -203,7 +203,7 @@ pub enum DirectMode {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum EngineChoice {
     /// The hierarchical engine unless the room is in paper mode or its graded mesh is above the
-    /// plan's leaf budget.
+    /// plan's leaf budget (`transport::plan::HIERARCHICAL_MAX_LEAVES`).
     #[default]
     Auto,
     /// The SH basis bake (the seed's engine), e.g. for side-by-side tables.

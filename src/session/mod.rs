@@ -265,7 +265,7 @@ impl Session {
                 planned.channels,
                 planned.visibility.on,
                 options.bake.tolerance.unwrap_or(scene.settings.tolerance),
-                &InterreflectionOptions::default(),
+                &InterreflectionOptions::for_leaves(planned.leaves),
             )?);
             progress(Progress {
                 stage: "interreflection engine",

@@ -30,7 +30,9 @@ use crate::transport::response::{CurveResponse, LightValues, MAX_RESPONSE_POINTS
 struct SolvedLight {
     position: DVec3,
     radius_m: f64,
-    cache: Arc<PatchDirectCache>,
+    /// Its direct sample cache; `None` once dropped to keep the lights' caches within
+    /// [`DIRECT_CACHE_BUDGET_BYTES`] (its next solve builds it again).
+    cache: Option<Arc<PatchDirectCache>>,
     /// Per solved channel, the leaf radiosity of the state last solved (for warm starts).
     radiosity: Vec<PatchColumns>,
     /// Leaf radiosity (lm/m², linear RGB, colour applied).
@@ -55,12 +57,21 @@ pub struct HierarchicalIndirect {
     interp: Arc<InterpolationWeights>,
     tolerance: f64,
     lights: Vec<SolvedLight>,
+    /// Most bytes the lights' direct caches may hold ([`DIRECT_CACHE_BUDGET_BYTES`]).
+    cache_budget: usize,
     /// Wall time (s) of the lights' direct caches and of their block solve at build.
     direct_caches_s: f64,
     solve_s: f64,
     /// Changes whenever any light's solved values do; unique across engines of a process.
     revision: u64,
 }
+
+/// Most bytes the lights' direct sample caches may hold together (docs/DECISIONS.md
+/// "Interreflection", "Direct caches within a budget"). A cache holds every visible quadrature
+/// sample of one light on every leaf (16 bytes each): a few MB in a small room, ~170 MB per light
+/// on a 100 000-leaf open-plan floor. Past the budget, the caches of the lights edited longest
+/// ago are dropped and rebuilt by their next solve.
+pub const DIRECT_CACHE_BUDGET_BYTES: usize = 256 << 20;
 
 /// The source of [`HierarchicalIndirect::revision`]s.
 static REVISIONS: AtomicU64 = AtomicU64::new(1);
@@ -191,23 +202,49 @@ impl HierarchicalIndirect {
         tolerance: f64,
         options: &InterreflectionOptions,
     ) -> Result<Self> {
+        Self::build_within(
+            scene,
+            lights,
+            channels,
+            visibility,
+            tolerance,
+            options,
+            DIRECT_CACHE_BUDGET_BYTES,
+        )
+    }
+
+    /// [`Self::build`] with the lights' direct caches held within `cache_budget` bytes.
+    pub(crate) fn build_within(
+        scene: &Scene,
+        lights: &[Light],
+        channels: usize,
+        visibility: bool,
+        tolerance: f64,
+        options: &InterreflectionOptions,
+        cache_budget: usize,
+    ) -> Result<Self> {
         let engine = Arc::new(Interreflection::build(scene, channels, visibility, options));
         let interp = Arc::new(InterpolationWeights::new(&engine.solver.mesh, &scene.fine));
-        let t = Instant::now();
-        let caches: Vec<Arc<PatchDirectCache>> =
-            lights.iter().map(|l| Arc::new(engine.direct_cache(l))).collect();
-        let direct_caches_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let n = engine.n_leaves();
         let k = lights.len();
         let mut emission = PatchColumns::zeros(n, k);
         let mut e = vec![0.0; n];
-        for (c, (light, cache)) in lights.iter().zip(&caches).enumerate() {
+        // One cache at a time: each gives its light's patch direct light and is kept while the
+        // caches kept so far stay within the budget.
+        let mut kept_bytes = 0;
+        let mut caches = Vec::with_capacity(k);
+        for (c, light) in lights.iter().enumerate() {
+            let cache = engine.direct_cache(light);
             cache.irradiance_into(&light.curve, light.aim.normalize(), light.dimmer, &mut e);
             for (p, v) in e.iter().enumerate() {
                 emission.values[p * k + c] = *v;
             }
+            kept_bytes += cache.bytes();
+            caches.push((kept_bytes <= cache_budget).then(|| Arc::new(cache)));
         }
+        let direct_caches_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
         let solutions = if k > 0 {
             engine.solve(&emission, None, tolerance)?
         } else {
@@ -218,6 +255,7 @@ impl HierarchicalIndirect {
             interp,
             tolerance,
             lights: Vec::with_capacity(k),
+            cache_budget,
             direct_caches_s,
             solve_s: t.elapsed().as_secs_f64(),
             revision: next_revision(),
@@ -309,7 +347,7 @@ impl HierarchicalIndirect {
                 .is_some_and(|(curve, aim, _)| *aim == light.aim && *curve != light.curve);
         Some(LightSolveJob {
             engine: Arc::clone(&self.engine),
-            cache: (!moved).then(|| Arc::clone(&old.cache)),
+            cache: if moved { None } else { old.cache.clone() },
             light: light.clone(),
             initial: old.radiosity.clone(),
             tolerance: self.tolerance,
@@ -326,13 +364,44 @@ impl HierarchicalIndirect {
         let light = &mut self.lights[i];
         light.position = solved.light.position;
         light.radius_m = solved.light.radius;
-        light.cache = solved.cache;
+        light.cache = Some(solved.cache);
         if solved.response.is_some() {
             light.response = solved.response;
         }
         store(light, solved.values, &solved.light);
         self.revision = next_revision();
+        self.trim_caches(i);
         true
+    }
+
+    /// Drops the direct caches of the lights solved longest ago (never light `keep`'s) until
+    /// the caches held are within the budget.
+    fn trim_caches(&mut self, keep: usize) {
+        let mut held: usize = self
+            .lights
+            .iter()
+            .filter_map(|l| l.cache.as_ref())
+            .map(|c| c.bytes())
+            .sum();
+        while held > self.cache_budget {
+            let Some(oldest) = self
+                .lights
+                .iter_mut()
+                .enumerate()
+                .filter(|(j, l)| *j != keep && l.cache.is_some())
+                .min_by_key(|(_, l)| l.revision)
+                .map(|(_, l)| l)
+            else {
+                return;
+            };
+            held -= oldest.cache.take().map_or(0, |c| c.bytes());
+        }
+    }
+
+    /// Whether light `i`'s direct sample cache is held (else its next solve builds it).
+    #[cfg(test)]
+    fn holds_direct_cache(&self, i: usize) -> bool {
+        self.lights[i].cache.is_some()
     }
 
     /// Adds `light` at index `at` (≤ [`Self::n_lights`]) without indirect light until the next
@@ -344,7 +413,7 @@ impl HierarchicalIndirect {
             SolvedLight {
                 position: light.position,
                 radius_m: light.radius,
-                cache: Arc::new(self.engine.direct_cache(light)),
+                cache: None,
                 radiosity: Vec::new(),
                 leaf_radiosity: vec![[0.0; 3]; n],
                 leaf_indirect: vec![vec![0.0; n]; self.engine.channels()],
@@ -518,7 +587,7 @@ impl HierarchicalIndirect {
         self.lights
             .iter()
             .map(|l| {
-                l.cache.bytes()
+                l.cache.as_ref().map_or(0, |c| c.bytes())
                     + l.response.as_ref().map_or(0, |r| r.bytes())
                     + 8 * (l.radiosity.iter().map(|r| r.values.len()).sum::<usize>()
                         + 3 * l.leaf_radiosity.len()
@@ -685,5 +754,54 @@ solver_patch_size = 0.5
         let fresh = build(&changed);
         let peak = fresh.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
         assert!(peak_difference(edited.light_radiosity(0), fresh.light_radiosity(0)) < 1e-5 * peak);
+    }
+
+    /// With a direct-cache budget smaller than one light's cache, the build keeps none, an edit
+    /// rebuilds the edited light's cache in its job and gives the same values as a fresh engine,
+    /// and the edit after that drops the cache of the light edited before (the budget holds).
+    #[test]
+    fn edits_rebuild_dropped_direct_caches_within_the_budget() {
+        let scene = room();
+        let full = build(&scene);
+        let one_cache = full.engine.direct_cache(&scene.lights[0]).bytes();
+        let mut tight = HierarchicalIndirect::build_within(
+            &scene,
+            &scene.lights,
+            1,
+            false,
+            1e-6,
+            &InterreflectionOptions::default(),
+            one_cache,
+        )
+        .expect("solves");
+        assert!(full.holds_direct_cache(0) && full.holds_direct_cache(1));
+        assert!(
+            tight.holds_direct_cache(0) && !tight.holds_direct_cache(1),
+            "the second cache is over the budget"
+        );
+        assert_eq!(
+            tight.light_radiosity(1),
+            full.light_radiosity(1),
+            "the build's values do not depend on the budget"
+        );
+
+        let mut changed = scene.clone();
+        changed.lights[1].aim = DVec3::new(0.4, 0.2, -1.0).normalize();
+        tight.set_light(1, &changed.lights[1]).expect("solves");
+        assert!(
+            tight.holds_direct_cache(1) && !tight.holds_direct_cache(0),
+            "the cache of the light edited before is dropped"
+        );
+        let fresh = build(&changed);
+        let peak = fresh.light_radiosity(1).iter().map(|b| b[0]).fold(0.0, f64::max);
+        assert!(peak > 0.0);
+        assert!(peak_difference(tight.light_radiosity(1), fresh.light_radiosity(1)) < 1e-5 * peak);
+
+        changed.lights[0].aim = DVec3::new(-0.3, 0.1, -1.0).normalize();
+        tight.set_light(0, &changed.lights[0]).expect("solves");
+        assert!(tight.holds_direct_cache(0) && !tight.holds_direct_cache(1));
+        let fresh = build(&changed);
+        let peak = fresh.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
+        assert!(peak_difference(tight.light_radiosity(0), fresh.light_radiosity(0)) < 1e-5 * peak);
     }
 }

@@ -41,14 +41,29 @@ pub struct LinkOptions {
     /// Link two nodes when the larger diameter is at most this many times their centroid
     /// distance. Default 0.1 (docs/ACCURACY.md "After": 0.5 leaves 7 % beside furniture).
     pub eta: f64,
+    /// Farther than `near_m` (m) the ratio grows with the distance, `eta × distance / near_m`,
+    /// up to `eta_far`, so that a leaf links to clusters beyond its neighbourhood instead of to
+    /// every leaf within `1/eta` of its size (docs/DECISIONS.md "Interreflection", "Relaxed
+    /// links"). Defaults 1 m and 0.1: no growth.
+    pub near_m: f64,
+    pub eta_far: f64,
     /// Refine a partially visible link whose larger form factor exceeds this. Default 0.002.
     pub visibility_refine: f64,
+}
+
+impl LinkOptions {
+    /// The admissibility ratio at centroid distance `dist` (m).
+    pub fn eta_at(&self, dist: f64) -> f64 {
+        (self.eta * dist / self.near_m).clamp(self.eta, self.eta_far.max(self.eta))
+    }
 }
 
 impl Default for LinkOptions {
     fn default() -> Self {
         LinkOptions {
             eta: 0.1,
+            near_m: 1.0,
+            eta_far: 0.1,
             visibility_refine: 0.002,
         }
     }
@@ -330,7 +345,8 @@ impl Context<'_> {
         // A cluster holding a possible hot spot is never linked as a whole: its mean radiosity
         // and area-sampled visibility would misplace the spot.
         let whole = |n: &Node| n.is_leaf() || !n.hot;
-        let admissible = nr.diameter.max(ns.diameter) <= self.options.eta * dist && whole(nr) && whole(ns);
+        let admissible =
+            nr.diameter.max(ns.diameter) <= self.options.eta_at(dist) * dist && whole(nr) && whole(ns);
         if admissible || both_leaves {
             let (g, grad_a, grad_b) = if admissible {
                 self.far(r, s)

@@ -9,6 +9,7 @@ use crate::error::printable;
 use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
 use crate::scene::{DirectMode, Scene};
 use crate::transport::formfactor::FormFactorOptions;
+use crate::transport::interreflection::{InterreflectionOptions, RELAXED_LINKS_ABOVE_LEAVES};
 use crate::transport::refine::{RefineOptions, refine};
 
 /// Target relative L2 error of a curve's SH series when the basis carries only indirect light
@@ -76,10 +77,12 @@ pub struct PlanOptions {
 
 pub use crate::scene::EngineChoice;
 
-/// Most leaves the automatic plan gives the hierarchical engine: its link build and per-edit
-/// solve grow with them (docs/DECISIONS.md "Interreflection", measured: 1 355 leaves build in
-/// 2 s and re-solve in 0.2 s, 11 184 leaves in 27 s and 4 s, debug build on a shared machine).
-pub const HIERARCHICAL_MAX_LEAVES: usize = 8000;
+/// Most leaves the automatic plan gives the hierarchical engine (docs/DECISIONS.md
+/// "Interreflection", "Relaxed links"): with links relaxed with distance above
+/// [`RELAXED_LINKS_ABOVE_LEAVES`] its operator grows about linearly with the leaves (the
+/// open-plan floor's 133 547 leaves: 16 M links, 0.56 GB, built and solved in about a minute);
+/// beyond this the SH basis bake is used.
+pub const HIERARCHICAL_MAX_LEAVES: usize = 250_000;
 
 /// The plan for a scene.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -244,11 +247,15 @@ fn engine_decision(choice: EngineChoice, interreflection: bool, paper: bool, lea
     } else {
         match choice {
             EngineChoice::Basis => (false, "forced to the SH basis bake".into()),
-            EngineChoice::Hierarchical => (true, format!("forced on: {leaves} leaves")),
+            EngineChoice::Hierarchical => (
+                true,
+                format!("forced on: {leaves} leaves{}", relaxed_links_note(leaves)),
+            ),
             EngineChoice::Auto if leaves <= HIERARCHICAL_MAX_LEAVES => (
                 true,
                 format!(
-                    "{leaves} leaves: exact patch direct light per edit, solved and gathered from the leaves"
+                    "{leaves} leaves: exact patch direct light per edit, solved and gathered from the leaves{}",
+                    relaxed_links_note(leaves)
                 ),
             ),
             EngineChoice::Auto => (
@@ -258,6 +265,20 @@ fn engine_decision(choice: EngineChoice, interreflection: bool, paper: bool, lea
         }
     };
     Decision { on, reason }
+}
+
+/// What the engine's options for `leaves` leaves ([`InterreflectionOptions::for_leaves`]) change
+/// of its links, as a clause of the engine decision (empty when nothing).
+fn relaxed_links_note(leaves: usize) -> String {
+    let links = InterreflectionOptions::for_leaves(leaves).links;
+    if links.eta_far > links.eta {
+        format!(
+            "; above {RELAXED_LINKS_ABOVE_LEAVES} leaves the links relax beyond {} m (admissible ratio {} growing to {})",
+            links.near_m, links.eta, links.eta_far
+        )
+    } else {
+        String::new()
+    }
 }
 
 /// The plan of one light of `scene` (its order — the room file's, or the lowest that meets the

@@ -421,10 +421,12 @@ pub fn engine_errors(name: &'static str, options: &InterreflectionOptions) -> Ro
     summarize(name, &refs, &lux)
 }
 
-/// What the interreflection engine reaches with its default options on each reference room
+/// What the interreflection engine reaches with the plan's options on each reference room
 /// (docs/ACCURACY.md "After"): (room, median bound, worst bound). Every median is within 0.5 %
 /// and every worst within 3.5 % except `spots`, whose worst point (the floor 2 cm from a box face
-/// in its shadow, next to a bright pool) is 5.6 % high: the 5 % is not reached there.
+/// in its shadow, next to a bright pool) is 5.6 % high (the 5 % is not reached there),
+/// and the office, whose 9 061 leaves are above the plan's threshold for relaxed links (3.04 % with
+/// the exact links, 3.89 % relaxed: docs/ACCURACY.md "Relaxed links").
 const ENGINE_BOUNDS: [(&str, f64, f64); 8] = [
     ("hotspot-box", 0.005, 0.035),
     ("lamp-near-box", 0.005, 0.030),
@@ -432,20 +434,25 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 8] = [
     ("spots", 0.005, 0.060),
     ("white-room", 0.005, 0.020),
     ("empty", 0.005, 0.015),
-    ("office", 0.005, 0.035),
+    ("office", 0.005, 0.040),
     ("hall", 0.005, 0.030),
 ];
+
+/// The engine's options for reference room `name` as the plan sets them
+/// ([`InterreflectionOptions::for_leaves`]).
+fn planned_options(name: &str) -> InterreflectionOptions {
+    InterreflectionOptions::for_leaves(plan(&room(name), PlanOptions::default()).leaves)
+}
 
 /// The engine's total illuminance (exact direct light plus the indirect light gathered from its
 /// graded, hierarchical solve) against the Monte-Carlo references of every room: medians and
 /// worst errors within the bounds of [`ENGINE_BOUNDS`].
 #[test]
 fn engine_meets_its_bounds_on_every_reference_room() {
-    let options = InterreflectionOptions::default();
     let mut failures = Vec::new();
     let mut rows = Vec::new();
     for (name, median, worst) in ENGINE_BOUNDS {
-        let e = engine_errors(name, &options);
+        let e = engine_errors(name, &planned_options(name));
         if e.median > median || e.worst > worst {
             failures.push(format!(
                 "{name}: median {:.2} % (bound {:.1} %), worst {:.2} % (bound {:.1} %)",
@@ -526,8 +533,10 @@ fn print_errors() {
 #[test]
 #[ignore = "a report, not a check: prints the engine's error table of every reference room"]
 fn print_engine_errors() {
-    let options = InterreflectionOptions::default();
-    let rows: Vec<RoomErrors> = ROOMS.iter().map(|&name| engine_errors(name, &options)).collect();
+    let rows: Vec<RoomErrors> = ROOMS
+        .iter()
+        .map(|&name| engine_errors(name, &planned_options(name)))
+        .collect();
     println!("{}", format_errors(&rows));
 }
 
@@ -546,6 +555,8 @@ fn engine_options_from_env() -> InterreflectionOptions {
             .unwrap_or_else(|_| panic!("HAIKO_ENGINE: {pair}"));
         match k.trim() {
             "eta" => o.links.eta = v,
+            "eta_far" => o.links.eta_far = v,
+            "near" => o.links.near_m = v,
             "visibility_refine" => o.links.visibility_refine = v,
             "lamp_ratio" => o.refine.lamp_ratio = v,
             "lamp_min" => o.refine.lamp_min_m = v,
