@@ -296,7 +296,10 @@ pub struct Operator {
     offsets: Vec<usize>,
     sources: Vec<u32>,
     coefficients: Vec<f32>,
-    /// Per entry, the in-plane gradient of the coefficient over the receiving node (1/m).
+    /// Per entry of a receiving cluster, the in-plane gradient of the coefficient over it (1/m):
+    /// entry `e` of cluster `r` at `gradients[gradient_start[r] + e − offsets[r]]`. A leaf has no
+    /// children to push a gradient to, so its entries (most of a large room's) keep none.
+    gradient_start: Vec<usize>,
     gradients: Vec<[f32; 2]>,
     /// Per node, its centroid's in-plane offset from its parent's centroid (m).
     offsets_to_parent: Vec<[f64; 2]>,
@@ -321,17 +324,29 @@ impl Operator {
             counts[i + 1] += counts[i];
         }
         let offsets = counts.clone();
+        let mut gradient_start = vec![0usize; n_nodes + 1];
+        for (r, node) in tree.nodes.iter().enumerate() {
+            let entries = if node.is_leaf() {
+                0
+            } else {
+                offsets[r + 1] - offsets[r]
+            };
+            gradient_start[r + 1] = gradient_start[r] + entries;
+        }
         let mut fill = counts;
         let mut sources = vec![0u32; 2 * links.len()];
         let mut coefficients = vec![0f32; 2 * links.len()];
-        let mut gradients = vec![[0f32; 2]; 2 * links.len()];
+        let mut gradients = vec![[0f32; 2]; gradient_start[n_nodes]];
         for l in links {
             for (r, s, grad) in [(l.a, l.b, l.grad_a), (l.b, l.a, l.grad_b)] {
-                let slot = fill[r as usize];
-                fill[r as usize] += 1;
+                let r = r as usize;
+                let slot = fill[r];
+                fill[r] += 1;
                 sources[slot] = s;
-                coefficients[slot] = (f64::from(l.g) / tree.nodes[r as usize].area) as f32;
-                gradients[slot] = grad;
+                coefficients[slot] = (f64::from(l.g) / tree.nodes[r].area) as f32;
+                if !tree.nodes[r].is_leaf() {
+                    gradients[gradient_start[r] + slot - offsets[r]] = grad;
+                }
             }
         }
         let offsets_to_parent = tree
@@ -352,6 +367,7 @@ impl Operator {
             offsets,
             sources,
             coefficients,
+            gradient_start,
             gradients,
             offsets_to_parent,
             n_links: links.len(),
@@ -376,7 +392,7 @@ impl Operator {
             + self.coefficients.len() * 4
             + self.gradients.len() * 8
             + self.offsets_to_parent.len() * 16
-            + self.offsets.len() * 8
+            + (self.offsets.len() + self.gradient_start.len()) * 8
             + self.tree.nodes.len() * std::mem::size_of::<Node>()
             + (self.row_scale.len() + self.col_scale.len()) * 8
     }
@@ -420,10 +436,22 @@ impl Operator {
             .with_min_len(512)
             .for_each(|(r, out)| {
                 let (value, grad) = out.split_at_mut(k);
-                for e in self.offsets[r]..self.offsets[r + 1] {
+                let entries = self.offsets[r]..self.offsets[r + 1];
+                if nodes[r].is_leaf() {
+                    for e in entries {
+                        let s = self.sources[e] as usize;
+                        let f = f64::from(self.coefficients[e]);
+                        for (v, &x) in value.iter_mut().zip(&b[s * k..(s + 1) * k]) {
+                            *v += f * x;
+                        }
+                    }
+                    return;
+                }
+                let gradients = &self.gradients[self.gradient_start[r]..self.gradient_start[r + 1]];
+                for (e, g) in entries.zip(gradients) {
                     let s = self.sources[e] as usize;
                     let f = f64::from(self.coefficients[e]);
-                    let [gu, gv] = self.gradients[e].map(f64::from);
+                    let [gu, gv] = g.map(f64::from);
                     for (c, &x) in b[s * k..(s + 1) * k].iter().enumerate() {
                         value[c] += f * x;
                         grad[2 * c] += gu * x;
@@ -549,8 +577,17 @@ impl Operator {
             .map(|run| {
                 let mut back = vec![0.0; nodes.len()];
                 for r in run * per_run..((run + 1) * per_run).min(nodes.len()) {
-                    for e in self.offsets[r]..self.offsets[r + 1] {
-                        let [gu, gv] = self.gradients[e].map(f64::from);
+                    let entries = self.offsets[r]..self.offsets[r + 1];
+                    if nodes[r].is_leaf() {
+                        // A leaf's moment about itself is zero.
+                        for e in entries {
+                            back[self.sources[e] as usize] += f64::from(self.coefficients[e]) * sum[r];
+                        }
+                        continue;
+                    }
+                    let gradients = &self.gradients[self.gradient_start[r]..self.gradient_start[r + 1]];
+                    for (e, g) in entries.zip(gradients) {
+                        let [gu, gv] = g.map(f64::from);
                         back[self.sources[e] as usize] +=
                             f64::from(self.coefficients[e]) * sum[r] + gu * moment[r][0] + gv * moment[r][1];
                     }

@@ -174,7 +174,7 @@ impl LightSolveJob {
         let emission = PatchColumns {
             n_patches: direct.len(),
             n_columns: 1,
-            values: direct.clone(),
+            values: direct,
         };
         let initial = Some(self.initial.as_slice()).filter(|x| x.len() == self.engine.channels());
         let solutions = self.engine.solve(&emission, initial, self.tolerance)?;
@@ -182,7 +182,7 @@ impl LightSolveJob {
             engine: self.engine,
             cache,
             light: self.light,
-            values: LightValues::of_column(&solutions, 0, direct),
+            values: LightValues::of_column(&solutions, 0, &emission.values),
             response: None,
         })
     }
@@ -273,7 +273,7 @@ impl HierarchicalIndirect {
                 response: None,
                 revision: 0,
             };
-            store(&mut solved, LightValues::of_column(&solutions, c, direct), light);
+            store(&mut solved, LightValues::of_column(&solutions, c, &direct), light);
             indirect.lights.push(solved);
         }
         Ok(indirect)
@@ -600,11 +600,7 @@ impl HierarchicalIndirect {
 /// Keeps what a light's solve for `light` gives: the radiosity for warm starts, the coloured
 /// leaf radiosity, the leaf indirect irradiance `H − E` per channel.
 fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
-    solved.leaf_indirect = values
-        .irradiance
-        .iter()
-        .map(|h| h.iter().zip(&values.direct).map(|(h, e)| h - e).collect())
-        .collect();
+    solved.leaf_indirect = values.indirect;
     solved.radiosity = values.radiosity;
     solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
     solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));

@@ -111,20 +111,23 @@ impl InterpolationWeights {
         let k = n_columns;
         let n_nodes = self.nodal_offsets.len().saturating_sub(1);
         let mut nodal = vec![0.0; n_nodes * k];
-        for v in 0..n_nodes {
-            let out = &mut nodal[v * k..(v + 1) * k];
-            for &(patch, w) in &self.nodal_terms[self.nodal_offsets[v]..self.nodal_offsets[v + 1]] {
-                let values = &patch_values[patch as usize * k..(patch as usize + 1) * k];
-                for (o, &x) in out.iter_mut().zip(values) {
-                    *o += w * x;
+        // Each vertex is independent: parallel in chunks large enough that a 10k-vertex room
+        // stays on the calling thread (no pool wake-up on every edit).
+        nodal
+            .par_chunks_mut(k.max(1))
+            .with_min_len(VERTICES_PER_TASK)
+            .enumerate()
+            .for_each(|(v, out)| {
+                for &(patch, w) in &self.nodal_terms[self.nodal_offsets[v]..self.nodal_offsets[v + 1]] {
+                    let values = &patch_values[patch as usize * k..(patch as usize + 1) * k];
+                    for (o, &x) in out.iter_mut().zip(values) {
+                        *o += w * x;
+                    }
                 }
-            }
-        }
+            });
         let mut fine = vec![0.0; self.fine_terms.len() * k];
-        // Each fine vertex is independent: parallel in chunks large enough that a 10k-vertex
-        // room stays on the calling thread (no pool wake-up on every edit).
         fine.par_chunks_mut(k.max(1))
-            .with_min_len(16_384)
+            .with_min_len(VERTICES_PER_TASK)
             .enumerate()
             .for_each(|(v, out)| {
                 for &(node, w) in self.fine_vertex_terms(v) {
@@ -139,6 +142,9 @@ impl InterpolationWeights {
         fine
     }
 }
+
+/// Vertices per rayon task when interpolating.
+const VERTICES_PER_TASK: usize = 16_384;
 
 /// Coarse patch values → fine vertex values (one column); see the module docs.
 pub fn interpolate(coarse: &PatchMesh, fine: &PatchMesh, values: &[f64]) -> Vec<f64> {

@@ -149,10 +149,13 @@ impl Interreflection {
         let t = Instant::now();
         let tree = Tree::build(&solver.mesh, &solver.near_lamp);
         let geometry = NodeGeometry::new(&solver.mesh, &tree);
-        let made = links::build(&tree, &geometry, occluders.as_ref(), options.links);
+        let links::Links { links, rays, near } =
+            links::build(&tree, &geometry, occluders.as_ref(), options.links);
         let links_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let mut operator = Operator::new(tree, &made.links);
+        let mut operator = Operator::new(tree, &links);
+        drop(links); // the operator holds them by receiver now
+
         // Every point of a closed room sees surfaces in every direction: rows sum to 1. Open
         // OBJ surfaces may let a point see nothing (their back), so there the rows keep their sums.
         let closed = !scene
@@ -176,8 +179,8 @@ impl Interreflection {
             leaves: solver.mesh.patches.len(),
             nodes: operator.tree.nodes.len(),
             links: operator.n_links(),
-            near_links: made.near,
-            rays: made.rays,
+            near_links: near,
+            rays,
             operator_bytes: operator.bytes(),
             geometry_bytes: geometry.bytes(),
             row_defect,

@@ -7,6 +7,7 @@
 //! solve of the edited curve, to the solver's tolerance, without one.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::scene::Light;
@@ -24,24 +25,58 @@ pub const MAX_RESPONSE_POINTS: usize = 48;
 pub(crate) struct LightValues {
     /// Per solved channel, the leaf radiosity (lm/m², one column).
     pub(crate) radiosity: Vec<PatchColumns>,
-    /// Per solved channel, the total leaf irradiance `H = E + F·B` (lx).
-    pub(crate) irradiance: Vec<Vec<f64>>,
-    /// The exact direct irradiance per leaf `E` (lx).
-    pub(crate) direct: Vec<f64>,
+    /// Per solved channel, the leaf indirect irradiance `H − E = F·B` (lx).
+    pub(crate) indirect: Vec<Vec<f64>>,
 }
 
 impl LightValues {
     /// Column `c` of a block solve (per channel) whose emission column `c` was `direct`.
-    pub(crate) fn of_column(solutions: &[Solution], c: usize, direct: Vec<f64>) -> Self {
+    pub(crate) fn of_column(solutions: &[Solution], c: usize, direct: &[f64]) -> Self {
         let n = direct.len();
         LightValues {
             radiosity: solutions
                 .iter()
                 .map(|s| PatchColumns::from_columns(n, &[s.radiosity.column(c)]))
                 .collect(),
-            irradiance: solutions.iter().map(|s| s.irradiance.column(c)).collect(),
-            direct,
+            indirect: solutions
+                .iter()
+                .map(|s| (0..n).map(|p| s.irradiance.get(p, c) - direct[p]).collect())
+                .collect(),
         }
+    }
+}
+
+/// Leaves × control points in f32 (a response's values are to the solver's relative tolerance,
+/// ≥ 10⁻⁶, so f32's 6·10⁻⁸ loses nothing and halves what an edit reads), row-major.
+#[derive(Debug, Clone)]
+struct ResponseBlock {
+    n_columns: usize,
+    values: Vec<f32>,
+}
+
+/// Leaves per rayon task when combining a response's columns.
+const LEAVES_PER_TASK: usize = 4096;
+
+impl ResponseBlock {
+    fn new(n_columns: usize, values: impl Iterator<Item = f64>) -> Self {
+        ResponseBlock {
+            n_columns,
+            values: values.map(|v| v as f32).collect(),
+        }
+    }
+
+    /// `Σ_j weights[j] · column_j`, per leaf (in parallel over leaves).
+    fn combine(&self, weights: &[f64]) -> Vec<f64> {
+        let k = self.n_columns;
+        let mut out = vec![0.0; self.values.len() / k];
+        out.par_chunks_mut(LEAVES_PER_TASK)
+            .zip(self.values.par_chunks(LEAVES_PER_TASK * k))
+            .for_each(|(out, rows)| {
+                for (o, row) in out.iter_mut().zip(rows.chunks_exact(k)) {
+                    *o = row.iter().zip(weights).map(|(&v, w)| f64::from(v) * w).sum();
+                }
+            });
+        out
     }
 }
 
@@ -53,12 +88,11 @@ pub struct CurveResponse {
     radius_m: f64,
     aim: DVec3,
     gammas_deg: Vec<f64>,
-    /// Leaves × control points: direct irradiance (lx per cd, dimmer 1).
-    direct: PatchColumns,
-    /// Per solved channel, leaves × control points: total irradiance (lx per cd).
-    irradiance: Vec<PatchColumns>,
+    /// Per solved channel, leaves × control points: indirect irradiance `F·B` (lx per cd,
+    /// dimmer 1).
+    indirect: Vec<ResponseBlock>,
     /// Per solved channel, leaves × control points: radiosity (lm/m² per cd).
-    radiosity: Vec<PatchColumns>,
+    radiosity: Vec<ResponseBlock>,
 }
 
 impl CurveResponse {
@@ -88,18 +122,23 @@ impl CurveResponse {
                 direct.values[p * k + j] = *v;
             }
         }
-        let (irradiance, radiosity) = engine
+        let (indirect, radiosity) = engine
             .solve(&direct, None, tolerance)?
             .into_iter()
-            .map(|s| (s.irradiance, s.radiosity))
+            .map(|s| {
+                let indirect = s.irradiance.values.iter().zip(&direct.values).map(|(h, e)| h - e);
+                (
+                    ResponseBlock::new(k, indirect),
+                    ResponseBlock::new(k, s.radiosity.values.into_iter()),
+                )
+            })
             .unzip();
         Ok(CurveResponse {
             position: light.position,
             radius_m: light.radius,
             aim: light.aim,
             gammas_deg: light.curve.gammas_deg().to_vec(),
-            direct,
-            irradiance,
+            indirect,
             radiosity,
         })
     }
@@ -122,32 +161,31 @@ impl CurveResponse {
             .iter()
             .map(|i| i * light.dimmer)
             .collect();
-        let combine = |block: &PatchColumns| -> Vec<f64> {
-            block
-                .values
-                .chunks_exact(block.n_columns)
-                .map(|row| row.iter().zip(&weights).map(|(v, w)| v * w).sum())
-                .collect()
-        };
-        let n = self.direct.n_patches;
         LightValues {
             radiosity: self
                 .radiosity
                 .iter()
-                .map(|b| PatchColumns {
-                    n_patches: n,
-                    n_columns: 1,
-                    values: combine(b),
+                .map(|b| {
+                    let values = b.combine(&weights);
+                    PatchColumns {
+                        n_patches: values.len(),
+                        n_columns: 1,
+                        values,
+                    }
                 })
                 .collect(),
-            irradiance: self.irradiance.iter().map(combine).collect(),
-            direct: combine(&self.direct),
+            indirect: self.indirect.iter().map(|b| b.combine(&weights)).collect(),
         }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        let blocks = 1 + self.irradiance.len() + self.radiosity.len();
-        8 * (blocks * self.direct.values.len() + self.gammas_deg.len())
+        let values: usize = self
+            .indirect
+            .iter()
+            .chain(&self.radiosity)
+            .map(|b| b.values.len())
+            .sum();
+        4 * values + 8 * self.gammas_deg.len()
     }
 }
