@@ -312,11 +312,13 @@ pub struct Operator {
 }
 
 impl Operator {
-    /// The operator of `tree` with these links.
-    pub fn new(tree: Tree, links: &[Link]) -> Self {
+    /// The operator of `tree` with these links (in runs).
+    pub fn new(tree: Tree, runs: &[Vec<Link>]) -> Self {
+        let links = || runs.iter().flatten();
+        let n_links = links().count();
         let n_nodes = tree.nodes.len();
         let mut counts = vec![0usize; n_nodes + 1];
-        for l in links {
+        for l in links() {
             counts[l.a as usize + 1] += 1;
             counts[l.b as usize + 1] += 1;
         }
@@ -334,10 +336,10 @@ impl Operator {
             gradient_start[r + 1] = gradient_start[r] + entries;
         }
         let mut fill = counts;
-        let mut sources = vec![0u32; 2 * links.len()];
-        let mut coefficients = vec![0f32; 2 * links.len()];
+        let mut sources = vec![0u32; 2 * n_links];
+        let mut coefficients = vec![0f32; 2 * n_links];
         let mut gradients = vec![[0f32; 2]; gradient_start[n_nodes]];
-        for l in links {
+        for l in links() {
             for (r, s, grad) in [(l.a, l.b, l.grad_a), (l.b, l.a, l.grad_b)] {
                 let r = r as usize;
                 let slot = fill[r];
@@ -370,7 +372,7 @@ impl Operator {
             gradient_start,
             gradients,
             offsets_to_parent,
-            n_links: links.len(),
+            n_links,
             row_scale: vec![1.0; n],
             col_scale: vec![1.0; n],
         }

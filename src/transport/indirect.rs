@@ -231,17 +231,23 @@ impl HierarchicalIndirect {
         let mut emission = PatchColumns::zeros(n, k);
         let mut e = vec![0.0; n];
         // One cache at a time: each gives its light's patch direct light and is kept while the
-        // caches kept so far stay within the budget.
+        // caches kept so far stay within the budget; once one does not, the later lights' direct
+        // light is summed without keeping their samples (the same values).
         let mut kept_bytes = 0;
         let mut caches = Vec::with_capacity(k);
         for (c, light) in lights.iter().enumerate() {
-            let cache = engine.direct_cache(light);
-            cache.irradiance_into(&light.curve, light.aim.normalize(), light.dimmer, &mut e);
+            if kept_bytes <= cache_budget {
+                let cache = engine.direct_cache(light);
+                cache.irradiance_into(&light.curve, light.aim.normalize(), light.dimmer, &mut e);
+                kept_bytes += cache.bytes();
+                caches.push((kept_bytes <= cache_budget).then(|| Arc::new(cache)));
+            } else {
+                e = engine.stream_direct(light);
+                caches.push(None);
+            }
             for (p, v) in e.iter().enumerate() {
                 emission.values[p * k + c] = *v;
             }
-            kept_bytes += cache.bytes();
-            caches.push((kept_bytes <= cache_budget).then(|| Arc::new(cache)));
         }
         let direct_caches_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
@@ -752,7 +758,7 @@ solver_patch_size = 0.5
         assert!(peak_difference(edited.light_radiosity(0), fresh.light_radiosity(0)) < 1e-5 * peak);
     }
 
-    /// With a direct-cache budget smaller than one light's cache, the build keeps none, an edit
+    /// With a direct-cache budget smaller than two lights' caches, the build keeps one, an edit
     /// rebuilds the edited light's cache in its job and gives the same values as a fresh engine,
     /// and the edit after that drops the cache of the light edited before (the budget holds).
     #[test]
@@ -771,6 +777,22 @@ solver_patch_size = 0.5
         )
         .expect("solves");
         assert!(full.holds_direct_cache(0) && full.holds_direct_cache(1));
+        // No budget: the second light's direct light is summed without a cache, to the same
+        // values.
+        let none = HierarchicalIndirect::build_within(
+            &scene,
+            &scene.lights,
+            1,
+            false,
+            1e-6,
+            &InterreflectionOptions::default(),
+            0,
+        )
+        .expect("solves");
+        assert!(!none.holds_direct_cache(0) && !none.holds_direct_cache(1));
+        for i in 0..2 {
+            assert_eq!(none.light_radiosity(i), full.light_radiosity(i), "light {i}");
+        }
         assert!(
             tight.holds_direct_cache(0) && !tight.holds_direct_cache(1),
             "the second cache is over the budget"

@@ -227,6 +227,21 @@ impl Interreflection {
         )
     }
 
+    /// The leaf direct irradiance (lx) of `light` at its current curve, aim and dimmer: what its
+    /// [`Self::direct_cache`] gives, without keeping the samples.
+    pub fn stream_direct(&self, light: &Light) -> Vec<f64> {
+        PatchDirectCache::stream_irradiance(
+            &self.solver.mesh,
+            light.position,
+            light.radius,
+            self.options.direct_split,
+            self.occluders.as_ref().map(|o| o as &dyn Visibility),
+            &light.curve,
+            light.aim.normalize(),
+            light.dimmer,
+        )
+    }
+
     /// Solves every channel for the leaf direct irradiance `emission` (lx, `K` columns), from
     /// `initial` radiosity per channel when given (a warm start), to the certified relative
     /// `tolerance`.

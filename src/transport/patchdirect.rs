@@ -13,7 +13,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::photometry::Curve;
-use crate::scene::PatchMesh;
+use crate::scene::{Patch, PatchMesh};
 use crate::transport::direct::polygon_quadrature_split;
 use crate::transport::visibility::Visibility;
 
@@ -49,27 +49,11 @@ impl PatchDirectCache {
             .patches
             .par_iter()
             .map(|patch| {
-                let polygon: Vec<DVec3> = patch
-                    .vertex_ids()
-                    .iter()
-                    .map(|&v| mesh.positions[v as usize])
-                    .collect();
                 let (mut dirs, mut weights) = (Vec::new(), Vec::new());
-                let inv_area = 1.0 / patch.area;
-                polygon_quadrature_split(
-                    position,
-                    radius_m,
-                    &polygon,
-                    patch.normal,
-                    split,
-                    |dir, w, point| {
-                        if occluders.is_some_and(|v| !v.visible(position, point)) {
-                            return;
-                        }
-                        dirs.push(dir.as_vec3());
-                        weights.push((w * inv_area) as f32);
-                    },
-                );
+                patch_samples(mesh, patch, position, radius_m, split, occluders, |dir, w| {
+                    dirs.push(dir);
+                    weights.push(w);
+                });
                 (dirs, weights)
             })
             .collect();
@@ -87,6 +71,36 @@ impl PatchDirectCache {
             dirs,
             weights,
         }
+    }
+
+    /// The patch-averaged direct irradiance (lx) of every patch of `mesh` for `curve` (cd)
+    /// aimed along the unit vector `aim`, times `scale`, from the samples a cache built with the
+    /// same arguments would hold, without holding them: the same values as [`Self::build`] then
+    /// [`Self::irradiance_into`] (the same f32 samples summed in the same order), in constant
+    /// memory.
+    #[allow(clippy::too_many_arguments)]
+    pub fn stream_irradiance(
+        mesh: &PatchMesh,
+        position: DVec3,
+        radius_m: f64,
+        split: f64,
+        occluders: Option<&dyn Visibility>,
+        curve: &Curve,
+        aim: DVec3,
+        scale: f64,
+    ) -> Vec<f64> {
+        let aim = aim.as_vec3();
+        mesh.patches
+            .par_iter()
+            .with_min_len(MIN_PATCHES_PER_TASK)
+            .map(|patch| {
+                let mut sum = 0.0;
+                patch_samples(mesh, patch, position, radius_m, split, occluders, |dir, w| {
+                    sum += f64::from(w) * curve_intensity(curve, aim, dir);
+                });
+                scale * sum
+            })
+            .collect()
     }
 
     /// Number of patches.
@@ -108,11 +122,7 @@ impl PatchDirectCache {
     /// along the unit vector `aim`, times `scale`.
     pub fn irradiance_into(&self, curve: &Curve, aim: DVec3, scale: f64, out: &mut [f64]) {
         let aim = aim.as_vec3();
-        self.irradiance_with(
-            |dir| curve.eval_rad(f64::from(aim.dot(dir).clamp(-1.0, 1.0)).acos()),
-            scale,
-            out,
-        );
+        self.irradiance_with(|dir| curve_intensity(curve, aim, dir), scale, out);
     }
 
     /// Like [`Self::irradiance_into`] for any intensity `I(dir)` (cd) of the unit direction from
@@ -132,6 +142,45 @@ impl PatchDirectCache {
                 *o = scale * sum;
             });
     }
+}
+
+/// `curve`'s intensity (cd) along the unit direction `dir` for the unit `aim`.
+fn curve_intensity(curve: &Curve, aim: Vec3, dir: Vec3) -> f64 {
+    curve.eval_rad(f64::from(aim.dot(dir).clamp(-1.0, 1.0)).acos())
+}
+
+/// Visits the visible quadrature samples of `patch` (of `mesh`) seen from a light at
+/// `position` with luminous radius `radius_m`, pieces below `split ×` their distance: the unit
+/// direction light → sample and the weight (solid angle × softening / patch area, sr/m²), as
+/// the cache stores them.
+fn patch_samples(
+    mesh: &PatchMesh,
+    patch: &Patch,
+    position: DVec3,
+    radius_m: f64,
+    split: f64,
+    occluders: Option<&dyn Visibility>,
+    mut sample: impl FnMut(Vec3, f32),
+) {
+    let polygon: Vec<DVec3> = patch
+        .vertex_ids()
+        .iter()
+        .map(|&v| mesh.positions[v as usize])
+        .collect();
+    let inv_area = 1.0 / patch.area;
+    polygon_quadrature_split(
+        position,
+        radius_m,
+        &polygon,
+        patch.normal,
+        split,
+        |dir, w, point| {
+            if occluders.is_some_and(|v| !v.visible(position, point)) {
+                return;
+            }
+            sample(dir.as_vec3(), (w * inv_area) as f32);
+        },
+    );
 }
 
 #[cfg(test)]

@@ -209,12 +209,6 @@ pub fn solve_from<T: Transfer + ?Sized>(
             "interreflection: ρ·(form-factor row sum) reaches {contraction:.4} ≥ 1, the solve cannot be certified"
         )));
     }
-    let mut columns: Vec<ColumnGmres> = (0..k)
-        .map(|c| {
-            let rhs: Vec<f64> = (0..n).map(|i| reflectance[i] * emission.get(i, c)).collect();
-            ColumnGmres::new(rhs, initial.map(|x0| x0.column(c)))
-        })
-        .collect();
     let params = Params {
         reflectance,
         threshold: options.tolerance * (1.0 - contraction),
@@ -222,6 +216,59 @@ pub fn solve_from<T: Transfer + ?Sized>(
         restart: options.restart.max(1),
         max_iterations: options.max_iterations,
     };
+    // Columns advance in lock-step within groups whose Krylov bases fit the memory budget (one
+    // group in any room up to ~10⁴ patches; the 48 lights of a 133 547-leaf floor in four).
+    let per_column = n * 8 * (params.restart + 4);
+    let group = (SOLVE_BUDGET_BYTES / per_column.max(1)).clamp(1, k.max(1));
+    let mut radiosity = PatchColumns::zeros(n, k);
+    let mut irradiance = emission.clone();
+    let mut reports = Vec::with_capacity(k);
+    for first in (0..k).step_by(group) {
+        let columns = solve_group(
+            form_factors,
+            emission,
+            initial,
+            first..(first + group).min(k),
+            &params,
+        );
+        for (c, column) in (first..).zip(&columns) {
+            for (i, &b) in column.x.iter().enumerate() {
+                radiosity.values[i * k + c] = b;
+            }
+            reports.push(column.report);
+        }
+        add_indirect(form_factors, &columns, first, &mut irradiance);
+    }
+    Ok(Solution {
+        irradiance,
+        radiosity,
+        columns: reports,
+        contraction,
+        max_row_sum,
+    })
+}
+
+/// Most bytes the GMRES state of the columns solved together may take.
+const SOLVE_BUDGET_BYTES: usize = 512 << 20;
+
+/// Runs GMRES for the emission columns `range` in lock-step (one block product with `F` per
+/// step) until each is done.
+fn solve_group<T: Transfer + ?Sized>(
+    form_factors: &T,
+    emission: &PatchColumns,
+    initial: Option<&PatchColumns>,
+    range: std::ops::Range<usize>,
+    params: &Params,
+) -> Vec<ColumnGmres> {
+    let n = emission.n_patches;
+    let mut columns: Vec<ColumnGmres> = range
+        .map(|c| {
+            let rhs: Vec<f64> = (0..n)
+                .map(|i| params.reflectance[i] * emission.get(i, c))
+                .collect();
+            ColumnGmres::new(rhs, initial.map(|x0| x0.column(c)))
+        })
+        .collect();
     loop {
         let mut active: Vec<&mut ColumnGmres> = columns.iter_mut().filter(|c| !c.is_done()).collect();
         if active.is_empty() {
@@ -237,23 +284,10 @@ pub fn solve_from<T: Transfer + ?Sized>(
         let product = form_factors.apply_block(&block, width);
         active.par_iter_mut().enumerate().for_each(|(a, column)| {
             let f_times_v: Vec<f64> = (0..n).map(|i| product[i * width + a]).collect();
-            column.absorb(&f_times_v, &params);
+            column.absorb(&f_times_v, params);
         });
     }
-    let mut radiosity = PatchColumns::zeros(n, k);
-    for (c, column) in columns.iter().enumerate() {
-        for (i, &b) in column.x.iter().enumerate() {
-            radiosity.values[i * k + c] = b;
-        }
-    }
-    let irradiance = irradiance_from_radiosity(form_factors, emission, &radiosity, &columns);
-    Ok(Solution {
-        irradiance,
-        radiosity,
-        columns: columns.iter().map(|c| c.report).collect(),
-        contraction,
-        max_row_sum,
-    })
+    columns
 }
 
 fn check_inputs(n: usize, reflectance: &[f64], emission: &PatchColumns) -> Result<()> {
@@ -282,28 +316,31 @@ fn check_inputs(n: usize, reflectance: &[f64], emission: &PatchColumns) -> Resul
     Ok(())
 }
 
-/// `H = E + F·B`; columns whose radiosity is identically zero copy `E` bitwise.
-fn irradiance_from_radiosity<T: Transfer + ?Sized>(
+/// Adds `F·B` of the solved `columns` (columns `first..` of `irradiance`, which holds `E`) to
+/// `irradiance`: `H = E + F·B`. A column whose radiosity is zero keeps `H = E` bitwise.
+fn add_indirect<T: Transfer + ?Sized>(
     form_factors: &T,
-    emission: &PatchColumns,
-    radiosity: &PatchColumns,
     columns: &[ColumnGmres],
-) -> PatchColumns {
-    let (n, k) = (emission.n_patches, emission.n_columns);
-    let mut irradiance = emission.clone();
-    if columns.iter().all(|c| c.x.iter().all(|&b| b == 0.0)) {
-        return irradiance;
+    first: usize,
+    irradiance: &mut PatchColumns,
+) {
+    let (n, k, width) = (irradiance.n_patches, irradiance.n_columns, columns.len());
+    let nonzero: Vec<bool> = columns.iter().map(|c| c.x.iter().any(|&b| b != 0.0)).collect();
+    if !nonzero.contains(&true) {
+        return;
     }
-    let indirect = form_factors.apply_block(&radiosity.values, k);
-    for (c, column) in columns.iter().enumerate() {
-        if column.x.iter().all(|&b| b == 0.0) {
-            continue;
+    let mut block = vec![0.0; n * width];
+    for (a, column) in columns.iter().enumerate() {
+        for (i, &b) in column.x.iter().enumerate() {
+            block[i * width + a] = b;
         }
+    }
+    let indirect = form_factors.apply_block(&block, width);
+    for (a, _) in nonzero.iter().enumerate().filter(|(_, nonzero)| **nonzero) {
         for i in 0..n {
-            irradiance.values[i * k + c] += indirect[i * k + c];
+            irradiance.values[i * k + first + a] += indirect[i * width + a];
         }
     }
-    irradiance
 }
 
 /// Rows of `F` (receivers) handled together, so each row of the block is loaded once per tile.
