@@ -34,8 +34,11 @@ use crate::scene::{DirectMode, Scene, SurfaceKind};
 use crate::transport::bake::{Bake, BakeOptions, bake, patch_reflectance};
 use crate::transport::direct::{Receiver, illuminance_at, luminance_weight};
 use crate::transport::gather::illuminance_at_receivers;
+use crate::transport::indirect::{HierarchicalIndirect, IndirectStats};
+use crate::transport::interreflection::{InterreflectionOptions, RELAXED_ETA_FAR, RELAXED_NEAR_M};
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{PlanOptions, plan};
+use crate::transport::refine::RefineOptions;
 use crate::transport::visibility::Visibility;
 
 pub mod lid;
@@ -235,6 +238,24 @@ pub struct DirectRow {
     pub direct: FieldErrors,
 }
 
+/// Table 7: one setting of the hierarchical engine's knobs (docs/DECISIONS.md
+/// "Interreflection").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EngineRow {
+    /// What differs from the engine's defaults.
+    pub variant: String,
+    /// Solver leaves and symmetric links.
+    pub leaves: usize,
+    pub links: usize,
+    /// The engine's build (refinement, links, balancing), ms.
+    pub build_ms: f64,
+    /// Every light's leaf direct light and the block solve, ms.
+    pub solve_ms: f64,
+    /// Exact direct light plus the engine's indirect light (gathered on the work plane,
+    /// interpolated at the fine vertices) against the reference's.
+    pub errors: FieldErrors,
+}
+
 /// A pair of dimensionless errors: on the work plane and on the fine vertices.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct GridVertices {
@@ -288,6 +309,8 @@ pub struct AccuracyReport {
     pub quadrature: Vec<QuadratureRow>,
     /// Table 6.
     pub direct: Vec<DirectRow>,
+    /// Table 7 (empty when the room reflects no light).
+    pub engine: Vec<EngineRow>,
 }
 
 /// Illuminance of one run (lx) on the work plane and on the fine vertices.
@@ -358,6 +381,9 @@ pub fn accuracy(
         "direct light",
         "the exact curve evaluated per point",
     ));
+    progress("hierarchical engine table");
+    let (engine, reference) = engine_table(&base, &grid)?;
+    references.push(reference);
     Ok(AccuracyReport {
         room: scene.name.clone(),
         fine_vertices: base.fine.n_vertices(),
@@ -371,6 +397,7 @@ pub fn accuracy(
         tolerance,
         quadrature,
         direct,
+        engine,
     })
 }
 
@@ -705,6 +732,130 @@ fn tolerance_table(
         format!("solver tolerance {check_tolerance:.0e}"),
         difference,
         smallest,
+    );
+    Ok((rows, reference))
+}
+
+/// The solver tolerance of every engine run of table 7 (so that the rows differ by their knobs).
+const ENGINE_TOLERANCE: f64 = 1e-6;
+
+/// The engine's knobs varied one at a time in table 7, from its defaults.
+fn engine_variants() -> Vec<(&'static str, InterreflectionOptions)> {
+    let with = |change: &dyn Fn(&mut InterreflectionOptions)| {
+        let mut o = InterreflectionOptions::default();
+        change(&mut o);
+        o
+    };
+    vec![
+        ("defaults (links 0.1)", InterreflectionOptions::default()),
+        (
+            "links relaxed: 0.1, up to 0.3 beyond 0.5 m",
+            with(&|o| {
+                o.links.near_m = RELAXED_NEAR_M;
+                o.links.eta_far = RELAXED_ETA_FAR;
+            }),
+        ),
+        ("links 0.2", with(&|o| o.links.eta = 0.2)),
+        (
+            "grading ratios 1 (lamps, contacts)",
+            with(&|o| {
+                o.refine.lamp_ratio = 1.0;
+                o.refine.contact_ratio = 1.0;
+            }),
+        ),
+        ("no refinement", with(&|o| o.refine = RefineOptions::none())),
+        (
+            "direct pieces 1/8 of distance",
+            with(&|o| o.direct_split = 1.0 / 8.0),
+        ),
+        (
+            "gather clusters at 0.5 of distance",
+            with(&|o| o.gather_eta = 0.5),
+        ),
+    ]
+}
+
+/// The engine finer than its defaults in every knob of table 7, by `factor` (< 1).
+fn finer_engine(factor: f64) -> InterreflectionOptions {
+    let mut o = InterreflectionOptions::default();
+    o.links.eta *= factor;
+    o.refine.lamp_ratio *= factor;
+    o.refine.contact_ratio *= factor;
+    o.direct_split *= factor;
+    o.gather_eta *= factor;
+    o
+}
+
+/// One engine run of table 7: the engine with `options`, every light solved; its fields and its
+/// sizes and times. `direct` holds the exact direct light on the work plane and at the fine
+/// vertices.
+fn engine_run(
+    base: &Scene,
+    options: &InterreflectionOptions,
+    grid: &[Receiver],
+    direct: &Fields,
+) -> Result<(Fields, IndirectStats)> {
+    let p = plan(base, PlanOptions::default());
+    let engine = HierarchicalIndirect::build(
+        base,
+        &base.lights,
+        p.channels,
+        p.visibility.on,
+        ENGINE_TOLERANCE,
+        options,
+    )?;
+    let stats = engine.stats();
+    let gathered = lux(&engine.gather_all(grid));
+    let mut vertex_indirect = vec![[0.0; 3]; direct.vertices.len()];
+    for (i, light) in base.lights.iter().enumerate() {
+        for (sum, v) in vertex_indirect.iter_mut().zip(engine.vertex_indirect(i)) {
+            (0..3).for_each(|ch| sum[ch] += light.color[ch] * v[ch]);
+        }
+    }
+    let add = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x + y).collect();
+    let fields = Fields {
+        grid: add(&direct.grid, &gathered),
+        vertices: add(&direct.vertices, &lux(&vertex_indirect)),
+    };
+    Ok((fields, stats))
+}
+
+/// Table 7: the hierarchical engine's knobs one at a time, against the engine finer in all of
+/// them (links, grading, direct pieces and gather at 0.5 of the defaults), checked against it at
+/// 0.7. Empty when the room reflects no light.
+fn engine_table(base: &Scene, grid: &[Receiver]) -> Result<(Vec<EngineRow>, Reference)> {
+    if !plan(base, PlanOptions::default()).interreflection.on {
+        return Ok((
+            Vec::new(),
+            exact_reference("hierarchical engine", "no interreflection: nothing to compare"),
+        ));
+    }
+    let vertices = fine_receivers(base);
+    let direct = Fields {
+        grid: illuminance_at_receivers(base, None, DirectMode::Exact, grid),
+        vertices: illuminance_at_receivers(base, None, DirectMode::Exact, &vertices),
+    };
+    let (reference, _) = engine_run(base, &finer_engine(0.5), grid, &direct)?;
+    let mut rows = Vec::new();
+    for (variant, options) in engine_variants() {
+        let (fields, stats) = engine_run(base, &options, grid, &direct)?;
+        let e = &stats.engine;
+        rows.push(EngineRow {
+            variant: variant.to_string(),
+            leaves: e.leaves,
+            links: e.links,
+            build_ms: 1e3 * (e.refine_s + e.links_s + e.balance_s),
+            solve_ms: 1e3 * (stats.direct_caches_s + stats.solve_s),
+            errors: fields.errors_against(&reference),
+        });
+    }
+    let (check, _) = engine_run(base, &finer_engine(0.7), grid, &direct)?;
+    let reference = checked_reference(
+        "hierarchical engine",
+        "the engine at 0.5 of its default link ratio, grading ratios, direct pieces and gather ratio (tolerance 1e-6)".into(),
+        "the same at 0.7".into(),
+        field_difference(&check, &reference),
+        rows.iter().map(|r| r.errors),
     );
     Ok((rows, reference))
 }

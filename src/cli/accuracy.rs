@@ -31,7 +31,7 @@ fn fields(e: &FieldErrors) -> String {
     format!("{}  {}", pct(&e.grid), pct(&e.vertices))
 }
 
-/// The whole report as text: a header, how each reference was made, then the six tables.
+/// The whole report as text: a header, how each reference was made, then the seven tables.
 pub fn format_report(r: &AccuracyReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
@@ -194,6 +194,30 @@ pub fn format_report(r: &AccuracyReport) -> String {
             row.edit_ms,
             fields(&row.direct)
         );
+    }
+
+    if !r.engine.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n7. Hierarchical engine: one knob at a time from its defaults (exact direct light plus the engine's indirect light)"
+        );
+        let _ = writeln!(
+            s,
+            "{:<44} {:>7} {:>9} {:>9} {:>9} |{grid_vertices}",
+            "variant", "leaves", "links", "build ms", "solve ms"
+        );
+        for row in &r.engine {
+            let _ = writeln!(
+                s,
+                "{:<44} {:>7} {:>9} {:>9.1} {:>9.1} | {}",
+                row.variant,
+                row.leaves,
+                row.links,
+                row.build_ms,
+                row.solve_ms,
+                fields(&row.errors)
+            );
+        }
     }
     s
 }

@@ -175,8 +175,36 @@ fn tables_on_a_small_room() {
         "{paper:?}"
     );
 
+    // 7. The hierarchical engine: one row per knob; no refinement is the coarse mesh itself,
+    // fewer leaves than the graded default; relaxed or coarser links are no more links; each
+    // variant within a few per cent of the finer reference in this smooth room.
+    assert_eq!(report.engine.len(), 7);
+    let row = |prefix: &str| {
+        report
+            .engine
+            .iter()
+            .find(|r| r.variant.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no row {prefix}"))
+    };
+    let defaults = row("defaults");
+    assert_eq!(row("no refinement").leaves, report.coarse_patches);
+    assert!(defaults.leaves > report.coarse_patches, "{defaults:?}");
+    assert!(row("links relaxed").links <= defaults.links);
+    assert!(row("links 0.2").links <= defaults.links);
+    for r in &report.engine {
+        assert!(
+            r.leaves > 0 && r.links > 0 && r.build_ms > 0.0 && r.solve_ms > 0.0,
+            "{r:?}"
+        );
+        assert!(
+            r.errors.grid.max_rel < 0.02 && r.errors.vertices.max_rel < 0.05,
+            "{r:?}"
+        );
+    }
+    assert!(defaults.errors.grid.max_rel < 0.005, "{defaults:?}");
+
     // References: how they were made, and the checked ones converged on this smooth room.
-    assert_eq!(report.references.len(), 6);
+    assert_eq!(report.references.len(), 7);
     for r in &report.references {
         assert!(r.converged, "{r:?}");
     }
@@ -190,6 +218,7 @@ fn tables_on_a_small_room() {
         "tolerance",
         "quadrature",
         "direct",
+        "engine",
         "references",
     ] {
         let rows = json[table]
@@ -213,6 +242,7 @@ fn tables_on_a_small_room() {
         "4. Solver tolerance",
         "5. Quadrature",
         "6. Direct",
+        "7. Hierarchical engine",
     ] {
         assert!(text.contains(heading), "missing {heading}:\n{text}");
     }
