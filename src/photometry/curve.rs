@@ -152,19 +152,31 @@ impl Curve {
     /// Intensity (cd) at `gamma_deg`. At a step (two points at one angle) the value of the
     /// first of the two is returned; outside the points' span the curve is 0.
     pub fn eval_deg(&self, gamma_deg: f64) -> f64 {
+        match self.segment_deg(gamma_deg) {
+            None => 0.0,
+            Some((i, None)) => self.intensity_cd[i],
+            Some((i, Some(t))) => {
+                self.intensity_cd[i - 1] + t * (self.intensity_cd[i] - self.intensity_cd[i - 1])
+            }
+        }
+    }
+
+    /// Where `gamma_deg` falls among the control points: `None` outside the curve, `(i, None)`
+    /// on point `i`, `(i, Some(t))` at `t ∈ (0, 1)` from point `i − 1` to point `i` — so the
+    /// intensity is linear in the points' intensities with these weights (the hat functions).
+    pub fn segment_deg(&self, gamma_deg: f64) -> Option<(usize, Option<f64>)> {
         let g = &self.gamma_deg;
         let last = g.len() - 1;
         if !(gamma_deg >= g[0] && gamma_deg <= g[last]) {
-            return 0.0;
+            return None;
         }
         // First index with g[i] >= gamma_deg; the segment is [i-1, i].
         let i = g.partition_point(|&x| x < gamma_deg);
         if i == 0 || g[i] == gamma_deg {
-            return self.intensity_cd[i];
+            return Some((i, None));
         }
         let (a, b) = (g[i - 1], g[i]);
-        let t = (gamma_deg - a) / (b - a);
-        self.intensity_cd[i - 1] + t * (self.intensity_cd[i] - self.intensity_cd[i - 1])
+        Some((i, Some((gamma_deg - a) / (b - a))))
     }
 
     /// Intensity (cd) at `gamma_rad`.

@@ -103,6 +103,35 @@ impl PatchDirectCache {
             .collect()
     }
 
+    /// Per patch and control point of `curve` (aimed along the unit vector `aim`), the
+    /// patch-averaged direct irradiance (lx) of the curve with 1 cd at that point and 0 at the
+    /// others, into `out` (patch-major, `curve.len()` per patch): the hat functions' weights of
+    /// every sample, in one pass (the same values as [`Self::irradiance_into`] of each unit curve).
+    pub fn control_point_irradiance_into(&self, curve: &Curve, aim: DVec3, out: &mut [f64]) {
+        let k = curve.len();
+        assert_eq!(out.len(), self.n_patches() * k, "k outputs per patch");
+        let aim = aim.as_vec3();
+        out.par_chunks_mut(k)
+            .enumerate()
+            .with_min_len(MIN_PATCHES_PER_TASK)
+            .for_each(|(p, row)| {
+                row.iter_mut().for_each(|v| *v = 0.0);
+                let range = self.offsets[p] as usize..self.offsets[p + 1] as usize;
+                for (&dir, &w) in self.dirs[range.clone()].iter().zip(&self.weights[range]) {
+                    let gamma = f64::from(aim.dot(dir).clamp(-1.0, 1.0)).acos().to_degrees();
+                    let w = f64::from(w);
+                    match curve.segment_deg(gamma) {
+                        None => {}
+                        Some((i, None)) => row[i] += w,
+                        Some((i, Some(t))) => {
+                            row[i - 1] += w * (1.0 - t);
+                            row[i] += w * t;
+                        }
+                    }
+                }
+            });
+    }
+
     /// Number of patches.
     pub fn n_patches(&self) -> usize {
         self.offsets.len() - 1
@@ -248,5 +277,44 @@ mod tests {
             assert_eq!(e[0], 0.0);
         }
         assert!(errors[2] < errors[0] && errors[2] < 2e-3, "{errors:?}");
+    }
+
+    /// The per-control-point irradiance of one pass equals the irradiance of each unit curve
+    /// (1 cd at one point, 0 elsewhere; a hard edge's two points at one angle included), and
+    /// weighted by the curve's intensities it is the curve's irradiance.
+    #[test]
+    fn control_point_irradiance_is_each_unit_curve() {
+        let mesh = square(6.0);
+        let cache = PatchDirectCache::build(&mesh, DVec3::new(0.5, -0.3, 2.0), 0.02, 1.0 / 16.0, None);
+        let curve = Curve::new(&[
+            (0.0, 900.0),
+            (20.0, 700.0),
+            (40.0, 700.0),
+            (40.0, 100.0),
+            (90.0, 0.0),
+        ])
+        .unwrap();
+        let aim = DVec3::new(0.2, 0.1, -1.0).normalize();
+        let k = curve.len();
+        let mut columns = vec![f64::NAN; cache.n_patches() * k];
+        cache.control_point_irradiance_into(&curve, aim, &mut columns);
+        let mut e = [0.0];
+        for j in 0..k {
+            let mut unit = curve.clone();
+            for point in 0..k {
+                unit.set_intensity(point, if point == j { 1.0 } else { 0.0 })
+                    .unwrap();
+            }
+            cache.irradiance_into(&unit, aim, 1.0, &mut e);
+            assert_eq!(columns[j], e[0], "point {j}");
+        }
+        assert!(columns.iter().all(|&c| c >= 0.0) && columns[0] > 0.0);
+        cache.irradiance_into(&curve, aim, 1.0, &mut e);
+        let sum: f64 = columns
+            .iter()
+            .zip(curve.intensities_cd())
+            .map(|(c, i)| c * i)
+            .sum();
+        assert!((sum - e[0]).abs() <= 1e-12 * e[0], "{sum} vs {}", e[0]);
     }
 }

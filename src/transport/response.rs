@@ -9,7 +9,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::scene::Light;
 use crate::transport::interreflection::Interreflection;
 use crate::transport::patchdirect::PatchDirectCache;
@@ -109,19 +109,7 @@ impl CurveResponse {
         let n = engine.n_leaves();
         let k = light.curve.len();
         let mut direct = PatchColumns::zeros(n, k);
-        let mut e = vec![0.0; n];
-        let aim = light.aim.normalize();
-        for j in 0..k {
-            let mut unit = light.curve.clone();
-            for point in 0..k {
-                unit.set_intensity(point, if point == j { 1.0 } else { 0.0 })
-                    .map_err(|e| Error::internal(format!("response: control point {point}: {e}")))?;
-            }
-            cache.irradiance_into(&unit, aim, 1.0, &mut e);
-            for (p, v) in e.iter().enumerate() {
-                direct.values[p * k + j] = *v;
-            }
-        }
+        cache.control_point_irradiance_into(&light.curve, light.aim.normalize(), &mut direct.values);
         let (indirect, radiosity) = engine
             .solve(&direct, None, tolerance)?
             .into_iter()
