@@ -68,8 +68,8 @@ pub struct HierarchicalIndirect {
 
 /// Most bytes the lights' direct sample caches may hold together (docs/DECISIONS.md
 /// "Interreflection", "Direct caches within a budget"). A cache holds every visible quadrature
-/// sample of one light on every leaf (16 bytes each): a few MB in a small room, ~170 MB per light
-/// on a 100 000-leaf open-plan floor. Past the budget, the caches of the lights edited longest
+/// sample of one light on every leaf (16 bytes each): a few MB in a small room, about 0.2 GB per
+/// light on a 133 547-leaf open-plan floor (estimated). Past the budget, the caches of the lights edited longest
 /// ago are dropped and rebuilt by their next solve.
 pub const DIRECT_CACHE_BUDGET_BYTES: usize = 256 << 20;
 
