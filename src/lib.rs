@@ -50,6 +50,7 @@ pub mod accuracy;
 pub mod cli;
 pub mod error;
 pub mod fsio;
+pub mod heap;
 pub mod metrics;
 pub mod photometry;
 pub mod relight;

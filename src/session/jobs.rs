@@ -1,5 +1,5 @@
 //! Work a session hands to another thread so that edits stay interactive (docs/ARCHITECTURE.md
-//! "Threads"): a moved light's new SH basis columns, an edited light's solve through the
+//! "The editor's threads"): a moved light's new SH basis columns, an edited light's solve through the
 //! hierarchical engine, or the whole engine rebuilt when a move changes its graded mesh. Each
 //! [`BakeJob`] runs on any thread ([`BakeJob::run`]) and its [`BakeOutcome`] goes back to
 //! [`super::Session::finish_bake`], which installs it unless something newer superseded it.
@@ -10,8 +10,11 @@ use crate::error::{Error, Result};
 use crate::scene::Scene;
 use crate::transport::bake::{BakedLight, LightBakeSpec, Progress, Transport};
 use crate::transport::cache::BakeCache;
-use crate::transport::indirect::{HierarchicalIndirect, LightSolve, LightSolveJob};
+use crate::transport::indirect::{
+    DIRECT_CACHE_BUDGET_BYTES, HierarchicalIndirect, LightSolve, LightSolveJob,
+};
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
+use crate::transport::refine::SolverMesh;
 
 use super::LightId;
 
@@ -38,15 +41,17 @@ pub(super) enum Work {
     },
     /// A light's solve through the hierarchical engine.
     Solve(LightSolveJob),
-    /// Lights moved, or were added or removed: the graded mesh checked, then their solves or
-    /// the whole engine rebuilt.
+    /// Lights moved, or were added or removed: the graded mesh checked, and the whole engine
+    /// rebuilt when it no longer holds (the lights' own solves on the current engine are
+    /// separate [`Work::Solve`] jobs, queued with it).
     Regrade(Box<RegradeJob>),
 }
 
 /// After lights moved (or were added or removed): whether `engine`'s graded mesh is still the
-/// one `scene` (its lights where they stand now) calls for; if so the pending lights' `solves`,
-/// else the engine rebuilt for `scene`. With what each light's bookkeeping was when the job was
-/// queued.
+/// one `scene` (its lights where they stand now) calls for; if not, the engine rebuilt for
+/// `scene`. With what each light's bookkeeping was when the job was queued, and which lights
+/// were queued a solve on the current engine beside it (docs/DECISIONS.md "Interreflection",
+/// "Moves answered on the current engine").
 #[derive(Debug, Clone)]
 pub(super) struct RegradeJob {
     pub(super) scene: Scene,
@@ -56,55 +61,52 @@ pub(super) struct RegradeJob {
     pub(super) tolerance: f64,
     pub(super) options: InterreflectionOptions,
     pub(super) snapshot: Vec<LightSnapshot>,
-    /// The solves the lights need on `engine` (light index, job) if its grading holds.
-    pub(super) solves: Vec<(usize, LightSolveJob)>,
+    /// The lights (indices) whose solve on `engine` was queued with this check: their solve,
+    /// not the check, brings them up to date when the grading holds.
+    pub(super) solving: Vec<usize>,
 }
 
 /// What a [`RegradeJob`] found.
 #[derive(Debug)]
 pub(super) enum Placed {
-    /// The grading holds: the pending lights' solves on the current engine.
-    Kept(Vec<(usize, Result<LightSolve>)>),
+    /// The grading holds: the current engine stays.
+    Kept,
     /// The engine rebuilt for the new grading, every light solved.
     Rebuilt(Box<HierarchicalIndirect>),
 }
 
-/// A light as a regrade found it: its id, version and generation.
+/// A light as a regrade found it: its id, edit count and generation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) struct LightSnapshot {
     pub(super) id: LightId,
-    pub(super) version: u64,
+    pub(super) edits: u64,
     pub(super) generation: u64,
 }
 
 impl RegradeJob {
-    /// Checks the grading, then solves the pending lights or rebuilds the engine.
+    /// Checks the grading and rebuilds the engine when it changed.
     ///
-    /// Errors: the rebuilt engine's solve failing (internal; a failed light solve is kept in
-    /// [`Placed::Kept`]).
+    /// Errors: the rebuilt engine's solve failing (internal).
     pub(super) fn run(&self) -> Result<Placed> {
-        if self.engine.grading_matches(&self.scene) {
-            let solves = self
-                .solves
-                .iter()
-                .map(|(i, job)| (*i, job.clone().run()))
-                .collect();
-            return Ok(Placed::Kept(solves));
+        match self.engine.regrade(&self.scene) {
+            None => Ok(Placed::Kept),
+            Some(solver) => self.build(solver).map(|engine| Placed::Rebuilt(Box::new(engine))),
         }
-        self.build().map(|engine| Placed::Rebuilt(Box::new(engine)))
     }
 
-    /// Builds and solves the engine for the scene.
+    /// Builds the engine for the scene on its graded mesh `solver` ([`Interreflection::regrade`])
+    /// and solves every light.
     ///
     /// Errors: the solve failing (internal).
-    pub(super) fn build(&self) -> Result<HierarchicalIndirect> {
-        HierarchicalIndirect::build(
+    pub(super) fn build(&self, solver: SolverMesh) -> Result<HierarchicalIndirect> {
+        let engine =
+            Interreflection::build_graded(&self.scene, solver, self.channels, self.visibility, &self.options);
+        HierarchicalIndirect::on_engine(
+            Arc::new(engine),
             &self.scene,
             &self.scene.lights,
-            self.channels,
-            self.visibility,
             self.tolerance,
-            &self.options,
+            DIRECT_CACHE_BUDGET_BYTES,
         )
     }
 }
@@ -124,10 +126,12 @@ pub(super) enum Done {
     Basis { key: u64, baked: Box<BakedLight> },
     /// A light's solve.
     Solved(Box<LightSolve>),
-    /// The lights' solves or the rebuilt engine, with the lights as the job found them.
+    /// The grading kept or the rebuilt engine, with the lights as the job found them and
+    /// those whose own solve was queued beside it.
     Regraded {
         placed: Placed,
         snapshot: Vec<LightSnapshot>,
+        solving: Vec<usize>,
     },
 }
 
@@ -168,6 +172,7 @@ impl BakeJob {
             Work::Regrade(job) => job.run().map(|placed| Done::Regraded {
                 placed,
                 snapshot: job.snapshot,
+                solving: job.solving,
             }),
         };
         BakeOutcome {

@@ -54,8 +54,8 @@ use crate::transport::bake::{
 };
 use crate::transport::cache::BakeCache;
 use crate::transport::direct::Receiver;
-use crate::transport::indirect::{HierarchicalIndirect, LightSolve};
-use crate::transport::interreflection::InterreflectionOptions;
+use crate::transport::indirect::{DIRECT_CACHE_BUDGET_BYTES, HierarchicalIndirect, LightSolve};
+use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{Plan, plan_light};
 use frame::{FrameBuffers, PlaneIndirect};
@@ -145,6 +145,9 @@ struct LightSlot {
     version: u64,
     /// The version the hierarchical engine last solved the light for.
     solved: u64,
+    /// Bumped by every command that changes the light (not by installed results): what a
+    /// rebuilt engine checks to know whether the light changed after it was queued.
+    edits: u64,
     /// The engine's revision of the light's values that the relighter holds (0: none).
     given: u64,
 }
@@ -249,7 +252,7 @@ impl Session {
     /// Errors: the interreflection solve failing (internal).
     pub fn new(scene: Scene, options: SessionOptions, progress: &mut dyn FnMut(Progress)) -> Result<Session> {
         let t = std::time::Instant::now();
-        let planned = crate::transport::plan::plan(&scene, options.bake.plan);
+        let (planned, graded) = crate::transport::plan::plan_graded(&scene, options.bake.plan);
         let plan_s = t.elapsed().as_secs_f64();
         let mut hierarchical = None;
         let (bake, plan) = if options.indirect && planned.hierarchical.on {
@@ -259,13 +262,27 @@ impl Session {
                 done: 0,
                 total: 1,
             });
-            hierarchical = Some(HierarchicalIndirect::build(
+            // The engine is built on the plan's graded mesh (the default refinement, which the
+            // engine's options keep) instead of refining the room again.
+            let engine_options = InterreflectionOptions::for_leaves(planned.leaves);
+            let engine = match graded {
+                Some(solver) => Interreflection::build_graded(
+                    &scene,
+                    solver,
+                    planned.channels,
+                    planned.visibility.on,
+                    &engine_options,
+                ),
+                None => {
+                    Interreflection::build(&scene, planned.channels, planned.visibility.on, &engine_options)
+                }
+            };
+            hierarchical = Some(HierarchicalIndirect::on_engine(
+                Arc::new(engine),
                 &scene,
                 &scene.lights,
-                planned.channels,
-                planned.visibility.on,
                 options.bake.tolerance.unwrap_or(scene.settings.tolerance),
-                &InterreflectionOptions::for_leaves(planned.leaves),
+                DIRECT_CACHE_BUDGET_BYTES,
             )?);
             progress(Progress {
                 stage: "interreflection engine",
@@ -293,6 +310,7 @@ impl Session {
                 installed: 0,
                 version: 1,
                 solved: 1,
+                edits: 0,
                 given: 0,
                 key: bake.as_ref().map(|b| {
                     b.transport
@@ -360,7 +378,8 @@ impl Session {
     /// Whether light `i`'s result is final or a bake for it is pending.
     pub fn light_status(&self, i: usize) -> LightStatus {
         let slot = &self.slots[i];
-        if slot.generation == slot.installed {
+        // While a regrade is out every light's values may still change (a rebuilt engine).
+        if slot.generation == slot.installed && self.regrading.is_none() {
             LightStatus::Ready
         } else {
             LightStatus::Updating
@@ -374,6 +393,7 @@ impl Session {
         let applied = command.apply(&mut self.lights, &mut self.camera, &self.bounds)?;
         if let Some(slot) = applied.change.light().and_then(|i| self.slots.get_mut(i)) {
             slot.version += 1;
+            slot.edits += 1;
         }
         match applied.change {
             Change::Point { light, point } => {
@@ -466,6 +486,7 @@ impl Session {
                 version: 1,
                 // Solved below (or never, without the hierarchical engine).
                 solved: 1,
+                edits: 0,
                 given: 0,
             },
         );
@@ -583,7 +604,11 @@ impl Session {
                 Ok(Some(i))
             }
             Done::Solved(solved) => Ok(index.filter(|&i| self.install_solve(i, generation, *solved))),
-            Done::Regraded { placed, snapshot } => {
+            Done::Regraded {
+                placed,
+                snapshot,
+                solving,
+            } => {
                 if self.regrading != Some(generation) {
                     return Ok(None);
                 }
@@ -596,7 +621,7 @@ impl Session {
                 }
                 match placed {
                     Placed::Rebuilt(engine) => self.install_engine(*engine, &snapshot),
-                    Placed::Kept(solves) => self.install_kept(solves, &snapshot)?,
+                    Placed::Kept => self.install_kept(&snapshot, &solving),
                 }
                 Ok((!self.slots.is_empty()).then_some(0))
             }
@@ -626,32 +651,15 @@ impl Session {
         true
     }
 
-    /// Installs the solves of a grading check that kept the engine; every light the check
-    /// covered is then `Ready` unless edited since. A failed solve is tried again at the next
-    /// relight.
-    ///
-    /// Errors: the first failed solve (internal).
-    fn install_kept(
-        &mut self,
-        solves: Vec<(usize, Result<LightSolve>)>,
-        snapshot: &[LightSnapshot],
-    ) -> Result<()> {
-        let mut failure = None;
-        for (i, result) in solves {
-            match result {
-                Ok(solved) => {
-                    self.install_solve(i, snapshot[i].generation, solved);
-                }
-                Err(e) => {
-                    self.slots[i].solved = 0;
-                    failure.get_or_insert(e);
-                }
+    /// A grading check kept the engine: every light it covered is up to date, except those
+    /// in `solving`, whose own solve (queued beside the check) brings them up to date when it
+    /// lands.
+    fn install_kept(&mut self, snapshot: &[LightSnapshot], solving: &[usize]) {
+        for (i, (slot, snap)) in self.slots.iter_mut().zip(snapshot).enumerate() {
+            if !solving.contains(&i) {
+                slot.installed = slot.installed.max(snap.generation);
             }
         }
-        for (slot, snap) in self.slots.iter_mut().zip(snapshot) {
-            slot.installed = slot.installed.max(snap.generation);
-        }
-        failure.map_or(Ok(()), Err)
     }
 
     /// Runs the queued bake jobs here and installs them (headless use).
@@ -690,12 +698,10 @@ impl Session {
         let Some(h) = &self.hierarchical else {
             return Ok(());
         };
+        // While a regrade is out, edited lights are solved on the current engine all the same
+        // (a rebuild can take a minute); the rebuilt engine solves them again if they changed
+        // after it was queued.
         let background = self.options.background_solves;
-        if background && self.regrading.is_some() {
-            // The rebuilt engine arrives with every light solved; lights edited meanwhile are
-            // solved on it.
-            return Ok(());
-        }
         let placed = |i: usize, l: &LightEdit| h.light_is_at(i, l.position, l.radius_m);
         let pending = |i: usize| self.slots[i].solved != self.slots[i].version;
         let moved = self.regrade
@@ -713,11 +719,11 @@ impl Session {
                 return Ok(());
             }
             let h = self.hierarchical.as_ref().expect("checked above");
-            if !h.engine().grading_matches(&self.scene) {
+            if let Some(solver) = h.engine().regrade(&self.scene) {
                 let Some(job) = self.regrade_job() else {
                     return Ok(());
                 };
-                let engine = job.build()?;
+                let engine = job.build(solver)?;
                 self.install_engine(engine, &job.snapshot);
                 self.regrade = false;
                 return Ok(());
@@ -777,7 +783,7 @@ impl Session {
             .iter()
             .map(|s| LightSnapshot {
                 id: s.id,
-                version: s.version,
+                edits: s.edits,
                 generation: s.generation,
             })
             .collect();
@@ -789,30 +795,41 @@ impl Session {
             tolerance,
             options,
             snapshot,
-            solves: Vec::new(),
+            solving: Vec::new(),
         })
     }
 
-    /// Queues the grading check after lights moved (or were added or removed), with the solves
-    /// the changed lights need if the grading holds.
+    /// Queues the grading check after lights moved (or were added or removed), and ahead of it
+    /// the changed lights' solves on the current engine: they land in the time of a solve while
+    /// the check (and, when the grading changed, the rebuild) runs on (docs/DECISIONS.md
+    /// "Interreflection", "Moves answered on the current engine").
     fn queue_placement(&mut self) {
-        let Some(mut job) = self.regrade_job() else {
+        let Some(job) = self.regrade_job() else {
             return;
         };
         if let Some(h) = self.hierarchical.as_mut() {
+            let mut solves = Vec::new();
             for (i, (slot, light)) in self.slots.iter().zip(&self.lights).enumerate() {
                 if slot.solved != slot.version
                     && let Some(solve) = h.update_light(i, &light.to_light())
                 {
-                    job.solves.push((i, solve));
+                    solves.push(BakeJob {
+                        light: Some(slot.id),
+                        name: light.name.clone(),
+                        generation: slot.generation,
+                        work: Work::Solve(solve),
+                    });
                 }
             }
+            self.jobs.retain(|j| !solves.iter().any(|s| s.light == j.light));
+            self.jobs.splice(0..0, solves);
         }
         self.queue_regrade(job);
     }
 
-    /// Queues `job` (every light is `Updating` until it arrives); solves queued on the old
-    /// engine are dropped.
+    /// Queues `job`: every light is `Updating` until it arrives, and a light whose solve on
+    /// the current engine is still queued until that solve lands too (the queued solves keep
+    /// their place, under the light's new generation; the check leaves those lights to them).
     fn queue_regrade(&mut self, mut job: RegradeJob) {
         self.regrades += 1;
         self.regrading = Some(self.regrades);
@@ -821,7 +838,16 @@ impl Session {
             slot.solved = slot.version;
             snap.generation = slot.generation;
         }
-        self.jobs.retain(|j| !matches!(j.work, Work::Solve(_)));
+        let slots = &self.slots;
+        let index = |id: Option<LightId>| id.and_then(|id| slots.iter().position(|s| s.id == id));
+        self.jobs
+            .retain(|j| !matches!(j.work, Work::Solve(_)) || index(j.light).is_some());
+        for queued in &mut self.jobs {
+            if let (Work::Solve(_), Some(i)) = (&queued.work, index(queued.light)) {
+                queued.generation = slots[i].generation;
+                job.solving.push(i);
+            }
+        }
         self.push_job(BakeJob {
             light: None,
             name: "interreflection engine".into(),
@@ -839,7 +865,7 @@ impl Session {
         self.each_receiver_set(|set| set.use_engine(Arc::clone(&shared)));
         for (slot, snap) in self.slots.iter_mut().zip(snapshot) {
             // Every light's indirect light changed: receiver sets recompute them all.
-            let current = slot.version == snap.version;
+            let current = slot.edits == snap.edits;
             slot.version += 1;
             slot.solved = if current { slot.version } else { 0 };
             slot.installed = slot.installed.max(snap.generation);

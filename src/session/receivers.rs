@@ -19,6 +19,7 @@ use crate::session::light::LightEdit;
 use crate::transport::bake::{BakedLight, patch_reflectance};
 use crate::transport::direct::{DirectCache, Receiver, luminance_weight};
 use crate::transport::gather::{GatherOperator, light_patch_irradiance};
+use crate::transport::indirect::LeafRadiosity;
 use crate::transport::interreflection::Interreflection;
 use crate::transport::occlusion::Occluders;
 use crate::transport::visibility::Visibility;
@@ -34,7 +35,7 @@ pub struct LightInput<'a> {
     pub baked: Option<&'a BakedLight>,
     /// Its leaf radiosity (lm/m², linear RGB, colour applied) when the hierarchical engine
     /// carries the indirect light.
-    pub radiosity: Option<&'a [[f64; 3]]>,
+    pub radiosity: Option<LeafRadiosity<'a>>,
     /// A number that changes whenever anything above changes (the set recomputes the light
     /// when it differs from the one it last saw).
     pub version: u64,
@@ -49,9 +50,8 @@ struct SetLight {
     cache: DirectCache,
     /// Direct illuminance at each receiver (lx, photopic: colour weighted).
     direct: Vec<f64>,
-    /// Irradiance of every coarse patch (lx, linear RGB, colour applied) for the basis gather,
-    /// or radiosity of every leaf (lm/m², linear RGB, colour applied) for the leaves' gather;
-    /// empty without the gather.
+    /// Irradiance of every coarse patch (lx, linear RGB, colour applied) for the basis gather;
+    /// empty otherwise (the leaves' gather reads each light's radiosity from the engine).
     irradiance: Vec<[f64; 3]>,
 }
 
@@ -201,12 +201,14 @@ impl ReceiverSet {
         if !self.stale {
             return false;
         }
-        self.resum();
+        self.resum(lights);
         self.stale = false;
         true
     }
 
-    fn resum(&mut self) {
+    /// Redoes the sums from the lights as computed and, for the leaves' gather, their
+    /// current leaf radiosity in `inputs`.
+    fn resum(&mut self, inputs: &[LightInput<'_>]) {
         let lights: Vec<&SetLight> = self.lights.iter().flatten().collect();
         for (r, total) in self.total.iter_mut().enumerate() {
             *total = lights.iter().map(|l| l.direct[r]).sum();
@@ -224,6 +226,11 @@ impl ReceiverSet {
         for light in lights.iter().filter(|l| l.irradiance.len() == n_patches) {
             for (b, h) in radiosity.iter_mut().zip(&light.irradiance) {
                 (0..3).for_each(|ch| b[ch] += h[ch]);
+            }
+        }
+        if matches!(self.gather, Some(Gather::Leaves(_))) {
+            for leaves in inputs.iter().filter_map(|input| input.radiosity) {
+                leaves.add_to(&mut radiosity);
             }
         }
         let gathered = match &self.gather {
@@ -282,11 +289,7 @@ fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, g
     if weight != 1.0 {
         out.direct.iter_mut().for_each(|e| *e *= weight);
     }
-    match (gather, &series, input.radiosity) {
-        (Some(Gather::Coarse(_)), Some((_, coeffs, baked)), _) => {
-            light_patch_irradiance(baked, coeffs, light.color, &mut out.irradiance);
-        }
-        (Some(Gather::Leaves(_)), _, Some(radiosity)) => out.irradiance = radiosity.to_vec(),
-        _ => {}
+    if let (Some(Gather::Coarse(_)), Some((_, coeffs, baked))) = (gather, &series) {
+        light_patch_irradiance(baked, coeffs, light.color, &mut out.irradiance);
     }
 }

@@ -286,6 +286,13 @@ pub fn plane_axes(normal: DVec3) -> [usize; 2] {
     [(axis + 1) % 3, (axis + 2) % 3]
 }
 
+/// Relative defect (of each leaf's area-weighted column sum) at which [`Operator::balance`]
+/// stops: about the precision of the f32 coefficients it scales (6·10⁻⁸), so that balancing
+/// further changes nothing they can hold. The rows are exact after every sweep. On the
+/// open-plan floor 10⁻⁷ takes about half the sweeps of 10⁻⁹ (docs/DECISIONS.md
+/// "Interreflection", "Memory and time of the open-plan floor").
+pub const BALANCE_DEFECT: f64 = 1e-7;
+
 /// The hierarchical form-factor operator `F` on the leaves.
 #[derive(Debug, Clone)]
 pub struct Operator {
@@ -490,7 +497,7 @@ impl Operator {
         self.apply_block(&vec![1.0; self.n_leaves()], 1)
     }
 
-    /// Alternating diagonal scalings (Sinkhorn) until, to `1e-9`, each leaf's row sums to
+    /// Alternating diagonal scalings (Sinkhorn) until, to [`BALANCE_DEFECT`], each leaf's row sums to
     /// `target` (or, with `None`, to its unbalanced sum) and every column conserves power:
     /// `Σ_i A_i F_ij = A_j` (the column sums come from the transposed operator, since the
     /// gradient terms make it unsymmetric). Returns the largest relative defect of the unbalanced
@@ -536,7 +543,7 @@ impl Operator {
                 .filter(|&j| cd[j] > 0.0)
                 .map(|j| (col[j] * cd[j] - 1.0).abs())
                 .fold(0.0, f64::max);
-            if worst < 1e-9 {
+            if worst < BALANCE_DEFECT {
                 break;
             }
         }

@@ -33,12 +33,14 @@ struct SolvedLight {
     /// Its direct sample cache; `None` once dropped to keep the lights' caches within
     /// [`DIRECT_CACHE_BUDGET_BYTES`] (its next solve builds it again).
     cache: Option<Arc<PatchDirectCache>>,
-    /// Per solved channel, the leaf radiosity of the state last solved (for warm starts).
-    radiosity: Vec<PatchColumns>,
-    /// Leaf radiosity (lm/m², linear RGB, colour applied).
-    leaf_radiosity: Vec<[f64; 3]>,
+    /// Per solved channel, the leaf radiosity of the state last solved (lm/m², colour not
+    /// applied; also the warm start of its next solve). In f32, like the leaf indirect light:
+    /// the values are good to the solver's relative tolerance (≥ 10⁻⁶), f32 keeps 6·10⁻⁸.
+    radiosity: Vec<Vec<f32>>,
+    /// The light's colour (linear RGB) the radiosity is seen in.
+    color: [f64; 3],
     /// Leaf indirect irradiance `H − E` (lx) per solved channel, colour not applied.
-    leaf_indirect: Vec<Vec<f64>>,
+    leaf_indirect: Vec<Vec<f32>>,
     /// The curve, aim and dimmer the values above are for (`None` before the first solve).
     solved_for: Option<(Curve, DVec3, f64)>,
     /// Its values per control point, once a curve edit solved them (where it stands, as aimed,
@@ -71,7 +73,7 @@ pub struct HierarchicalIndirect {
 /// sample of one light on every leaf (16 bytes each): a few MB in a small room, about 0.2 GB per
 /// light on a 133 547-leaf open-plan floor (estimated). Past the budget, the caches of the lights edited longest
 /// ago are dropped and rebuilt by their next solve.
-pub const DIRECT_CACHE_BUDGET_BYTES: usize = 256 << 20;
+pub const DIRECT_CACHE_BUDGET_BYTES: usize = 128 << 20;
 
 /// The source of [`HierarchicalIndirect::revision`]s.
 static REVISIONS: AtomicU64 = AtomicU64::new(1);
@@ -202,28 +204,27 @@ impl HierarchicalIndirect {
         tolerance: f64,
         options: &InterreflectionOptions,
     ) -> Result<Self> {
-        Self::build_within(
+        let engine = Interreflection::build(scene, channels, visibility, options);
+        Self::on_engine(
+            Arc::new(engine),
             scene,
             lights,
-            channels,
-            visibility,
             tolerance,
-            options,
             DIRECT_CACHE_BUDGET_BYTES,
         )
     }
 
-    /// [`Self::build`] with the lights' direct caches held within `cache_budget` bytes.
-    pub(crate) fn build_within(
+    /// Solves every light of `lights` on `engine`, built for `scene`, as [`Self::build`] does,
+    /// with the lights' direct caches held within `cache_budget` bytes.
+    ///
+    /// Errors: the solve failing (internal).
+    pub fn on_engine(
+        engine: Arc<Interreflection>,
         scene: &Scene,
         lights: &[Light],
-        channels: usize,
-        visibility: bool,
         tolerance: f64,
-        options: &InterreflectionOptions,
         cache_budget: usize,
     ) -> Result<Self> {
-        let engine = Arc::new(Interreflection::build(scene, channels, visibility, options));
         let interp = Arc::new(InterpolationWeights::new(&engine.solver.mesh, &scene.fine));
         let t = Instant::now();
         let n = engine.n_leaves();
@@ -273,7 +274,7 @@ impl HierarchicalIndirect {
                 radius_m: light.radius,
                 cache,
                 radiosity: Vec::new(),
-                leaf_radiosity: Vec::new(),
+                color: light.color,
                 leaf_indirect: Vec::new(),
                 solved_for: None,
                 response: None,
@@ -282,6 +283,8 @@ impl HierarchicalIndirect {
             store(&mut solved, LightValues::of_column(&solutions, c, &direct), light);
             indirect.lights.push(solved);
         }
+        drop((emission, solutions));
+        crate::heap::release_free_memory();
         Ok(indirect)
     }
 
@@ -325,13 +328,12 @@ impl HierarchicalIndirect {
         {
             let factor = light.dimmer / dimmer;
             let solved = &mut self.lights[i];
-            for channel in &mut solved.radiosity {
-                channel.values.iter_mut().for_each(|v| *v *= factor);
+            for channel in solved.radiosity.iter_mut().chain(&mut solved.leaf_indirect) {
+                channel
+                    .iter_mut()
+                    .for_each(|v| *v = (f64::from(*v) * factor) as f32);
             }
-            for channel in &mut solved.leaf_indirect {
-                channel.iter_mut().for_each(|v| *v *= factor);
-            }
-            solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
+            solved.color = light.color;
             solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
             solved.revision = next_revision();
             self.revision = next_revision();
@@ -355,7 +357,15 @@ impl HierarchicalIndirect {
             engine: Arc::clone(&self.engine),
             cache: if moved { None } else { old.cache.clone() },
             light: light.clone(),
-            initial: old.radiosity.clone(),
+            initial: old
+                .radiosity
+                .iter()
+                .map(|channel| PatchColumns {
+                    n_patches: channel.len(),
+                    n_columns: 1,
+                    values: channel.iter().map(|&v| f64::from(v)).collect(),
+                })
+                .collect(),
             tolerance: self.tolerance,
             response: curve_edit,
         })
@@ -421,7 +431,7 @@ impl HierarchicalIndirect {
                 radius_m: light.radius,
                 cache: None,
                 radiosity: Vec::new(),
-                leaf_radiosity: vec![[0.0; 3]; n],
+                color: light.color,
                 leaf_indirect: vec![vec![0.0; n]; self.engine.channels()],
                 solved_for: None,
                 response: None,
@@ -448,9 +458,13 @@ impl HierarchicalIndirect {
         self.lights[i].revision
     }
 
-    /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied).
-    pub fn light_radiosity(&self, i: usize) -> &[[f64; 3]] {
-        &self.lights[i].leaf_radiosity
+    /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied), read where it is kept.
+    pub fn light_radiosity(&self, i: usize) -> LeafRadiosity<'_> {
+        let light = &self.lights[i];
+        LeafRadiosity {
+            channels: &light.radiosity,
+            color: light.color,
+        }
     }
 
     /// Light `i`'s indirect irradiance at the fine vertices (lx, one value per channel 0..3 per
@@ -459,7 +473,7 @@ impl HierarchicalIndirect {
         let light = &self.lights[i];
         let channels = light.leaf_indirect.len();
         let columns: Vec<f64> = (0..self.engine.n_leaves())
-            .flat_map(|p| light.leaf_indirect.iter().map(move |c| c[p]))
+            .flat_map(|p| light.leaf_indirect.iter().map(move |c| f64::from(c[p])))
             .collect();
         let values = self.interp.apply_columns(&columns, channels);
         values
@@ -472,10 +486,8 @@ impl HierarchicalIndirect {
     /// clustered gather from the lights' summed leaf radiosity.
     pub fn gather_all(&self, receivers: &[Receiver]) -> Vec<[f64; 3]> {
         let mut radiosity = vec![[0.0; 3]; self.engine.n_leaves()];
-        for light in &self.lights {
-            for (sum, b) in radiosity.iter_mut().zip(&light.leaf_radiosity) {
-                (0..3).for_each(|ch| sum[ch] += b[ch]);
-            }
+        for i in 0..self.lights.len() {
+            self.light_radiosity(i).add_to(&mut radiosity);
         }
         self.gather(&radiosity, receivers)
     }
@@ -561,15 +573,22 @@ impl HierarchicalIndirect {
         let mut moved_scene = scene.clone();
         moved_scene.lights[i].position.x += step;
         let t = Instant::now();
-        let move_rebuilt = !self.engine.grading_matches(&moved_scene);
-        if move_rebuilt {
-            let rebuilt = HierarchicalIndirect::build(
+        let regraded = self.engine.regrade(&moved_scene);
+        let move_rebuilt = regraded.is_some();
+        if let Some(solver) = regraded {
+            let engine = Interreflection::build_graded(
                 &moved_scene,
-                &moved_scene.lights,
+                solver,
                 self.engine.channels(),
                 self.engine.occluders.is_some(),
-                self.tolerance,
                 self.engine.options(),
+            );
+            let rebuilt = Self::on_engine(
+                Arc::new(engine),
+                &moved_scene,
+                &moved_scene.lights,
+                self.tolerance,
+                self.cache_budget,
             )?;
             let _ = rebuilt.vertex_indirect(i);
         } else {
@@ -595,32 +614,57 @@ impl HierarchicalIndirect {
             .map(|l| {
                 l.cache.as_ref().map_or(0, |c| c.bytes())
                     + l.response.as_ref().map_or(0, |r| r.bytes())
-                    + 8 * (l.radiosity.iter().map(|r| r.values.len()).sum::<usize>()
-                        + 3 * l.leaf_radiosity.len()
-                        + l.leaf_indirect.iter().map(Vec::len).sum::<usize>())
+                    + 4 * l
+                        .radiosity
+                        .iter()
+                        .chain(&l.leaf_indirect)
+                        .map(Vec::len)
+                        .sum::<usize>()
             })
             .sum()
     }
 }
 
-/// Keeps what a light's solve for `light` gives: the radiosity for warm starts, the coloured
-/// leaf radiosity, the leaf indirect irradiance `H − E` per channel.
+/// Keeps what a light's solve for `light` gives: the radiosity per channel (also the next warm
+/// start), the light's colour, the leaf indirect irradiance `H − E` per channel.
 fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
-    solved.leaf_indirect = values.indirect;
-    solved.radiosity = values.radiosity;
-    solved.leaf_radiosity = coloured(&solved.radiosity, light.color);
+    let single = |values: &[f64]| values.iter().map(|&v| v as f32).collect();
+    solved.leaf_indirect = values.indirect.iter().map(|c| single(c)).collect();
+    solved.radiosity = values.radiosity.iter().map(|c| single(&c.values)).collect();
+    solved.color = light.color;
     solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
     solved.revision = next_revision();
 }
 
-/// Leaf radiosity (linear RGB) from the per-channel radiosity (one column each) and `color`.
-fn coloured(radiosity: &[PatchColumns], color: [f64; 3]) -> Vec<[f64; 3]> {
-    let Some(last) = radiosity.len().checked_sub(1) else {
-        return Vec::new();
-    };
-    (0..radiosity[0].n_patches)
-        .map(|p| [0, 1, 2].map(|ch| color[ch] * radiosity[ch.min(last)].get(p, 0)))
-        .collect()
+/// One light's leaf radiosity in linear RGB, read from its per-channel solution and colour
+/// (kept once, in the engine: receiver sets sum it without copies).
+#[derive(Debug, Clone, Copy)]
+pub struct LeafRadiosity<'a> {
+    /// Per solved channel, one value per leaf (lm/m², colour not applied); empty before the
+    /// light's first solve.
+    channels: &'a [Vec<f32>],
+    /// The light's colour (linear RGB).
+    color: [f64; 3],
+}
+
+impl LeafRadiosity<'_> {
+    /// Adds the light's leaf radiosity (lm/m², linear RGB, colour applied) to `sum`, one entry
+    /// per leaf; adds nothing before its first solve.
+    pub fn add_to(&self, sum: &mut [[f64; 3]]) {
+        let Some(last) = self.channels.len().checked_sub(1) else {
+            return;
+        };
+        for (p, b) in sum.iter_mut().enumerate() {
+            (0..3).for_each(|ch| b[ch] += self.color[ch] * f64::from(self.channels[ch.min(last)][p]));
+        }
+    }
+
+    /// The light's leaf radiosity (lm/m², linear RGB, colour applied) over `n_leaves` leaves.
+    pub fn values(&self, n_leaves: usize) -> Vec<[f64; 3]> {
+        let mut values = vec![[0.0; 3]; n_leaves];
+        self.add_to(&mut values);
+        values
+    }
 }
 
 #[cfg(test)]
@@ -664,6 +708,11 @@ solver_patch_size = 0.5
         .expect("solves")
     }
 
+    /// Light `i`'s leaf radiosity (linear RGB, colour applied).
+    fn radiosity(engine: &HierarchicalIndirect, i: usize) -> Vec<[f64; 3]> {
+        engine.light_radiosity(i).values(engine.n_leaves())
+    }
+
     fn peak_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
         a.iter()
             .zip(b)
@@ -697,9 +746,9 @@ solver_patch_size = 0.5
                 "point {point}: no solve"
             );
             let fresh = build(&edited);
-            let peak = fresh.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
+            let peak = radiosity(&fresh, 0).iter().map(|b| b[0]).fold(0.0, f64::max);
             assert!(peak > 0.0);
-            let difference = peak_difference(engine.light_radiosity(0), fresh.light_radiosity(0));
+            let difference = peak_difference(&radiosity(&engine, 0), &radiosity(&fresh, 0));
             assert!(difference < 1e-5 * peak, "point {point}: {difference} of {peak}");
             let indirect = engine.vertex_indirect(0);
             let fresh_indirect = fresh.vertex_indirect(0);
@@ -735,9 +784,9 @@ solver_patch_size = 0.5
         let mut alone = scene.clone();
         alone.lights.truncate(1);
         let first = build(&alone);
-        let peak = engine.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
+        let peak = radiosity(&engine, 0).iter().map(|b| b[0]).fold(0.0, f64::max);
         assert!(peak > 0.0);
-        assert!(peak_difference(engine.light_radiosity(0), first.light_radiosity(0)) < 1e-5 * peak);
+        assert!(peak_difference(&radiosity(&engine, 0), &radiosity(&first, 0)) < 1e-5 * peak);
 
         let mut edited = engine.clone();
         let dimmed = Light {
@@ -745,7 +794,7 @@ solver_patch_size = 0.5
             ..scene.lights[1].clone()
         };
         edited.set_light(1, &dimmed).expect("scales");
-        for (d, b) in edited.light_radiosity(1).iter().zip(engine.light_radiosity(1)) {
+        for (d, b) in radiosity(&edited, 1).iter().zip(&radiosity(&engine, 1)) {
             assert!((d[0] - 0.25 * b[0]).abs() <= 1e-12 * b[0].abs(), "{d:?} vs {b:?}");
         }
 
@@ -754,8 +803,8 @@ solver_patch_size = 0.5
         changed.lights[0].curve = curve;
         edited.set_light(0, &changed.lights[0]).expect("solves");
         let fresh = build(&changed);
-        let peak = fresh.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
-        assert!(peak_difference(edited.light_radiosity(0), fresh.light_radiosity(0)) < 1e-5 * peak);
+        let peak = radiosity(&fresh, 0).iter().map(|b| b[0]).fold(0.0, f64::max);
+        assert!(peak_difference(&radiosity(&edited, 0), &radiosity(&fresh, 0)) < 1e-5 * peak);
     }
 
     /// With a direct-cache budget smaller than two lights' caches, the build keeps one, an edit
@@ -766,40 +815,26 @@ solver_patch_size = 0.5
         let scene = room();
         let full = build(&scene);
         let one_cache = full.engine.direct_cache(&scene.lights[0]).bytes();
-        let mut tight = HierarchicalIndirect::build_within(
-            &scene,
-            &scene.lights,
-            1,
-            false,
-            1e-6,
-            &InterreflectionOptions::default(),
-            one_cache,
-        )
-        .expect("solves");
+        let on_budget = |budget| {
+            let engine = Arc::clone(&full.engine);
+            HierarchicalIndirect::on_engine(engine, &scene, &scene.lights, 1e-6, budget).expect("solves")
+        };
+        let mut tight = on_budget(one_cache);
         assert!(full.holds_direct_cache(0) && full.holds_direct_cache(1));
         // No budget: the second light's direct light is summed without a cache, to the same
         // values.
-        let none = HierarchicalIndirect::build_within(
-            &scene,
-            &scene.lights,
-            1,
-            false,
-            1e-6,
-            &InterreflectionOptions::default(),
-            0,
-        )
-        .expect("solves");
+        let none = on_budget(0);
         assert!(!none.holds_direct_cache(0) && !none.holds_direct_cache(1));
         for i in 0..2 {
-            assert_eq!(none.light_radiosity(i), full.light_radiosity(i), "light {i}");
+            assert_eq!(radiosity(&none, i), radiosity(&full, i), "light {i}");
         }
         assert!(
             tight.holds_direct_cache(0) && !tight.holds_direct_cache(1),
             "the second cache is over the budget"
         );
         assert_eq!(
-            tight.light_radiosity(1),
-            full.light_radiosity(1),
+            &radiosity(&tight, 1),
+            &radiosity(&full, 1),
             "the build's values do not depend on the budget"
         );
 
@@ -811,15 +846,15 @@ solver_patch_size = 0.5
             "the cache of the light edited before is dropped"
         );
         let fresh = build(&changed);
-        let peak = fresh.light_radiosity(1).iter().map(|b| b[0]).fold(0.0, f64::max);
+        let peak = radiosity(&fresh, 1).iter().map(|b| b[0]).fold(0.0, f64::max);
         assert!(peak > 0.0);
-        assert!(peak_difference(tight.light_radiosity(1), fresh.light_radiosity(1)) < 1e-5 * peak);
+        assert!(peak_difference(&radiosity(&tight, 1), &radiosity(&fresh, 1)) < 1e-5 * peak);
 
         changed.lights[0].aim = DVec3::new(-0.3, 0.1, -1.0).normalize();
         tight.set_light(0, &changed.lights[0]).expect("solves");
         assert!(tight.holds_direct_cache(0) && !tight.holds_direct_cache(1));
         let fresh = build(&changed);
-        let peak = fresh.light_radiosity(0).iter().map(|b| b[0]).fold(0.0, f64::max);
-        assert!(peak_difference(tight.light_radiosity(0), fresh.light_radiosity(0)) < 1e-5 * peak);
+        let peak = radiosity(&fresh, 0).iter().map(|b| b[0]).fold(0.0, f64::max);
+        assert!(peak_difference(&radiosity(&tight, 0), &radiosity(&fresh, 0)) < 1e-5 * peak);
     }
 }

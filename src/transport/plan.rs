@@ -10,7 +10,7 @@ use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, trun
 use crate::scene::{DirectMode, Scene};
 use crate::transport::formfactor::FormFactorOptions;
 use crate::transport::interreflection::{InterreflectionOptions, RELAXED_LINKS_ABOVE_LEAVES};
-use crate::transport::refine::{RefineOptions, refine};
+use crate::transport::refine::{RefineOptions, SolverMesh, refine};
 
 /// Target relative L2 error of a curve's SH series when the basis carries only indirect light
 /// (hybrid mode): indirect light is a smooth average of the emission, so a coarse series suffices.
@@ -124,6 +124,15 @@ pub struct Plan {
 
 /// Plans the bake of `scene`.
 pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
+    plan_graded(scene, options).0
+}
+
+/// [`plan`], with the graded solver mesh it made to count the leaves (refined with
+/// [`RefineOptions::default`]; `None` when the hierarchical engine cannot be used), for the
+/// engine to be built on without refining again ([`Interreflection::build_graded`]).
+///
+/// [`Interreflection::build_graded`]: crate::transport::interreflection::Interreflection::build_graded
+pub fn plan_graded(scene: &Scene, options: PlanOptions) -> (Plan, Option<SolverMesh>) {
     let occluders = scene.boxes.len() + scene.mesh_bounds.len();
     let visibility = if occluders > 0 {
         Decision {
@@ -200,18 +209,17 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
         forced => forced,
     };
     // The graded mesh only matters to the hierarchical engine.
-    let (leaves, refinement) = if interreflection.on && !paper && choice != EngineChoice::Basis {
-        let solver = refine(scene, &RefineOptions::default());
+    let solver = (interreflection.on && !paper && choice != EngineChoice::Basis)
+        .then(|| refine(scene, &RefineOptions::default()));
+    let (leaves, refinement) = solver.as_ref().map_or((0, Vec::new()), |solver| {
         (solver.mesh.patches.len(), solver.notes(scene))
-    } else {
-        (0, Vec::new())
-    };
+    });
     let hierarchical = engine_decision(choice, interreflection.on, paper, leaves);
     let n_coarse = scene.coarse.patches.len();
     let per_channel: usize = lights.iter().map(|l| l.columns).sum();
     let columns = per_channel * channels;
     let solve = interreflection.on;
-    Plan {
+    let plan = Plan {
         fine_vertices: scene.fine.n_vertices(),
         coarse_patches: n_coarse,
         columns,
@@ -232,7 +240,8 @@ pub fn plan(scene: &Scene, options: PlanOptions) -> Plan {
         leaves,
         refinement,
         lights,
-    }
+    };
+    (plan, solver)
 }
 
 /// Whether the hierarchical engine carries the indirect light, and why.

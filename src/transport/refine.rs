@@ -26,6 +26,7 @@
 use std::collections::HashMap;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Patch, PatchMesh, Scene, SurfaceKind};
@@ -221,36 +222,36 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
             .flatten(),
         contacts,
     };
+    // The coarse patches split independently (in parallel); their leaves join the mesh in patch
+    // order, so the result does not depend on the threads.
+    let split: Vec<SplitPatch> = scene
+        .coarse
+        .patches
+        .par_iter()
+        .map(|patch| splitter.split_patch(patch))
+        .collect();
     let mut out = Builder::default();
     let mut lamp_split = vec![(0usize, 0usize); scene.lights.len()];
     let mut contact_added = 0usize;
-    for (index, patch) in scene.coarse.patches.iter().enumerate() {
-        let surface = &scene.surfaces[patch.surface as usize];
-        if matches!(surface.kind, SurfaceKind::Mesh { .. }) || patch.n_vertices != 4 {
-            let corners = [0, 1, 2].map(|k| scene.coarse.positions[patch.vertices[k] as usize]);
-            let (leaves, lamp) = split_triangle(scene, options, corners, patch);
-            if let Some(light) = lamp {
-                lamp_split[light].0 += 1;
-                lamp_split[light].1 += leaves.len();
-            }
-            for tri in leaves {
-                out.triangle(patch, index, tri, lamp.is_some());
-            }
-            continue;
-        }
-        let cell = cell_of(&scene.coarse, patch);
-        let mut leaves = Vec::new();
-        let mut first_lamp = None;
-        let mut by_contact = false;
-        splitter.split(cell, &mut leaves, &mut first_lamp, &mut by_contact);
-        if let Some(light) = first_lamp {
+    for (index, (patch, split)) in scene.coarse.patches.iter().zip(split).enumerate() {
+        let near_lamp = split.lamp.is_some();
+        if let Some(light) = split.lamp {
             lamp_split[light].0 += 1;
-            lamp_split[light].1 += leaves.len();
-        } else if by_contact {
-            contact_added += leaves.len() - 1;
+            lamp_split[light].1 += split.leaves.len();
+        } else if split.by_contact {
+            contact_added += split.leaves.len() - 1;
         }
-        for leaf in leaves {
-            out.rect(patch, index, &leaf, first_lamp.is_some());
+        match split.leaves {
+            Leaves::Triangles(leaves) => {
+                for tri in leaves {
+                    out.triangle(patch, index, tri, near_lamp);
+                }
+            }
+            Leaves::Rects(leaves) => {
+                for leaf in &leaves {
+                    out.rect(patch, index, leaf, near_lamp);
+                }
+            }
         }
     }
     let lamps = lamp_split
@@ -321,7 +322,61 @@ fn cell_of(mesh: &PatchMesh, patch: &Patch) -> Cell {
     }
 }
 
+/// The leaves one coarse patch became.
+enum Leaves {
+    Triangles(Vec<[DVec3; 3]>),
+    Rects(Vec<Cell>),
+}
+
+impl Leaves {
+    fn len(&self) -> usize {
+        match self {
+            Leaves::Triangles(t) => t.len(),
+            Leaves::Rects(r) => r.len(),
+        }
+    }
+}
+
+/// What the refinement made of one coarse patch.
+struct SplitPatch {
+    leaves: Leaves,
+    /// The first light whose rule split it.
+    lamp: Option<usize>,
+    /// Split by the contact rules (and by no light).
+    by_contact: bool,
+}
+
 impl Splitter<'_> {
+    /// Splits one coarse patch: OBJ and other triangles by the light rule only, axis-aligned
+    /// quads by the light and contact rules.
+    fn split_patch(&self, patch: &Patch) -> SplitPatch {
+        let scene = self.scene;
+        let surface = &scene.surfaces[patch.surface as usize];
+        if matches!(surface.kind, SurfaceKind::Mesh { .. }) || patch.n_vertices != 4 {
+            let corners = [0, 1, 2].map(|k| scene.coarse.positions[patch.vertices[k] as usize]);
+            let (leaves, lamp) = split_triangle(scene, self.options, corners, patch);
+            return SplitPatch {
+                leaves: Leaves::Triangles(leaves),
+                lamp,
+                by_contact: false,
+            };
+        }
+        let mut leaves = Vec::new();
+        let mut lamp = None;
+        let mut by_contact = false;
+        self.split(
+            cell_of(&scene.coarse, patch),
+            &mut leaves,
+            &mut lamp,
+            &mut by_contact,
+        );
+        SplitPatch {
+            leaves: Leaves::Rects(leaves),
+            lamp,
+            by_contact,
+        }
+    }
+
     /// Splits a rectangle cell recursively (see the module docs), appending the leaves.
     fn split(
         &self,

@@ -1,5 +1,5 @@
 //! The editor's background threads and the one channel the app loop blocks on
-//! (docs/ARCHITECTURE.md "Threads"). The engine worker owns the [`Session`]: it applies the
+//! (docs/ARCHITECTURE.md "The editor's threads"). The engine worker owns the [`Session`]: it applies the
 //! editor's commands as given (everything queued at once), relights and renders once per batch,
 //! answers picks on the frame it just made, and hands moved lights to the bake worker, whose
 //! results come back as requests. The encode worker turns frames into the terminal's image
@@ -338,7 +338,7 @@ impl Engine {
             self.send_numbers()?;
         }
         // Commands queue re-bakes; the relight and the numbers queue the hierarchical engine's
-        // solves (docs/ARCHITECTURE.md "Threads").
+        // solves (docs/ARCHITECTURE.md "The editor's threads").
         for job in self.session.take_bake_jobs() {
             status_changed = true;
             // The bake worker outlives the engine's use of it; a closed queue means shutdown.
@@ -404,9 +404,29 @@ impl Engine {
     }
 }
 
-/// Starts the bake worker: runs each [`BakeJob`] (the latest per light when several are queued)
-/// and sends the outcome back to the engine as [`EngineRequest::Baked`].
+/// Starts the bake workers: each [`BakeJob`] (the latest per light when several are queued) is
+/// run and its outcome sent back to the engine as [`EngineRequest::Baked`]. Regrades (a grading
+/// check, or a whole engine rebuilt: up to a minute on a large floor) run on a thread of their
+/// own, so that the lights' solves queued meanwhile on the current engine do not wait behind
+/// them (docs/ARCHITECTURE.md "The editor's threads").
 fn spawn_bake_worker(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
+    let (jobs, queue) = mpsc::channel::<BakeJob>();
+    let regrades = spawn_job_runner(engine.clone());
+    let lights = spawn_job_runner(engine);
+    thread::spawn(move || {
+        for job in queue {
+            let runner = if job.light().is_none() { &regrades } else { &lights };
+            if runner.send(job).is_err() {
+                return;
+            }
+        }
+    });
+    jobs
+}
+
+/// A thread that runs the [`BakeJob`]s sent to it in order, the latest per light when several
+/// are queued, and sends each outcome to the engine.
+fn spawn_job_runner(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
     let (jobs, queue) = mpsc::channel::<BakeJob>();
     thread::spawn(move || {
         while let Ok(first) = queue.recv() {

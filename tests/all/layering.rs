@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 /// The layers, lowest first: a module may use its own layer and the ones below.
 const LAYERS: &[&[&str]] = &[
-    &["error", "fsio"],
+    &["error", "fsio", "heap"],
     &["photometry"],
     &["scene"],
     &["transport"],
