@@ -463,10 +463,10 @@ fn status_parts(model: &Model) -> Vec<(u8, String)> {
         .iter()
         .zip(&model.light_status)
         .filter(|(_, status)| **status == LightStatus::Updating)
-        .map(|(light, _)| printable(&light.name))
+        .map(|(light, _)| printable(&light.name).into_owned())
         .collect();
-    if !updating.is_empty() {
-        parts.push((4, format!("updating {}", updating.join(", "))));
+    if let Some(text) = updating_part(&updating, model.lights.len()) {
+        parts.push((4, text));
     }
     if let Some(picked) = model.picked {
         parts.push((5, format!("E {:.0} lx", picked.lux)));
@@ -475,6 +475,25 @@ fn status_parts(model: &Model) -> Vec<(u8, String)> {
         parts.push((5, "● unsaved".into()));
     }
     parts
+}
+
+/// Names listed before the rest of the updating lights are counted instead.
+const UPDATING_NAMES: usize = 3;
+
+/// The status line's part for the lights still `updating` out of `total` (`None` when none):
+/// their names, at most [`UPDATING_NAMES`] of them and then a count, so that a rebuilt engine
+/// of a large floor (every light updating) still fits the line instead of being dropped from it.
+fn updating_part(updating: &[String], total: usize) -> Option<String> {
+    match updating.len() {
+        0 => None,
+        n if n <= UPDATING_NAMES => Some(format!("updating {}", updating.join(", "))),
+        n if n == total => Some(format!("updating all {n} lights")),
+        n => Some(format!(
+            "updating {} +{} more",
+            updating[..UPDATING_NAMES].join(", "),
+            n - UPDATING_NAMES
+        )),
+    }
 }
 
 /// The status line for a terminal `width` columns wide ([`status_parts`]).
@@ -657,4 +676,28 @@ fn draw_quit_prompt(frame: &mut Frame<'_>, area: Rect) {
             .block(Block::bordered().title(" quit ")),
         popup,
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_updating_lights_fit_the_status_line() {
+        let names = |n: usize| (1..=n).map(|i| format!("d{i}")).collect::<Vec<_>>();
+        assert_eq!(updating_part(&[], 6), None);
+        assert_eq!(updating_part(&names(1), 6).as_deref(), Some("updating d1"));
+        assert_eq!(
+            updating_part(&names(3), 6).as_deref(),
+            Some("updating d1, d2, d3")
+        );
+        assert_eq!(
+            updating_part(&names(5), 6).as_deref(),
+            Some("updating d1, d2, d3 +2 more")
+        );
+        assert_eq!(
+            updating_part(&names(48), 48).as_deref(),
+            Some("updating all 48 lights")
+        );
+    }
 }

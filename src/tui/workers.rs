@@ -7,9 +7,10 @@
 
 use std::collections::{BTreeSet, HashSet};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, Sender};
 use std::thread;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use ratatui::crossterm::event::Event;
 use ratatui::layout::Size;
@@ -406,17 +407,35 @@ impl Engine {
 
 /// Starts the bake workers: each [`BakeJob`] (the latest per light when several are queued) is
 /// run and its outcome sent back to the engine as [`EngineRequest::Baked`]. Regrades (a grading
-/// check, or a whole engine rebuilt: up to a minute on a large floor) run on a thread of their
-/// own, so that the lights' solves queued meanwhile on the current engine do not wait behind
-/// them (docs/ARCHITECTURE.md "The editor's threads").
+/// check, or a whole engine rebuilt: about a minute on a large floor) run on a thread of their
+/// own with a rayon pool of their own, so that the lights' solves queued while one runs neither
+/// wait behind it nor queue behind its parallel tasks in the shared pool (the two share the
+/// cores through the system's scheduler); a regrade starts once the lights' solves queued before
+/// it have run — the moved light's own solve on the current engine first, at full speed
+/// (docs/ARCHITECTURE.md "The editor's threads").
 fn spawn_bake_worker(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
     let (jobs, queue) = mpsc::channel::<BakeJob>();
-    let regrades = spawn_job_runner(engine.clone());
-    let lights = spawn_job_runner(engine);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .thread_name(|i| format!("haiko-regrade-{i}"))
+        .build()
+        .ok();
+    // Light jobs sent to their runner and not yet run (or superseded).
+    let queued = Arc::new(AtomicUsize::new(0));
+    let regrades = spawn_job_runner(engine.clone(), pool, None);
+    let lights = spawn_job_runner(engine, None, Some(Arc::clone(&queued)));
     thread::spawn(move || {
         for job in queue {
-            let runner = if job.light().is_none() { &regrades } else { &lights };
-            if runner.send(job).is_err() {
+            let sent = if job.light().is_none() {
+                while queued.load(Ordering::Acquire) > 0 {
+                    thread::sleep(Duration::from_millis(5));
+                }
+                regrades.send(job)
+            } else {
+                queued.fetch_add(1, Ordering::AcqRel);
+                lights.send(job)
+            };
+            if sent.is_err() {
                 return;
             }
         }
@@ -424,14 +443,25 @@ fn spawn_bake_worker(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
     jobs
 }
 
-/// A thread that runs the [`BakeJob`]s sent to it in order, the latest per light when several
-/// are queued, and sends each outcome to the engine.
-fn spawn_job_runner(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
+/// A thread that runs the [`BakeJob`]s sent to it in order — in `pool` when given, else in the
+/// global rayon pool — the latest per light when several are queued, and sends each outcome to
+/// the engine; `queued`, when given, is decreased for each job run or superseded.
+fn spawn_job_runner(
+    engine: Sender<EngineRequest>,
+    pool: Option<rayon::ThreadPool>,
+    queued: Option<Arc<AtomicUsize>>,
+) -> Sender<BakeJob> {
     let (jobs, queue) = mpsc::channel::<BakeJob>();
     thread::spawn(move || {
+        let done = |n: usize| {
+            if let Some(queued) = &queued {
+                queued.fetch_sub(n, Ordering::AcqRel);
+            }
+        };
         while let Ok(first) = queue.recv() {
             let mut pending = vec![first];
             pending.extend(queue.try_iter());
+            let received = pending.len();
             // A newer job for the same light supersedes an older one.
             let mut seen = HashSet::new();
             let mut latest_first: Vec<BakeJob> = pending
@@ -440,8 +470,13 @@ fn spawn_job_runner(engine: Sender<EngineRequest>) -> Sender<BakeJob> {
                 .filter(|job| seen.insert(job.light()))
                 .collect();
             latest_first.reverse();
+            done(received - latest_first.len());
             for job in latest_first {
-                let outcome = job.run(&mut |_| {});
+                let outcome = match &pool {
+                    Some(pool) => pool.install(|| job.run(&mut |_| {})),
+                    None => job.run(&mut |_| {}),
+                };
+                done(1);
                 if engine.send(EngineRequest::Baked(Box::new(outcome))).is_err() {
                     return;
                 }
