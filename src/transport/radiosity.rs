@@ -217,7 +217,7 @@ pub fn solve_from<T: Transfer + ?Sized>(
         max_iterations: options.max_iterations,
     };
     // Columns advance in lock-step within groups whose Krylov bases fit the memory budget (one
-    // group in any room up to ~10⁴ patches; the 48 lights of a 133 547-leaf floor in four).
+    // group in the bundled rooms; the 48 lights of a 133 547-leaf floor in seven).
     let per_column = n * 8 * (params.restart + 4);
     let group = (SOLVE_BUDGET_BYTES / per_column.max(1)).clamp(1, k.max(1));
     let mut radiosity = PatchColumns::zeros(n, k);
@@ -249,7 +249,7 @@ pub fn solve_from<T: Transfer + ?Sized>(
 }
 
 /// Most bytes the GMRES state of the columns solved together may take.
-const SOLVE_BUDGET_BYTES: usize = 512 << 20;
+const SOLVE_BUDGET_BYTES: usize = 256 << 20;
 
 /// Runs GMRES for the emission columns `range` in lock-step (one block product with `F` per
 /// step) until each is done.
