@@ -172,13 +172,74 @@ pub fn polygon_quadrature_split(
     polygon: &[DVec3],
     normal: DVec3,
     split: f64,
+    visit: impl FnMut(DVec3, f64, DVec3),
+) {
+    quadrature(position, radius_m, polygon, normal, split, None, visit);
+}
+
+/// [`polygon_quadrature_split`] visiting only the samples whose point `visible` says the source
+/// sees; a piece whose three samples disagree (a shadow line crosses it) is split again, up to
+/// `shadow_splits` more times ([`SHADOW_SPLIT_DEPTH`] by default; 0 keeps the pieces), and so is every piece whose corners disagree once the
+/// polygon's corners do (a straight line through a triangle leaves a corner on each side), so
+/// that the visible part of the polygon is resolved to `4^-depth` of a piece instead of being
+/// weighted by where its edge-midpoint samples fall
+/// (docs/DECISIONS.md "Interreflection", "Shadow lines in the patch direct light").
+#[allow(clippy::too_many_arguments)]
+pub fn polygon_quadrature_visible(
+    position: DVec3,
+    radius_m: f64,
+    polygon: &[DVec3],
+    normal: DVec3,
+    split: f64,
+    shadow_splits: u32,
+    visible: &dyn Fn(DVec3) -> bool,
+    visit: impl FnMut(DVec3, f64, DVec3),
+) {
+    // A straight shadow line through the polygon leaves a corner on each side of it.
+    let crossed = shadow_splits > 0 && {
+        let corners: Vec<bool> = polygon.iter().map(|&q| visible(q)).collect();
+        corners.contains(&true) && corners.contains(&false)
+    };
+    let shadow = Shadow {
+        visible,
+        crossed,
+        splits: shadow_splits,
+    };
+    quadrature(position, radius_m, polygon, normal, split, Some(shadow), visit);
+}
+
+/// Extra splits of a piece that a shadow line crosses ([`polygon_quadrature_visible`]) by
+/// default: 4 takes a piece to 1/256 of its solid angle along the line.
+pub const SHADOW_SPLIT_DEPTH: u32 = 4;
+
+/// What [`quadrature`] needs to follow shadow lines.
+struct Shadow<'a> {
+    visible: &'a dyn Fn(DVec3) -> bool,
+    /// The polygon's corners disagree: every piece checks its corners too.
+    crossed: bool,
+    /// Most extra splits of a crossed piece.
+    splits: u32,
+}
+
+/// The quadrature behind [`polygon_quadrature_split`] and [`polygon_quadrature_visible`].
+fn quadrature(
+    position: DVec3,
+    radius_m: f64,
+    polygon: &[DVec3],
+    normal: DVec3,
+    split: f64,
+    shadow: Option<Shadow<'_>>,
     mut visit: impl FnMut(DVec3, f64, DVec3),
 ) {
+    let visible = shadow.as_ref().map(|s| s.visible);
+    let crossed_polygon = shadow.as_ref().is_some_and(|s| s.crossed);
+    let max_splits = shadow.as_ref().map_or(0, |s| s.splits);
     let split2 = split * split;
     if (polygon[0] - position).dot(normal) >= 0.0 {
         return; // the source is behind (or in the plane of) the polygon
     }
-    let mut stack: Vec<([DVec3; 3], u32)> = (1..polygon.len() - 1)
+    // Each piece with its depth and the shadow splits it took.
+    let mut stack: Vec<([DVec3; 3], u32, u32)> = (1..polygon.len() - 1)
         .map(|k| {
             (
                 [
@@ -187,10 +248,15 @@ pub fn polygon_quadrature_split(
                     polygon[k + 1] - position,
                 ],
                 0,
+                0,
             )
         })
         .collect();
-    while let Some(([a, b, c], depth)) = stack.pop() {
+    let quarters = |[a, b, c]: [DVec3; 3]| {
+        let (ab, bc, ca) = ((a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0);
+        [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+    };
+    while let Some(([a, b, c], depth, shadow)) = stack.pop() {
         let mid = (a + b + c) / 3.0;
         let r2 = mid.length_squared();
         let longest2 = (b - a)
@@ -198,19 +264,34 @@ pub fn polygon_quadrature_split(
             .max((c - b).length_squared())
             .max((a - c).length_squared());
         if longest2 > r2 * split2 && depth < MAX_SPLIT_DEPTH {
-            let (ab, bc, ca) = ((a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0);
-            for tri in [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]] {
-                stack.push((tri, depth + 1));
-            }
+            stack.extend(quarters([a, b, c]).map(|tri| (tri, depth + 1, shadow)));
+            continue;
+        }
+        let points = [(a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0];
+        let seen = visible.map_or([true; 3], |v| points.map(|q| v(position + q)));
+        // Inside a crossed polygon or piece the corners are checked too: a straight line through
+        // a triangle always leaves a corner on each side, so no crossed part is missed there.
+        let crossed = |seen: &[bool]| seen.contains(&true) && seen.contains(&false);
+        let corners_differ = || {
+            visible.is_some_and(|v| {
+                let corners = [a, b, c].map(|q| v(position + q));
+                crossed(&[corners[0], corners[1], corners[2], seen[0]])
+            })
+        };
+        let check_corners = shadow > 0 || crossed_polygon;
+        if shadow < max_splits && (crossed(&seen) || (check_corners && corners_differ())) {
+            stack.extend(quarters([a, b, c]).map(|tri| (tri, depth + 1, shadow + 1)));
             continue;
         }
         // Edge-midpoint rule on the flat triangle (exact for quadratics) applied to the solid-angle
         // density, which is ∝ 1/|q|³ on a plane; the weights are rescaled to the exact solid angle.
         let omega = triangle_solid_angle(a, b, c);
-        let points = [(a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0];
         let density = points.map(|q| q.length_squared().powf(-1.5));
         let norm = omega / (density[0] + density[1] + density[2]);
-        for (q, d) in points.into_iter().zip(density) {
+        for ((q, d), seen) in points.into_iter().zip(density).zip(seen) {
+            if !seen {
+                continue;
+            }
             let q2 = q.length_squared();
             visit(
                 q / q2.sqrt(),
@@ -290,6 +371,59 @@ mod tests {
             ];
             let flux = polygon_flux(DVec3::new(0.0, 0.0, h), 0.0, &square, DVec3::Z, |_| 1.0);
             assert!((flux - sr).abs() < 1e-8, "a={a} h={h}: {flux}");
+        }
+    }
+
+    /// A 5 cm patch 3 m below an isotropic source, a hard shadow line crossing it at `x = s`:
+    /// the visible solid angle is that of the lit rectangle (exact here to 10⁻⁸). As one piece
+    /// (the patch direct light's usual size) its six edge-midpoint samples give 1/6 or 5/6 of the
+    /// patch wherever the line falls; split along the line it is within 2 % of the lit part.
+    #[test]
+    fn a_shadow_line_through_a_piece_is_resolved() {
+        let source = DVec3::new(0.0, 0.0, 3.0);
+        let rect = |x0: f64, x1: f64| {
+            [
+                DVec3::new(x0, 0.0, 0.0),
+                DVec3::new(x1, 0.0, 0.0),
+                DVec3::new(x1, 0.05, 0.0),
+                DVec3::new(x0, 0.05, 0.0),
+            ]
+        };
+        let patch = rect(0.0, 0.05);
+        let whole = polygon_flux(source, 0.0, &patch, DVec3::Z, |_| 1.0);
+        for s in [0.003, 0.011, 0.02, 0.031, 0.047] {
+            let lit = polygon_flux(source, 0.0, &rect(0.0, s), DVec3::Z, |_| 1.0);
+            let visible = |q: DVec3| q.x < s;
+            let mut flux = 0.0;
+            // Split 1 (one piece per fan triangle) as the patch direct light makes it.
+            polygon_quadrature_visible(
+                source,
+                0.0,
+                &patch,
+                DVec3::Z,
+                1.0,
+                SHADOW_SPLIT_DEPTH,
+                &visible,
+                |_, w, _| flux += w,
+            );
+            assert!(
+                (flux - lit).abs() < 0.02 * whole,
+                "line at {s}: {flux} against {lit} ({:.3} of the patch)",
+                (flux - lit) / whole
+            );
+            let mut unresolved = 0.0;
+            polygon_quadrature_split(source, 0.0, &patch, DVec3::Z, 1.0, |_, w, q| {
+                if visible(q) {
+                    unresolved += w;
+                }
+            });
+            let fraction = unresolved / whole;
+            assert!(
+                [0.0, 1.0 / 6.0, 0.5, 5.0 / 6.0, 1.0]
+                    .iter()
+                    .any(|f| (fraction - f).abs() < 0.01),
+                "without the shadow splits the samples decide: {fraction}"
+            );
         }
     }
 }

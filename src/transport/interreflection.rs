@@ -17,11 +17,11 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::photometry::LightState;
 use crate::scene::{Light, Scene, SurfaceKind};
-use crate::transport::direct::Receiver;
+use crate::transport::direct::{Receiver, SHADOW_SPLIT_DEPTH};
 use crate::transport::hierarchy::{Node, Operator, Tree};
 use crate::transport::links::{self, LinkOptions, NodeGeometry};
 use crate::transport::occlusion::Occluders;
-use crate::transport::patchdirect::{DEFAULT_SPLIT, PatchDirectCache};
+use crate::transport::patchdirect::{DEFAULT_SPLIT, PatchDirectCache, Split};
 use crate::transport::radiosity::{PatchColumns, Solution, SolveOptions, solve_from};
 use crate::transport::refine::{RefineOptions, SolverMesh, refine};
 use crate::transport::visibility::Visibility;
@@ -43,6 +43,11 @@ pub struct InterreflectionOptions {
     pub links: LinkOptions,
     /// Piece size of the per-(light, patch) direct quadrature, relative to the distance.
     pub direct_split: f64,
+    /// Extra splits of a direct-quadrature piece that a shadow line crosses
+    /// ([`crate::transport::direct::polygon_quadrature_visible`]; docs/DECISIONS.md
+    /// "Interreflection", "Shadow lines in the patch direct light"). Default
+    /// [`SHADOW_SPLIT_DEPTH`]; 0 above [`RELAXED_LINKS_ABOVE_LEAVES`] leaves.
+    pub shadow_splits: u32,
     /// A receiver gathers from a cluster (rather than its leaves) when the cluster's diameter is
     /// at most this many times its distance and no leaf of it has a radiosity above
     /// `1 + gather_uniformity` times the cluster's mean (in any channel).
@@ -56,6 +61,7 @@ impl Default for InterreflectionOptions {
             refine: RefineOptions::default(),
             links: LinkOptions::default(),
             direct_split: DEFAULT_SPLIT,
+            shadow_splits: SHADOW_SPLIT_DEPTH,
             gather_eta: 0.25,
             gather_uniformity: 0.5,
         }
@@ -72,7 +78,8 @@ pub const RELAXED_ETA_FAR: f64 = 0.3;
 
 impl InterreflectionOptions {
     /// The options the plan uses for a graded mesh of `leaves` leaves: the defaults, with the
-    /// links relaxed beyond [`RELAXED_NEAR_M`] above [`RELAXED_LINKS_ABOVE_LEAVES`] (a leaf's
+    /// links relaxed beyond [`RELAXED_NEAR_M`] and no shadow splits of the patch direct light
+    /// (their rays cost the open-plan floor 10–20 s) above [`RELAXED_LINKS_ABOVE_LEAVES`] (a leaf's
     /// links grow like `1/eta²`: 97 M links and a 3.1 GB operator on the 133 547 leaves of the
     /// open-plan floor at `eta` 0.1, 16 M and 0.56 GB relaxed; docs/ACCURACY.md "Relaxed links"
     /// has the accuracy this costs).
@@ -81,6 +88,7 @@ impl InterreflectionOptions {
         if leaves > RELAXED_LINKS_ABOVE_LEAVES {
             options.links.near_m = RELAXED_NEAR_M;
             options.links.eta_far = RELAXED_ETA_FAR;
+            options.shadow_splits = 0;
         }
         options
     }
@@ -239,9 +247,17 @@ impl Interreflection {
             &self.solver.mesh,
             light.position,
             light.radius,
-            self.options.direct_split,
+            self.direct_pieces(),
             self.occluders.as_ref().map(|o| o as &dyn Visibility),
         )
+    }
+
+    /// How the direct quadrature samples a leaf.
+    fn direct_pieces(&self) -> Split {
+        Split {
+            piece: self.options.direct_split,
+            shadow_splits: self.options.shadow_splits,
+        }
     }
 
     /// The leaf direct irradiance (lx) of `light` at its current curve, aim and dimmer: what its
@@ -251,7 +267,7 @@ impl Interreflection {
             &self.solver.mesh,
             light.position,
             light.radius,
-            self.options.direct_split,
+            self.direct_pieces(),
             self.occluders.as_ref().map(|o| o as &dyn Visibility),
             &light.curve,
             light.aim.normalize(),

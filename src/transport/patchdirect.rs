@@ -2,7 +2,7 @@
 //! (docs/DECISIONS.md "Interreflection").
 //!
 //! Per (light, patch) the cache holds the solid-angle quadrature of the patch seen from the light
-//! ([`polygon_quadrature_split`]): per sample the unit direction from the light and its weight
+//! ([`polygon_quadrature_visible`]): per sample the unit direction from the light and its weight
 //! (exact solid angle of its piece × near-field softening `r²/(r² + a²)`, divided by the patch
 //! area), visible samples only. An edit or a re-aim then costs one curve evaluation per sample:
 //! `E_patch = Σ w · I(γ(dir))` (lx), the patch average of the exact direct light, with no SH
@@ -14,11 +14,20 @@ use rayon::prelude::*;
 
 use crate::photometry::Curve;
 use crate::scene::{Patch, PatchMesh};
-use crate::transport::direct::polygon_quadrature_split;
+use crate::transport::direct::polygon_quadrature_visible;
 use crate::transport::visibility::Visibility;
 
 /// Default piece size relative to the distance to the light.
 pub const DEFAULT_SPLIT: f64 = 1.0 / 32.0;
+
+/// How finely a patch is sampled: pieces below `piece ×` their distance to the light, a piece
+/// that a shadow line crosses split up to `shadow_splits` more times
+/// ([`crate::transport::direct::polygon_quadrature_visible`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Split {
+    pub piece: f64,
+    pub shadow_splits: u32,
+}
 
 /// Patches per rayon task when evaluating a cache.
 const MIN_PATCHES_PER_TASK: usize = 256;
@@ -36,13 +45,13 @@ pub struct PatchDirectCache {
 
 impl PatchDirectCache {
     /// Samples every patch of `mesh` seen from a light at `position` (world, m) with luminous
-    /// radius `radius_m`; pieces below `split ×` their distance; samples blocked by `occluders`
-    /// are dropped.
+    /// radius `radius_m`; pieces below `split ×` their distance, a piece that a shadow line
+    /// crosses split up to `shadow_splits` more times; samples blocked by `occluders` are dropped.
     pub fn build(
         mesh: &PatchMesh,
         position: DVec3,
         radius_m: f64,
-        split: f64,
+        split: Split,
         occluders: Option<&dyn Visibility>,
     ) -> Self {
         let per_patch: Vec<(Vec<Vec3>, Vec<f32>)> = mesh
@@ -83,7 +92,7 @@ impl PatchDirectCache {
         mesh: &PatchMesh,
         position: DVec3,
         radius_m: f64,
-        split: f64,
+        split: Split,
         occluders: Option<&dyn Visibility>,
         curve: &Curve,
         aim: DVec3,
@@ -187,7 +196,7 @@ fn patch_samples(
     patch: &Patch,
     position: DVec3,
     radius_m: f64,
-    split: f64,
+    split: Split,
     occluders: Option<&dyn Visibility>,
     mut sample: impl FnMut(Vec3, f32),
 ) {
@@ -197,18 +206,16 @@ fn patch_samples(
         .map(|&v| mesh.positions[v as usize])
         .collect();
     let inv_area = 1.0 / patch.area;
-    polygon_quadrature_split(
+    let visible = |point: DVec3| occluders.is_none_or(|v| v.visible(position, point));
+    polygon_quadrature_visible(
         position,
         radius_m,
         &polygon,
         patch.normal,
-        split,
-        |dir, w, point| {
-            if occluders.is_some_and(|v| !v.visible(position, point)) {
-                return;
-            }
-            sample(dir.as_vec3(), (w * inv_area) as f32);
-        },
+        split.piece,
+        split.shadow_splits,
+        &visible,
+        |dir, w, _| sample(dir.as_vec3(), (w * inv_area) as f32),
     );
 }
 
@@ -216,6 +223,14 @@ fn patch_samples(
 mod tests {
     use super::*;
     use crate::scene::Patch;
+
+    /// Pieces below `piece ×` their distance (no occluders here, so no shadow lines to split at).
+    fn pieces(piece: f64) -> Split {
+        Split {
+            piece,
+            shadow_splits: 0,
+        }
+    }
 
     /// One square patch `[-a/2, a/2]²` at z = 0 facing up.
     fn square(a: f64) -> PatchMesh {
@@ -246,7 +261,7 @@ mod tests {
     fn isotropic_patch_average_is_the_exact_flux_over_the_area() {
         let mesh = square(6.0);
         for split in [1.0 / 16.0, 1.0 / 8.0, 1.0 / 2.0] {
-            let cache = PatchDirectCache::build(&mesh, DVec3::new(0.0, 0.0, 2.0), 0.0, split, None);
+            let cache = PatchDirectCache::build(&mesh, DVec3::new(0.0, 0.0, 2.0), 0.0, pieces(split), None);
             let mut e = [0.0];
             cache.irradiance_into(&Curve::isotropic(1000.0), DVec3::NEG_Z, 1.0, &mut e);
             let want = 1000.0 * 3.05872871 / 36.0;
@@ -268,7 +283,7 @@ mod tests {
         let want = 2.0 * std::f64::consts::PI * 1000.0 * (1.0 - 30f64.to_radians().cos()) / 36.0;
         let mut errors = Vec::new();
         for split in [1.0 / 4.0, 1.0 / 16.0, 1.0 / 64.0] {
-            let cache = PatchDirectCache::build(&mesh, DVec3::new(0.0, 0.0, 2.0), 0.0, split, None);
+            let cache = PatchDirectCache::build(&mesh, DVec3::new(0.0, 0.0, 2.0), 0.0, pieces(split), None);
             let mut e = [0.0];
             cache.irradiance_into(&spot, DVec3::NEG_Z, 1.0, &mut e);
             errors.push((e[0] - want).abs() / want);
@@ -285,7 +300,8 @@ mod tests {
     #[test]
     fn control_point_irradiance_is_each_unit_curve() {
         let mesh = square(6.0);
-        let cache = PatchDirectCache::build(&mesh, DVec3::new(0.5, -0.3, 2.0), 0.02, 1.0 / 16.0, None);
+        let cache =
+            PatchDirectCache::build(&mesh, DVec3::new(0.5, -0.3, 2.0), 0.02, pieces(1.0 / 16.0), None);
         let curve = Curve::new(&[
             (0.0, 900.0),
             (20.0, 700.0),

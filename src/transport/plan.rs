@@ -282,7 +282,7 @@ fn relaxed_links_note(leaves: usize) -> String {
     let links = InterreflectionOptions::for_leaves(leaves).links;
     if links.eta_far > links.eta {
         format!(
-            "; above {RELAXED_LINKS_ABOVE_LEAVES} leaves the links relax beyond {} m (admissible ratio {} growing to {})",
+            "; above {RELAXED_LINKS_ABOVE_LEAVES} leaves the links relax beyond {} m (admissible ratio {} growing to {}) and shadow lines are not followed inside the leaves' direct light",
             links.near_m, links.eta, links.eta_far
         )
     } else {

@@ -564,6 +564,7 @@ fn engine_options_from_env() -> InterreflectionOptions {
             "contact_min" => o.refine.contact_min_m = v,
             "shadow_min" => o.refine.shadow_min_m = v,
             "split" => o.direct_split = v,
+            "shadow_splits" => o.shadow_splits = v as u32,
             "gather_eta" => o.gather_eta = v,
             "gather_uniformity" => o.gather_uniformity = v,
             other => panic!("HAIKO_ENGINE: unknown knob {other}"),
