@@ -168,8 +168,11 @@ fn edit_aim_save_and_quit_in_tmux() {
     let (session, room, exit_file, original) = start_editor(dir.path());
 
     // The first frame: the status line reports the stage timings of a rendered preview.
-    let screen = session.wait_for("the first preview frame", |s| status_line(s).contains("relight"));
-    assert!(status_line(&screen).contains("half-blocks"), "{screen}");
+    // Waited for whole: a capture can catch the status line half rewritten by the next frame.
+    let screen = session.wait_for("the first preview frame, in half-blocks", |s| {
+        let status = status_line(s);
+        status.contains("relight") && status.contains("│ half-blocks")
+    });
     assert!(screen.contains("centre"), "the first light is selected: {screen}");
     assert!(
         screen.contains("1000.0"),
