@@ -13,7 +13,7 @@ use crate::transport::cache::BakeCache;
 use crate::transport::indirect::{
     DIRECT_CACHE_BUDGET_BYTES, HierarchicalIndirect, LightSolve, LightSolveJob,
 };
-use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
+use crate::transport::interreflection::Interreflection;
 use crate::transport::refine::SolverMesh;
 
 use super::LightId;
@@ -56,10 +56,7 @@ pub(super) enum Work {
 pub(super) struct RegradeJob {
     pub(super) scene: Scene,
     pub(super) engine: Arc<Interreflection>,
-    pub(super) channels: usize,
-    pub(super) visibility: bool,
     pub(super) tolerance: f64,
-    pub(super) options: InterreflectionOptions,
     pub(super) snapshot: Vec<LightSnapshot>,
     /// The lights (indices) whose solve on `engine` was queued with this check: their solve,
     /// not the check, brings them up to date when the grading holds.
@@ -99,8 +96,7 @@ impl RegradeJob {
     ///
     /// Errors: the solve failing (internal).
     pub(super) fn build(&self, solver: SolverMesh) -> Result<HierarchicalIndirect> {
-        let engine =
-            Interreflection::build_graded(&self.scene, solver, self.channels, self.visibility, &self.options);
+        let engine = self.engine.rebuilt(&self.scene, solver);
         HierarchicalIndirect::on_engine(
             Arc::new(engine),
             &self.scene,

@@ -766,12 +766,7 @@ impl Session {
     /// when they call for another (its graded mesh follows where they are), with each light's
     /// bookkeeping as it is now and no solves yet.
     fn regrade_job(&mut self) -> Option<RegradeJob> {
-        let (channels, visibility) = self
-            .bake
-            .as_ref()
-            .map(|b| (b.plan.channels, b.plan.visibility.on))?;
         let engine = Arc::clone(self.hierarchical.as_ref()?.engine());
-        let options = *engine.options();
         let tolerance = self
             .options
             .bake
@@ -790,10 +785,7 @@ impl Session {
         Some(RegradeJob {
             scene,
             engine,
-            channels,
-            visibility,
             tolerance,
-            options,
             snapshot,
             solving: Vec::new(),
         })

@@ -576,13 +576,7 @@ impl HierarchicalIndirect {
         let regraded = self.engine.regrade(&moved_scene);
         let move_rebuilt = regraded.is_some();
         if let Some(solver) = regraded {
-            let engine = Interreflection::build_graded(
-                &moved_scene,
-                solver,
-                self.engine.channels(),
-                self.engine.occluders.is_some(),
-                self.engine.options(),
-            );
+            let engine = self.engine.rebuilt(&moved_scene, solver);
             let rebuilt = Self::on_engine(
                 Arc::new(engine),
                 &moved_scene,

@@ -148,6 +148,18 @@ impl Interreflection {
         (!same).then_some(graded)
     }
 
+    /// This engine built again for `scene` on its new graded mesh `solver` ([`Self::regrade`]),
+    /// with the same channels, visibility and options.
+    pub fn rebuilt(&self, scene: &Scene, solver: SolverMesh) -> Self {
+        Self::build_graded(
+            scene,
+            solver,
+            self.channels(),
+            self.occluders.is_some(),
+            self.options(),
+        )
+    }
+
     /// Builds the engine for `scene`: `channels` reflectance channels (1 or 3), visibility rays
     /// only when `visibility` (an empty convex room needs none).
     pub fn build(scene: &Scene, channels: usize, visibility: bool, options: &InterreflectionOptions) -> Self {
