@@ -12,7 +12,7 @@
 //!   `contact_ratio ×` their distance to it, down to strips of `contact_min_m`. Light next to a
 //!   contact changes over centimetres (the dark strip of a box face by the floor, the floor in the
 //!   box's shadow), along the edge only over the box's size, so the strips are anisotropic (a strip
-//!   touching the edge at most `CONTACT_ASPECT` = 4 times as long as wide). A strip
+//!   at most `CONTACT_ASPECT` = 4 times as long as its far side's distance to the edge). A strip
 //!   near the edge that a light's shadow line crosses (the box's own shadow next to its base,
 //!   a few centimetres wide beside a bright pool) is halved further, down to `shadow_min_m`.
 //!   The room's own edges near a light hung close to a room surface (a wall-washer under the
@@ -184,8 +184,8 @@ fn point_box_distance(p: DVec3, b: &Aabb) -> f64 {
     p.distance(p.clamp(b.min, b.max))
 }
 
-/// A strip touching a contact edge is split along it while longer than this many times its
-/// width.
+/// A strip along a contact edge is split along it while longer than this many times the
+/// distance of its far side to the edge (its width, for a strip touching the edge).
 const CONTACT_ASPECT: f64 = 4.0;
 
 /// A strip is split at a light's shadow line while it lies within this many of its widths of the
@@ -451,11 +451,14 @@ impl Splitter<'_> {
             if width > 2.0 * options.contact_min_m && width > options.contact_ratio * distance {
                 return Some(across);
             }
-            // A strip touching the edge is kept within `CONTACT_ASPECT` of its width along it:
-            // what it receives varies along the edge with the light and shadow on the partner
-            // surface (a box face at the floor beside a pool that the box's shadow cuts).
+            // A strip is kept within `CONTACT_ASPECT` times its far side's distance to the edge
+            // along it: what it receives varies along the edge with the light and shadow on the
+            // partner surface (a box face at the floor beside a pool that the box's shadow cuts),
+            // and what it reflects lights the partner's strips, which the shadow rule below
+            // makes short (docs/DECISIONS.md "Interreflection", "Contact strips short along the
+            // edge").
             let length = cell.extent(1 - across);
-            if distance <= 1e-9 && length > CONTACT_ASPECT * width && length > 2.0 * options.contact_min_m {
+            if length > CONTACT_ASPECT * (distance + width) && length > 2.0 * options.contact_min_m {
                 return Some(1 - across);
             }
             // The shadow rule reaches a few strip widths from the edge: the box's shadow line
@@ -852,6 +855,35 @@ solver_patch_size = 0.5
                 .iter()
                 .any(|n| n.contains("graded along 4 contact edges"))
         );
+    }
+
+    /// With the default grading the strips of a box side along the floor are at most
+    /// `CONTACT_ASPECT` times as long as their top's height — the strips above the lowest one
+    /// too (0.5 m long before, the coarse patch's length, where the side's light varies along
+    /// the floor's pattern).
+    #[test]
+    fn contact_strips_are_short_along_the_edge() {
+        let text = EMPTY.replace("[2.0, 1.5, 1.2]", "[3.2, 1.5, 1.5]").replace(
+            "[[light]]",
+            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 2.0, 0.8]\nreflectance = 0.4\n[[light]]",
+        );
+        let s = scene(&text);
+        let solver = refine(&s, &RefineOptions::default());
+        let side = s.surfaces.iter().position(|x| x.name == "box0-x1").unwrap() as u32;
+        let mut strips = 0;
+        for p in solver.mesh.patches.iter().filter(|p| p.surface == side) {
+            let corners = p.vertex_ids().iter().map(|&v| solver.mesh.positions[v as usize]);
+            let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                (lo.min(c), hi.max(c))
+            });
+            let length = hi.y - lo.y;
+            assert!(length <= CONTACT_ASPECT * hi.z + 1e-9, "{lo:?}..{hi:?}");
+            if hi.z < 0.1 && lo.z > 0.0 {
+                strips += 1;
+                assert!(length < 0.5, "{lo:?}..{hi:?}");
+            }
+        }
+        assert!(strips > 0);
     }
 
     /// The refinement can be turned off.
