@@ -102,6 +102,14 @@ fn aim_title(screen: &str) -> Option<String> {
     Some(screen[start..=end].to_string())
 }
 
+/// The light panel's aim line, e.g. `0.70 0.27 -0.66`.
+fn light_aim(screen: &str) -> Option<String> {
+    let line = screen.lines().find(|l| l.contains("│aim "))?;
+    let start = line.find("│aim ")? + "│aim ".len();
+    let rest = &line[start..];
+    Some(rest[..rest.find('│')?].trim().to_string())
+}
+
 /// True once the save has finished: the status reports "saved PATH" and the room is no longer
 /// marked "● unsaved" (a plain `contains("saved ")` also matches that marker).
 pub(crate) fn shows_saved(screen: &str) -> bool {
@@ -194,11 +202,15 @@ fn edit_aim_save_and_quit_in_tmux() {
     session.wait_for("the cursor to move", |s| {
         aim_title(s).is_some_and(|t| t != centred)
     });
+    let before = light_aim(&screen).expect("the light panel's aim");
     session.send("Enter");
-    // The aim applies when the engine's pick comes back: the status then shows its lux (a
-    // save before that would miss the aim).
+    // The aim applies when the engine's pick comes back: the light panel then shows the new aim
+    // (a save before that would miss it; the status line's lux alone also shows the cursor's
+    // before the pick is back, which a loaded machine let a save slip in front of).
     session.wait_for("the aim to apply", |s| {
-        aim_title(s).is_none() && status_line(s).contains("EDIT") && status_line(s).contains(" lx")
+        aim_title(s).is_none()
+            && status_line(s).contains("EDIT")
+            && light_aim(s).is_some_and(|aim| aim != before)
     });
 
     session.send("s");
