@@ -5,15 +5,18 @@
 //! per-control-point solve), one control point's angle (a curve edit: the block solve of that
 //! response), a re-aim between ±5° (a warm-started solve), a dimmer edit (a scaling) and a 0.1 m move
 //! that keeps the refinement (a new direct cache and a solve). The same edits on the open-plan
-//! floor of `benches/rooms/open-plan.toml` (targets: a curve edit or re-aim ≤ 10 ms).
+//! floor of `benches/rooms/open-plan.toml` (targets: a curve edit or re-aim ≤ 10 ms). The
+//! clustered gather at the furnished office's work plane, with linear and constant leaf radiosity.
 
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use glam::DVec3;
 use haiko::photometry::Curve;
 use haiko::scene::Light;
+use haiko::transport::direct::Receiver;
 use haiko::transport::indirect::HierarchicalIndirect;
 use haiko::transport::interreflection::InterreflectionOptions;
 use haiko::transport::plan::{PlanOptions, plan};
@@ -125,9 +128,53 @@ fn open_plan(c: &mut Criterion) {
     room(c, "open_plan", "benches/rooms/open-plan.toml", false, false);
 }
 
+/// The clustered gather at a work plane of the furnished office (`rooms/office.toml`, its lights
+/// solved): 0.8 m high, a 0.25 m grid, with the leaves' radiosity linear (the default) and
+/// constant on each leaf (docs/DECISIONS.md "Interreflection", "Linear radiosity in the near
+/// gather").
+fn gather(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rooms/office.toml");
+    let scene = haiko::scene::load(&path).unwrap_or_else(|e| panic!("bench room: {e}"));
+    let p = plan(&scene, PlanOptions::default());
+    let size = scene.room_size;
+    let spacing = 0.25;
+    let (nx, ny) = ((size.x / spacing) as usize, (size.y / spacing) as usize);
+    let plane: Vec<Receiver> = (0..nx * ny)
+        .map(|k| Receiver {
+            point: DVec3::new(
+                (0.5 + (k % nx) as f64) * spacing,
+                (0.5 + (k / nx) as f64) * spacing,
+                0.8,
+            ),
+            normal: DVec3::Z,
+        })
+        .collect();
+    let mut group = c.benchmark_group("indirect");
+    for (name, linear_gather) in [
+        ("office_gather_plane", true),
+        ("office_gather_plane_constant", false),
+    ] {
+        let options = InterreflectionOptions {
+            linear_gather,
+            ..InterreflectionOptions::for_leaves(p.leaves)
+        };
+        let engine = HierarchicalIndirect::build(
+            &scene,
+            &scene.lights,
+            p.channels,
+            p.visibility.on,
+            scene.settings.tolerance,
+            &options,
+        )
+        .unwrap_or_else(|e| panic!("bench room: {e}"));
+        group.bench_function(name, |b| b.iter(|| black_box(engine.gather_all(&plane))));
+    }
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = configured();
-    targets = paper, open_plan
+    targets = paper, gather, open_plan
 }
 criterion_main!(benches);

@@ -772,6 +772,11 @@ fn engine_variants() -> Vec<(&'static str, InterreflectionOptions)> {
             "gather clusters at 0.5 of distance",
             with(&|o| o.gather_eta = 0.5),
         ),
+        ("gather constant on each leaf", with(&|o| o.linear_gather = false)),
+        (
+            "no shadow splits in the direct pieces",
+            with(&|o| o.shadow_splits = 0),
+        ),
     ]
 }
 

@@ -10,6 +10,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::photometry::Curve;
+use crate::transport::formfactor::triangle_quarters;
 use crate::transport::visibility::Visibility;
 
 pub use crate::scene::Receiver;
@@ -252,10 +253,6 @@ fn quadrature(
             )
         })
         .collect();
-    let quarters = |[a, b, c]: [DVec3; 3]| {
-        let (ab, bc, ca) = ((a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0);
-        [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
-    };
     while let Some(([a, b, c], depth, shadow)) = stack.pop() {
         let mid = (a + b + c) / 3.0;
         let r2 = mid.length_squared();
@@ -264,7 +261,7 @@ fn quadrature(
             .max((c - b).length_squared())
             .max((a - c).length_squared());
         if longest2 > r2 * split2 && depth < MAX_SPLIT_DEPTH {
-            stack.extend(quarters([a, b, c]).map(|tri| (tri, depth + 1, shadow)));
+            stack.extend(triangle_quarters([a, b, c]).map(|tri| (tri, depth + 1, shadow)));
             continue;
         }
         let points = [(a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0];
@@ -280,7 +277,7 @@ fn quadrature(
         };
         let check_corners = shadow > 0 || crossed_polygon;
         if shadow < max_splits && (crossed(&seen) || (check_corners && corners_differ())) {
-            stack.extend(quarters([a, b, c]).map(|tri| (tri, depth + 1, shadow + 1)));
+            stack.extend(triangle_quarters([a, b, c]).map(|tri| (tri, depth + 1, shadow + 1)));
             continue;
         }
         // Edge-midpoint rule on the flat triangle (exact for quadratics) applied to the solid-angle

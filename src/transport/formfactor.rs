@@ -10,7 +10,7 @@ use std::any::TypeId;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use crate::scene::{Patch, PatchMesh};
@@ -52,6 +52,21 @@ pub fn differential(p: DVec3, n: DVec3, centroid: DVec3, normal: DVec3, area: f6
         return 0.0;
     }
     cos_p * cos_j * area / (PI * r2)
+}
+
+/// The gradient (1/m³, world frame) over a surface point `x` with unit normal `normal` of the
+/// point-to-point kernel `K(x) = cosθ_p cosθ_x / (π r²)` from a point `p` with unit normal `n`:
+/// the first-order change of [`differential`] per unit area as `x` moves. Zero when either
+/// side faces away (where `K` is clipped to zero).
+pub fn kernel_gradient(p: DVec3, n: DVec3, x: DVec3, normal: DVec3) -> DVec3 {
+    let d = x - p;
+    let r2 = d.length_squared();
+    let (u, v) = (n.dot(d), -normal.dot(d));
+    if r2 == 0.0 || u <= 0.0 || v <= 0.0 {
+        return DVec3::ZERO;
+    }
+    let r4 = r2 * r2;
+    (n * v - normal * u) / (PI * r4) - d * (4.0 * u * v / (PI * r4 * r2))
 }
 
 /// [`point_to_polygon`] with a caller-owned scratch buffer for the clipped polygon.
@@ -170,6 +185,55 @@ impl TargetPatch {
         }
     }
 
+    /// The form-factor-weighted offset `∫ (x − c) dF(p → x)` over the patch (m; world frame), `c`
+    /// its centroid, from a point `p` with unit normal `n`, when the patch is large for its
+    /// distance to `p`: with a linear radiosity `B(x) = B_c + g · (x − c)` on the patch, the
+    /// irradiance at `p` is `B_c F + g · moment`. The midpoint rule on pieces of the polygon,
+    /// each split in four until it is at most [`MOMENT_ACCEPT`] times its distance to `p` (at
+    /// most [`MOMENT_DEPTH`] times), with each piece's factor exact. `None` when the whole patch
+    /// is already that small for its distance (the kernel's first-order change over it,
+    /// [`kernel_gradient`], then gives the moment).
+    pub fn near_moment(&self, p: DVec3, n: DVec3, scratch: &mut Vec<DVec3>) -> Option<DVec3> {
+        let whole = Piece {
+            corners: self.corners,
+            n: self.n_corners,
+        };
+        if whole.accepted(p) {
+            return None;
+        }
+        if self.normal.dot(p - self.centroid) <= 0.0 {
+            return Some(DVec3::ZERO);
+        }
+        let mut moment = DVec3::ZERO;
+        let mut stack = vec![(whole, 0u32)];
+        while let Some((piece, depth)) = stack.pop() {
+            if depth < MOMENT_DEPTH && !piece.accepted(p) {
+                stack.extend(piece.quarters().map(|q| (q, depth + 1)));
+                continue;
+            }
+            let f = contour_form_factor(p, n, piece.corners(), scratch);
+            moment += f * (piece.centroid() - self.centroid);
+        }
+        Some(moment)
+    }
+
+    /// The second moment of area `∫ (x − c)(x − c)ᵀ dA` about the centroid `c` (m⁴, world
+    /// frame): of each triangle of the fan from the first corner, `A/12 Σ vᵢvᵢᵀ` over its
+    /// corners `vᵢ` relative to its centroid, moved to `c` by the parallel-axis term.
+    pub fn second_moment(&self) -> DMat3 {
+        let c = self.corners();
+        let outer = |v: DVec3| DMat3::from_cols(v * v.x, v * v.y, v * v.z);
+        let mut sum = DMat3::ZERO;
+        for k in 1..c.len() - 1 {
+            let t = [c[0], c[k], c[k + 1]];
+            let area = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
+            let centre = (t[0] + t[1] + t[2]) / 3.0;
+            let own = t.iter().fold(DMat3::ZERO, |m, &v| m + outer(v - centre));
+            sum += own * (area / 12.0) + outer(centre - self.centroid) * area;
+        }
+        sum
+    }
+
     /// `samples_per_edge²` points spread evenly over the patch (cell centres of a bilinear grid
     /// on a quad, centroids of the `samples_per_edge²` similar sub-triangles of a triangle),
     /// lifted a hair along the normal; targets of visibility rays.
@@ -205,6 +269,72 @@ impl TargetPatch {
             }
         }
         points
+    }
+}
+
+/// The four triangles of `[a, b, c]` split at its edge midpoints: the three at its corners,
+/// then the middle one (`[ab, bc, ca]`).
+pub fn triangle_quarters([a, b, c]: [DVec3; 3]) -> [[DVec3; 3]; 4] {
+    let (ab, bc, ca) = ((a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0);
+    [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+}
+
+/// Pieces of a patch in [`TargetPatch::near_moment`] are split until their size is at most
+/// this fraction of their distance to the receiver, at most [`MOMENT_DEPTH`] times.
+const MOMENT_ACCEPT: f64 = 0.25;
+const MOMENT_DEPTH: u32 = 6;
+
+/// A quad or triangle piece of a patch (world, m).
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    corners: [DVec3; 4],
+    n: usize,
+}
+
+impl Piece {
+    fn corners(&self) -> &[DVec3] {
+        &self.corners[..self.n]
+    }
+
+    fn centroid(&self) -> DVec3 {
+        self.corners().iter().sum::<DVec3>() / self.n as f64
+    }
+
+    /// Small enough for its distance to `p`.
+    fn accepted(&self, p: DVec3) -> bool {
+        let c = self.corners();
+        let size = c
+            .iter()
+            .flat_map(|a| c.iter().map(move |b| a.distance_squared(*b)))
+            .fold(0.0, f64::max)
+            .sqrt();
+        size <= MOMENT_ACCEPT * p.distance(self.centroid())
+    }
+
+    /// The four pieces of a split at the edge midpoints (and the centre of a quad).
+    fn quarters(&self) -> [Piece; 4] {
+        let c = &self.corners;
+        if self.n == 4 {
+            let m = [
+                (c[0] + c[1]) / 2.0,
+                (c[1] + c[2]) / 2.0,
+                (c[2] + c[3]) / 2.0,
+                (c[3] + c[0]) / 2.0,
+            ];
+            let o = self.centroid();
+            [
+                [c[0], m[0], o, m[3]],
+                [m[0], c[1], m[1], o],
+                [o, m[1], c[2], m[2]],
+                [m[3], o, m[2], c[3]],
+            ]
+            .map(|corners| Piece { corners, n: 4 })
+        } else {
+            triangle_quarters([c[0], c[1], c[2]]).map(|t| Piece {
+                corners: [t[0], t[1], t[2], DVec3::ZERO],
+                n: 3,
+            })
+        }
     }
 }
 
@@ -428,5 +558,83 @@ impl FormFactors {
             }
         }
         initial
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A one-patch mesh with `corners` (counter-clockwise seen from +z) facing +z.
+    fn target(corners: &[DVec3]) -> TargetPatch {
+        let n = corners.len();
+        let area = (1..n - 1)
+            .map(|k| {
+                0.5 * (corners[k] - corners[0])
+                    .cross(corners[k + 1] - corners[0])
+                    .length()
+            })
+            .sum();
+        let centroid = if n == 3 {
+            corners.iter().sum::<DVec3>() / 3.0
+        } else {
+            corners.iter().sum::<DVec3>() / 4.0
+        };
+        let mut vertices = [0; 4];
+        (0..n).for_each(|k| vertices[k] = k as u32);
+        let mesh = PatchMesh {
+            positions: corners.to_vec(),
+            normals: vec![DVec3::Z; n],
+            vertex_surface: vec![0; n],
+            patches: vec![Patch {
+                vertices,
+                n_vertices: n as u8,
+                surface: 0,
+                normal: DVec3::Z,
+                area,
+                centroid,
+            }],
+        };
+        TargetPatch::new(&mesh, &mesh.patches[0])
+    }
+
+    /// A 2 × 1 m rectangle: `A a²/12`, `A b²/12`; the right triangle with legs 1: variance 1/18
+    /// and covariance −1/36 of a uniform point, times its area ½.
+    #[test]
+    fn second_moments_of_a_rectangle_and_a_triangle() {
+        let rect = target(&[
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(2.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ]);
+        let j = rect.second_moment();
+        let want = DMat3::from_diagonal(DVec3::new(2.0 * 4.0 / 12.0, 2.0 / 12.0, 0.0));
+        assert!(j.abs_diff_eq(want, 1e-12), "{j}");
+        let tri = target(&[DVec3::ZERO, DVec3::X, DVec3::Y]);
+        let j = tri.second_moment();
+        assert!((j.x_axis.x - 0.5 / 18.0).abs() < 1e-12, "{j}");
+        assert!((j.y_axis.y - 0.5 / 18.0).abs() < 1e-12, "{j}");
+        assert!((j.x_axis.y + 0.5 / 36.0).abs() < 1e-12, "{j}");
+    }
+
+    /// The kernel's gradient is the derivative of the differential factor per unit area (central
+    /// differences along the surface), and zero where the surface point is behind the receiver.
+    #[test]
+    fn kernel_gradient_is_the_derivative_of_the_kernel() {
+        let p = DVec3::new(0.2, -0.3, 0.4);
+        let n = DVec3::new(0.3, 0.2, -1.0).normalize();
+        let x = DVec3::new(0.5, 0.1, 0.0);
+        let kernel = |x: DVec3| differential(p, n, x, DVec3::Z, 1.0);
+        let g = kernel_gradient(p, n, x, DVec3::Z);
+        let h = 1e-6;
+        for axis in [DVec3::X, DVec3::Y] {
+            let numeric = (kernel(x + axis * h) - kernel(x - axis * h)) / (2.0 * h);
+            assert!(
+                (g.dot(axis) - numeric).abs() < 1e-6 * numeric.abs().max(1e-3),
+                "{g} {numeric}"
+            );
+        }
+        assert_eq!(kernel_gradient(p, -n, x, DVec3::Z), DVec3::ZERO);
     }
 }

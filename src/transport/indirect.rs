@@ -135,10 +135,22 @@ pub struct LightSolveJob {
     light: Light,
     /// The light's previous radiosity per channel (the warm start; empty before any solve).
     initial: Vec<PatchColumns>,
+    /// What `initial` was solved for, when the light still has that direct cache: the warm
+    /// start then also takes the change of the first reflection, `ρ (E_new − E_old)`.
+    previous: Option<Box<SolvedState>>,
     tolerance: f64,
     /// Solve the light's [`CurveResponse`] (a column per control point) and take its values
     /// from it, instead of one column.
     response: bool,
+}
+
+/// The direct sample cache, curve, aim and dimmer a light's radiosity was solved for.
+#[derive(Debug, Clone)]
+struct SolvedState {
+    cache: Arc<PatchDirectCache>,
+    curve: Curve,
+    aim: DVec3,
+    dimmer: f64,
 }
 
 /// A finished [`LightSolveJob`].
@@ -178,7 +190,25 @@ impl LightSolveJob {
             n_columns: 1,
             values: direct,
         };
-        let initial = Some(self.initial.as_slice()).filter(|x| x.len() == self.engine.channels());
+        let mut initial = self.initial;
+        if let Some(previous) = self.previous.as_deref()
+            && initial.len() == self.engine.channels()
+        {
+            // Warm start `B_old + ρ (E_new − E_old)`: the old solution with its first
+            // reflection brought up to date, so GMRES starts one bounce closer (docs/DECISIONS.md
+            // "Interreflection", "Warm starts with the first reflection").
+            let mut old = vec![0.0; emission.values.len()];
+            let aim = previous.aim.normalize();
+            previous
+                .cache
+                .irradiance_into(&previous.curve, aim, previous.dimmer, &mut old);
+            for (x0, rho) in initial.iter_mut().zip(&self.engine.reflectance) {
+                for (i, x) in x0.values.iter_mut().enumerate() {
+                    *x += rho[i] * (emission.values[i] - old[i]);
+                }
+            }
+        }
+        let initial = Some(initial.as_slice()).filter(|x| x.len() == self.engine.channels());
         let solutions = self.engine.solve(&emission, initial, self.tolerance)?;
         Ok(LightSolve {
             engine: self.engine,
@@ -366,6 +396,18 @@ impl HierarchicalIndirect {
                     values: channel.iter().map(|&v| f64::from(v)).collect(),
                 })
                 .collect(),
+            previous: old
+                .cache
+                .clone()
+                .zip(old.solved_for.clone())
+                .map(|(cache, (curve, aim, dimmer))| {
+                    Box::new(SolvedState {
+                        cache,
+                        curve,
+                        aim,
+                        dimmer,
+                    })
+                }),
             tolerance: self.tolerance,
             response: curve_edit,
         })

@@ -18,12 +18,14 @@ use crate::error::Result;
 use crate::photometry::LightState;
 use crate::scene::{Light, Scene, SurfaceKind};
 use crate::transport::direct::{Receiver, SHADOW_SPLIT_DEPTH};
+use crate::transport::formfactor::kernel_gradient;
 use crate::transport::hierarchy::{Node, Operator, Tree};
 use crate::transport::links::{self, LinkOptions, NodeGeometry};
 use crate::transport::occlusion::Occluders;
 use crate::transport::patchdirect::{DEFAULT_SPLIT, PatchDirectCache, Split};
 use crate::transport::radiosity::{PatchColumns, Solution, SolveOptions, solve_from};
 use crate::transport::refine::{RefineOptions, SolverMesh, refine};
+use crate::transport::slopes::{LeafNeighbours, LinearRadiosity};
 use crate::transport::visibility::Visibility;
 
 /// Receivers are lifted this far along their normal before gathering.
@@ -53,6 +55,9 @@ pub struct InterreflectionOptions {
     /// `1 + gather_uniformity` times the cluster's mean (in any channel).
     pub gather_eta: f64,
     pub gather_uniformity: f64,
+    /// Gather from a linear radiosity on each leaf near the receiver
+    /// ([`crate::transport::slopes`]) instead of a constant one. Default true.
+    pub linear_gather: bool,
 }
 
 impl Default for InterreflectionOptions {
@@ -64,6 +69,7 @@ impl Default for InterreflectionOptions {
             shadow_splits: SHADOW_SPLIT_DEPTH,
             gather_eta: 0.25,
             gather_uniformity: 0.5,
+            linear_gather: true,
         }
     }
 }
@@ -127,6 +133,8 @@ pub struct Interreflection {
     /// The balanced hierarchical `F` on the leaves.
     pub operator: Operator,
     geometry: NodeGeometry,
+    /// Each leaf's touching leaves, for the linear radiosity of gathers.
+    neighbours: LeafNeighbours,
     /// Per solved channel (1 for a grey room, else 3), the reflectance of every leaf.
     pub reflectance: Vec<Vec<f64>>,
     /// The occluders (None in an empty convex room, unless forced).
@@ -185,6 +193,7 @@ impl Interreflection {
         let t = Instant::now();
         let tree = Tree::build(&solver.mesh, &solver.near_lamp);
         let geometry = NodeGeometry::new(&solver.mesh, &tree);
+        let neighbours = LeafNeighbours::new(&tree);
         let links::Links { links, rays, near } =
             links::build(&tree, &geometry, occluders.as_ref(), options.links);
         let links_s = t.elapsed().as_secs_f64();
@@ -219,7 +228,7 @@ impl Interreflection {
             near_links: near,
             rays,
             operator_bytes: operator.bytes(),
-            geometry_bytes: geometry.bytes(),
+            geometry_bytes: geometry.bytes() + neighbours.bytes(),
             row_defect,
             column_defect,
             refine_s: 0.0,
@@ -230,6 +239,7 @@ impl Interreflection {
             solver,
             operator,
             geometry,
+            neighbours,
             reflectance,
             occluders,
             options: *options,
@@ -378,12 +388,16 @@ impl Interreflection {
             .zip(&node_max)
             .map(|(b, m)| (0..3).all(|ch| m[ch] <= limit * b[ch].max(0.0) + 1e-300))
             .collect();
+        let linear = self.options.linear_gather.then(|| {
+            LinearRadiosity::new(tree, &self.geometry.targets, &self.neighbours, radiosity, &node_b)
+        });
         receivers
             .par_iter()
             .map(|rx| {
                 self.gather_point(
                     &node_b,
                     &uniform,
+                    linear.as_ref(),
                     rx.point + rx.normal * RECEIVER_LIFT_M,
                     rx.normal,
                 )
@@ -391,7 +405,14 @@ impl Interreflection {
             .collect()
     }
 
-    fn gather_point(&self, node_b: &[[f64; 3]], uniform: &[bool], p: DVec3, n: DVec3) -> [f64; 3] {
+    fn gather_point(
+        &self,
+        node_b: &[[f64; 3]],
+        uniform: &[bool],
+        linear: Option<&LinearRadiosity>,
+        p: DVec3,
+        n: DVec3,
+    ) -> [f64; 3] {
         let tree = &self.operator.tree;
         let mut e = [0.0; 3];
         let mut stack: Vec<u32> = tree.roots.clone();
@@ -414,30 +435,53 @@ impl Interreflection {
             }
             let dist = node.centroid.distance(p);
             let admissible = node.diameter <= self.options.gather_eta * dist && uniform[i as usize];
-            let f = if admissible || node.is_leaf() {
-                let f = self.geometry.node_factor(tree, i, p, n, &mut scratch);
-                if f == 0.0 {
-                    continue;
-                }
-                if node.is_leaf() {
-                    f * self.leaf_visibility(p, node)
-                } else {
-                    let v = self.visibility(p, node, GATHER_CLUSTER_RAYS);
-                    if v > 0.0 && v < 1.0 {
-                        stack.extend(node.children);
-                        continue;
-                    }
-                    f * v
-                }
-            } else {
+            if !admissible && !node.is_leaf() {
                 stack.extend(node.children);
                 continue;
+            }
+            let f = self.geometry.node_factor(tree, i, p, n, &mut scratch);
+            if f == 0.0 {
+                continue;
+            }
+            let (v, moment) = if node.is_leaf() {
+                let v = self.leaf_visibility(p, node);
+                let leaf = node.leaf as usize;
+                let moment = match linear {
+                    Some(l) if v > 0.0 => {
+                        let g = l.slopes(leaf);
+                        match self.geometry.targets[leaf].near_moment(p, n, &mut scratch) {
+                            Some(m) => g.map(|g| g.dot(m)),
+                            None => self.far_moment(l, i, node, p, n),
+                        }
+                    }
+                    _ => [0.0; 3],
+                };
+                (v, moment)
+            } else {
+                let v = self.visibility(p, node, GATHER_CLUSTER_RAYS);
+                if v > 0.0 && v < 1.0 {
+                    stack.extend(node.children);
+                    continue;
+                }
+                let moment = match linear {
+                    Some(l) if v > 0.0 => self.far_moment(l, i, node, p, n),
+                    _ => [0.0; 3],
+                };
+                (v, moment)
             };
             for ch in 0..3 {
-                e[ch] += b[ch] * f;
+                e[ch] += v * (b[ch] * f + moment[ch]).max(0.0);
             }
         }
         e
+    }
+
+    /// The linear radiosity's share of what `p` (unit normal `n`) gathers from node `i`, small
+    /// for its distance: the kernel's first-order change over it times the node's first moment
+    /// (crate::transport::slopes), per channel.
+    fn far_moment(&self, linear: &LinearRadiosity, i: u32, node: &Node, p: DVec3, n: DVec3) -> [f64; 3] {
+        let gradient = kernel_gradient(p, n, node.centroid, node.normal);
+        linear.moments(i as usize).map(|m| gradient.dot(m))
     }
 
     /// Visible fraction of a leaf from `p`: 2 × 2 rays, 8 × 8 when those disagree.
@@ -466,6 +510,8 @@ impl Interreflection {
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::PI;
+
     use super::*;
     use crate::transport::bake::default_form_factor_options;
     use crate::transport::formfactor::FormFactors;
@@ -699,5 +745,78 @@ solver_patch_size = 0.5
         for (rx, e) in receivers.iter().zip(engine.gather(&b, &receivers)) {
             assert!((e[0] - 7.0).abs() < 0.02 * 7.0, "{:?}: {}", rx.point, e[0]);
         }
+    }
+
+    /// A floor whose radiosity grows linearly from the wall `x = 0`, `B = g x`, and nothing else
+    /// lit: at a point of that wall at height `h`, facing the room,
+    /// `E = (g h / π) ∫₀^L x² ∫ dy / (x² + h² + y²)² dx` — the `y` integral in closed form, the
+    /// `x` one by Simpson's rule on doubling intervals. The gather's linear radiosity on the
+    /// 0.5 m floor leaves is within 1 % of it from 1 cm up; one radiosity per leaf is 30 % high
+    /// at 1 cm (the leaf by the wall averages 0 to 5 lm/m² to 2.5, where the point sees its
+    /// first centimetres).
+    #[test]
+    fn gather_beside_a_leaf_follows_its_linear_radiosity() {
+        let s = room("", 0.5);
+        let (g, length, half_width) = (10.0, 4.0, 1.5);
+        let exact = |h: f64| {
+            let y_integral = |x: f64| {
+                let a2 = x * x + h * h;
+                let a = a2.sqrt();
+                let prim = |y: f64| y / (2.0 * a2 * (a2 + y * y)) + (y / a).atan() / (2.0 * a2 * a);
+                x * x * (prim(half_width) - prim(-half_width))
+            };
+            let simpson = |lo: f64, hi: f64| {
+                let n = 64;
+                let step = (hi - lo) / n as f64;
+                let sum: f64 = (0..=n)
+                    .map(|k| {
+                        let w = if k == 0 || k == n {
+                            1.0
+                        } else if k % 2 == 1 {
+                            4.0
+                        } else {
+                            2.0
+                        };
+                        w * y_integral(lo + k as f64 * step)
+                    })
+                    .sum();
+                sum * step / 3.0
+            };
+            let (mut lo, mut hi, mut total) = (0.0, h, 0.0);
+            while lo < length {
+                total += simpson(lo, hi.min(length));
+                (lo, hi) = (hi, 2.0 * hi);
+            }
+            g * h / PI * total
+        };
+        let gathered = |linear_gather: bool, h: f64| {
+            let options = InterreflectionOptions {
+                linear_gather,
+                ..no_refinement()
+            };
+            let engine = Interreflection::build(&s, 1, false, &options);
+            let b: Vec<[f64; 3]> = engine
+                .solver
+                .mesh
+                .patches
+                .iter()
+                .map(|p| {
+                    let on_floor = p.normal.z > 0.5 && p.centroid.z.abs() < 1e-9;
+                    [if on_floor { g * p.centroid.x } else { 0.0 }; 3]
+                })
+                .collect();
+            let rx = Receiver {
+                point: DVec3::new(0.0, 1.5, h),
+                normal: DVec3::X,
+            };
+            engine.gather(&b, &[rx])[0][0]
+        };
+        for h in [0.01, 0.03, 0.1, 0.5] {
+            let want = exact(h);
+            let linear = gathered(true, h);
+            assert!((linear / want - 1.0).abs() < 0.005, "h {h}: {linear} vs {want}");
+        }
+        let constant = gathered(false, 0.01) / exact(0.01) - 1.0;
+        assert!(constant > 0.3, "{constant}");
     }
 }

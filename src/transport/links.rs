@@ -25,9 +25,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::scene::PatchMesh;
-use crate::transport::formfactor::{TargetPatch, point_to_polygon_with};
+use crate::transport::formfactor::{TargetPatch, point_to_polygon_with, triangle_quarters};
 use crate::transport::hierarchy::{Link, NONE, Node, Tree, plane_axes};
 use crate::transport::occlusion::Occluders;
+use crate::transport::slopes::plane_gradient;
 
 /// Lift (m) of sample points off their surface.
 const LIFT_M: f64 = 1e-6;
@@ -262,8 +263,7 @@ fn node_pieces(tree: &Tree, targets: &[TargetPatch], node: &Node) -> Pieces {
                 n += 1;
             }
         } else {
-            let m = [(c[0] + c[1]) / 2.0, (c[1] + c[2]) / 2.0, (c[2] + c[0]) / 2.0];
-            for tri in [[c[0], m[0], m[2]], [m[0], c[1], m[1]], [m[2], m[1], c[2]], m] {
+            for tri in triangle_quarters([c[0], c[1], c[2]]) {
                 out[n] = (t.area / 4.0, (tri[0] + tri[1] + tri[2]) / 3.0);
                 n += 1;
             }
@@ -295,32 +295,11 @@ fn fit_gradient(pieces: &[(f64, DVec3, f64)], centre: DVec3, axes: [usize; 2]) -
         return [0.0; 2];
     }
     let mean = pieces.iter().map(|p| p.0 * p.2).sum::<f64>() / total;
-    let (mut m, mut rhs) = ([[0.0; 2]; 2], [0.0; 2]);
-    for &(a, c, f) in pieces {
+    let samples = pieces.iter().map(|&(a, c, f)| {
         let d = [c[axes[0]] - centre[axes[0]], c[axes[1]] - centre[axes[1]]];
-        for i in 0..2 {
-            rhs[i] += a * d[i] * (f - mean);
-            for j in 0..2 {
-                m[i][j] += a * d[i] * d[j];
-            }
-        }
-    }
-    let scale = m[0][0] + m[1][1];
-    if scale <= 0.0 {
-        return [0.0; 2];
-    }
-    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-    if det.abs() > 1e-9 * scale * scale {
-        let gu = (rhs[0] * m[1][1] - rhs[1] * m[0][1]) / det;
-        let gv = (rhs[1] * m[0][0] - rhs[0] * m[1][0]) / det;
-        return [gu as f32, gv as f32];
-    }
-    // Collinear pieces: the gradient along the line they span only.
-    let (i, j) = if m[0][0] >= m[1][1] { (0, 1) } else { (1, 0) };
-    let mut out = [0.0; 2];
-    out[i] = (rhs[i] / m[i][i]) as f32;
-    out[j] = 0.0;
-    out
+        (a, d, f - mean)
+    });
+    plane_gradient(samples).map(|g| g as f32)
 }
 
 /// True when some part of `node` lies strictly in front of the plane of `of`.

@@ -17,4 +17,5 @@ pub mod plan;
 pub mod radiosity;
 pub mod refine;
 pub mod response;
+pub mod slopes;
 pub mod visibility;

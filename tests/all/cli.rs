@@ -446,9 +446,9 @@ fn plan_and_bake_commands_report_their_decisions() {
         &["plan", repo("rooms/paper.toml").to_str().unwrap()],
     );
     let text = stdout(&o);
-    assert!(text.contains("hierarchical     on   1355 leaves"), "{text}");
+    assert!(text.contains("hierarchical     on   1379 leaves"), "{text}");
     assert!(
-        text.contains("1355 solver leaves; no SH basis is baked"),
+        text.contains("1379 solver leaves; no SH basis is baked"),
         "{text}"
     );
     assert!(!text.contains("basis columns in all"), "{text}");
