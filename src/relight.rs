@@ -521,10 +521,7 @@ patch_size = 0.4
 solver_patch_size = 1.0
 "#
         );
-        let dir = tempfile::tempdir().expect("a temporary directory");
-        let path = dir.path().join("room.toml");
-        std::fs::write(&path, text).expect("the room file is written");
-        crate::scene::load(&path).expect("the test room is valid")
+        crate::scene::load::test_room(&text)
     }
 
     fn edited_curve() -> Curve {

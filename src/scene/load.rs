@@ -129,6 +129,12 @@ pub(crate) fn load_text(path: &Path, text: &str) -> Result<Scene> {
     check(path, text)?.mesh(MAX_VERTICES)
 }
 
+/// A room loaded from `text` for a unit test (no file: it may not name OBJ or photometric files).
+#[cfg(test)]
+pub(crate) fn test_room(text: &str) -> Scene {
+    load_text(Path::new("test-room.toml"), text).expect("the test room is valid")
+}
+
 /// Parses and validates a room file's text, reading the OBJ and photometric files it names,
 /// without meshing: every rejection of [`load`] except the vertex limit.
 pub fn check(path: &Path, text: &str) -> Result<CheckedRoom> {

@@ -708,8 +708,6 @@ mod tests {
     use super::*;
 
     fn room() -> Scene {
-        let dir = tempfile::tempdir().expect("a temporary directory");
-        let path = dir.path().join("room.toml");
         let text = r#"version = 1
 [room]
 size = [4.0, 3.0, 2.5]
@@ -728,8 +726,7 @@ lid = [[0, 300], [90, 300], [180, 0]]
 [settings]
 solver_patch_size = 0.5
 "#;
-        std::fs::write(&path, text).expect("the room file is written");
-        crate::scene::load(&path).expect("the test room is valid")
+        crate::scene::load::test_room(text)
     }
 
     fn build(scene: &Scene) -> HierarchicalIndirect {

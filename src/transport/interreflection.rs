@@ -520,10 +520,7 @@ mod tests {
     use crate::transport::visibility::Unoccluded;
 
     fn scene(text: &str) -> Scene {
-        let dir = tempfile::tempdir().expect("a temporary directory");
-        let path = dir.path().join("room.toml");
-        std::fs::write(&path, text).expect("the room file is written");
-        crate::scene::load(&path).expect("the test room is valid")
+        crate::scene::load::test_room(text)
     }
 
     fn room(extra: &str, solver: f64) -> Scene {

@@ -230,8 +230,6 @@ mod tests {
 
     /// A 4 × 3 × 2.5 m room in 0.5 m patches: 8 × 6 on the floor.
     fn room() -> Scene {
-        let dir = tempfile::tempdir().expect("a temporary directory");
-        let path = dir.path().join("room.toml");
         let text = r#"version = 1
 [room]
 size = [4.0, 3.0, 2.5]
@@ -246,81 +244,109 @@ lid = [[0, 100], [90, 0]]
 [settings]
 solver_patch_size = 0.5
 "#;
-        std::fs::write(&path, text).expect("the room file is written");
-        crate::scene::load(&path).expect("the test room is valid")
+        crate::scene::load::test_room(text)
     }
 
-    /// The area-weighted mean radiosity of every node.
-    fn means(tree: &Tree, radiosity: &[[f64; 3]]) -> Vec<[f64; 3]> {
-        let mut b = vec![[0.0; 3]; tree.nodes.len()];
-        for (i, node) in tree.nodes.iter().enumerate().rev() {
-            b[i] = if node.is_leaf() {
-                radiosity[node.leaf as usize]
-            } else {
-                let [x, y] = node.children.map(|c| c as usize);
-                std::array::from_fn(|ch| {
-                    (tree.nodes[x].area * b[x][ch] + tree.nodes[y].area * b[y][ch]) / node.area
-                })
-            };
+    /// The room's coarse mesh as leaves, with its tree, polygons and neighbours.
+    struct Fixture {
+        scene: Scene,
+        tree: Tree,
+        targets: Vec<TargetPatch>,
+        neighbours: LeafNeighbours,
+    }
+
+    impl Fixture {
+        fn new() -> Self {
+            let scene = room();
+            let mesh = &scene.coarse;
+            let tree = Tree::build(mesh, &[]);
+            let targets = mesh.patches.iter().map(|p| TargetPatch::new(mesh, p)).collect();
+            let neighbours = LeafNeighbours::new(&tree);
+            Fixture {
+                scene,
+                tree,
+                targets,
+                neighbours,
+            }
         }
-        b
+
+        fn leaves(&self) -> std::ops::Range<usize> {
+            0..self.scene.coarse.patches.len()
+        }
+
+        fn is_floor(&self, i: usize) -> bool {
+            let surface = self.scene.coarse.patches[i].surface as usize;
+            self.scene.surfaces[surface].kind == SurfaceKind::Floor
+        }
+
+        /// Grey radiosity `floor(centroid)` on the floor, `other` elsewhere.
+        fn radiosity(&self, floor: impl Fn(DVec3) -> f64, other: f64) -> Vec<[f64; 3]> {
+            let patches = &self.scene.coarse.patches;
+            self.leaves()
+                .map(|i| {
+                    [if self.is_floor(i) {
+                        floor(patches[i].centroid)
+                    } else {
+                        other
+                    }; 3]
+                })
+                .collect()
+        }
+
+        /// The linear radiosity of `radiosity`, with the nodes' area-weighted means.
+        fn linear(&self, radiosity: &[[f64; 3]]) -> LinearRadiosity {
+            let tree = &self.tree;
+            let mut means = vec![[0.0; 3]; tree.nodes.len()];
+            for (i, node) in tree.nodes.iter().enumerate().rev() {
+                means[i] = if node.is_leaf() {
+                    radiosity[node.leaf as usize]
+                } else {
+                    let [x, y] = node.children.map(|c| c as usize);
+                    let (ax, ay) = (tree.nodes[x].area, tree.nodes[y].area);
+                    std::array::from_fn(|ch| (ax * means[x][ch] + ay * means[y][ch]) / node.area)
+                };
+            }
+            LinearRadiosity::new(tree, &self.targets, &self.neighbours, radiosity, &means)
+        }
     }
 
     /// Floor leaves touch their 3 to 8 floor neighbours and nothing of another surface; a linear
-    /// radiosity on the floor is fitted exactly on every leaf (the edge leaves too) and its first
-    /// moment over the whole floor is `J g`, `J` the floor's second moment of area
-    /// (4 × 3 m: `A a²/12`, `A b²/12`); a constant one has no slope.
+    /// radiosity on the floor is fitted exactly on every leaf (the edge leaves too, each channel
+    /// its own) and its first moment over the whole floor is `J g`, `J` the floor's second
+    /// moment of area (4 × 3 m: `A a²/12`, `A b²/12`); a constant one has no slope.
     #[test]
     fn a_linear_radiosity_is_fitted_exactly_and_its_moments_add_up() {
-        let s = room();
-        let mesh = &s.coarse;
-        let tree = Tree::build(mesh, &[]);
-        let targets: Vec<TargetPatch> = mesh.patches.iter().map(|p| TargetPatch::new(mesh, p)).collect();
-        let neighbours = LeafNeighbours::new(&tree);
-        let floor = |i: usize| s.surfaces[mesh.patches[i].surface as usize].kind == SurfaceKind::Floor;
+        let f = Fixture::new();
         let mut counts: Vec<usize> = Vec::new();
-        for i in (0..mesh.patches.len()).filter(|&i| floor(i)) {
-            assert!(neighbours.of(i).iter().all(|&j| floor(j as usize)));
-            counts.push(neighbours.of(i).len());
+        for i in f.leaves().filter(|&i| f.is_floor(i)) {
+            assert!(f.neighbours.of(i).iter().all(|&j| f.is_floor(j as usize)));
+            counts.push(f.neighbours.of(i).len());
         }
         assert_eq!(counts.len(), 48);
         assert_eq!(counts.iter().filter(|&&c| c == 3).count(), 4, "corners");
         assert_eq!(counts.iter().filter(|&&c| c == 8).count(), 6 * 4, "interior");
         let g = DVec3::new(3.0, 2.0, 0.0);
-        let radiosity: Vec<[f64; 3]> = mesh
-            .patches
-            .iter()
-            .enumerate()
-            .map(|(i, p)| [if floor(i) { 10.0 + g.dot(p.centroid) } else { 5.0 }; 3])
-            .collect();
-        let linear = LinearRadiosity::new(
-            &tree,
-            &targets,
-            &neighbours,
-            &radiosity,
-            &means(&tree, &radiosity),
-        );
-        for i in 0..mesh.patches.len() {
-            let want = if floor(i) { g } else { DVec3::ZERO };
+        let radiosity = f.radiosity(|c| 10.0 + g.dot(c), 5.0);
+        let linear = f.linear(&radiosity);
+        for i in f.leaves() {
+            let want = if f.is_floor(i) { g } else { DVec3::ZERO };
             for slope in linear.slopes(i) {
                 assert!(slope.distance(want) < 1e-6, "leaf {i}: {slope}");
             }
         }
-        // Coloured: each channel its own slope.
         let coloured: Vec<[f64; 3]> = radiosity.iter().map(|b| [b[0], 2.0 * b[0], 5.0]).collect();
-        let linear_rgb =
-            LinearRadiosity::new(&tree, &targets, &neighbours, &coloured, &means(&tree, &coloured));
-        for i in (0..mesh.patches.len()).filter(|&i| floor(i)) {
+        let linear_rgb = f.linear(&coloured);
+        for i in f.leaves().filter(|&i| f.is_floor(i)) {
             let [r, g2, b] = linear_rgb.slopes(i);
             assert!(
                 r.distance(g) < 1e-6 && g2.distance(2.0 * g) < 1e-6 && b == DVec3::ZERO,
                 "{i}"
             );
         }
-        let root = tree.leaf_node[(0..mesh.patches.len()).find(|&i| floor(i)).unwrap()];
-        let mut root = root as usize;
-        while tree.nodes[root].parent != NONE {
-            root = tree.nodes[root].parent as usize;
+        let first = f.leaves().find(|&i| f.is_floor(i)).unwrap();
+        let mut root = f.tree.leaf_node[first] as usize;
+        while f.tree.nodes[root].parent != NONE {
+            root = f.tree.nodes[root].parent as usize;
         }
         let area = 12.0;
         let want = DVec3::new(area * 16.0 / 12.0 * g.x, area * 9.0 / 12.0 * g.y, 0.0);
@@ -333,27 +359,10 @@ solver_patch_size = 0.5
     /// (`B` 0.45 at their centre, 0.25 m from their edge) 1.8 instead of 3.
     #[test]
     fn slopes_keep_the_radiosity_non_negative() {
-        let s = room();
-        let mesh = &s.coarse;
-        let tree = Tree::build(mesh, &[]);
-        let targets: Vec<TargetPatch> = mesh.patches.iter().map(|p| TargetPatch::new(mesh, p)).collect();
-        let neighbours = LeafNeighbours::new(&tree);
-        let floor = |i: usize| s.surfaces[mesh.patches[i].surface as usize].kind == SurfaceKind::Floor;
-        let radiosity: Vec<[f64; 3]> = mesh
-            .patches
-            .iter()
-            .enumerate()
-            .map(|(i, p)| [if floor(i) { 3.0 * (p.centroid.x - 0.1) } else { 1.0 }; 3])
-            .collect();
-        let linear = LinearRadiosity::new(
-            &tree,
-            &targets,
-            &neighbours,
-            &radiosity,
-            &means(&tree, &radiosity),
-        );
-        for i in (0..mesh.patches.len()).filter(|&i| floor(i)) {
-            let x = mesh.patches[i].centroid.x;
+        let f = Fixture::new();
+        let linear = f.linear(&f.radiosity(|c| 3.0 * (c.x - 0.1), 1.0));
+        for i in f.leaves().filter(|&i| f.is_floor(i)) {
+            let x = f.scene.coarse.patches[i].centroid.x;
             let want = if x < 0.5 { 1.8 } else { 3.0 };
             let slope = linear.slopes(i)[0];
             assert!(
