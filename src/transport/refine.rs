@@ -729,6 +729,14 @@ lid = [[0, 100], [90, 0]]
 solver_patch_size = 0.5
 "#;
 
+    /// The empty room with a 1 × 1 × 0.8 m box on the floor and its light at `light`.
+    fn box_room(light: &str) -> Scene {
+        scene(&EMPTY.replace("[2.0, 1.5, 1.2]", light).replace(
+            "[[light]]",
+            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 2.0, 0.8]\nreflectance = 0.4\n[[light]]",
+        ))
+    }
+
     fn total_area(mesh: &PatchMesh) -> f64 {
         mesh.patches.iter().map(|p| p.area).sum()
     }
@@ -792,11 +800,7 @@ solver_patch_size = 0.5
     fn box_contacts_are_graded_with_strips() {
         // The light is on the +x side: the floor strip beside the box's x = 2 face is not in its
         // shadow.
-        let text = EMPTY.replace("[2.0, 1.5, 1.2]", "[3.2, 1.5, 1.5]").replace(
-            "[[light]]",
-            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 2.0, 0.8]\nreflectance = 0.4\n[[light]]",
-        );
-        let s = scene(&text);
+        let s = box_room("[3.2, 1.5, 1.5]");
         let solver = refine(&s, &coarse_grading());
         assert_eq!(solver.contacts, 4);
         assert!(solver.contact_leaves_added > 0);
@@ -860,11 +864,7 @@ solver_patch_size = 0.5
     /// the floor's pattern).
     #[test]
     fn contact_strips_are_short_along_the_edge() {
-        let text = EMPTY.replace("[2.0, 1.5, 1.2]", "[3.2, 1.5, 1.5]").replace(
-            "[[light]]",
-            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 2.0, 0.8]\nreflectance = 0.4\n[[light]]",
-        );
-        let s = scene(&text);
+        let s = box_room("[3.2, 1.5, 1.5]");
         let solver = refine(&s, &RefineOptions::default());
         let side = s.surfaces.iter().position(|x| x.name == "box0-x1").unwrap() as u32;
         let mut strips = 0;
@@ -886,11 +886,7 @@ solver_patch_size = 0.5
     /// The refinement can be turned off.
     #[test]
     fn refinement_off_keeps_the_coarse_mesh() {
-        let text = EMPTY.replace("[2.0, 1.5, 1.2]", "[2.1, 1.4, 2.3]").replace(
-            "[[light]]",
-            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 2.0, 0.8]\nreflectance = 0.4\n[[light]]",
-        );
-        let s = scene(&text);
+        let s = box_room("[2.1, 1.4, 2.3]");
         let solver = refine(&s, &RefineOptions::none());
         assert_eq!(solver.mesh.patches.len(), s.coarse.patches.len());
     }
