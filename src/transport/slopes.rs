@@ -126,12 +126,14 @@ impl LinearRadiosity {
                 let reach = axes.map(|k| (centre[k] - node.lo[k]).max(node.hi[k] - centre[k]));
                 let b = radiosity[leaf];
                 (0..channels).map(move |ch| {
-                    let samples = neighbours.of(leaf).iter().map(|&j| {
+                    // (A neighbour whose centroid projects onto this one's, possible only
+                    // in degenerate OBJ geometry, says nothing about the slope.)
+                    let samples = neighbours.of(leaf).iter().filter_map(|&j| {
                         let other = &tree.nodes[tree.leaf_node[j as usize] as usize];
                         let d = other.centroid - centre;
                         let d2 = [d[axes[0]], d[axes[1]]];
                         let w = (d2[0] * d2[0] + d2[1] * d2[1]).recip();
-                        (w, d2, radiosity[j as usize][ch] - b[ch])
+                        w.is_finite().then(|| (w, d2, radiosity[j as usize][ch] - b[ch]))
                     });
                     let mut g = plane_gradient(samples);
                     let swing = g[0].abs() * reach[0] + g[1].abs() * reach[1];
