@@ -112,7 +112,8 @@ pub struct InterreflectionStats {
     pub near_links: usize,
     /// Visibility rays cast for the links.
     pub rays: u64,
-    /// Bytes of the operator (links and tree) and of the node geometry kept for gathers.
+    /// Bytes of the operator (links and tree) and of what gathers keep: the node geometry and
+    /// the leaves' neighbours.
     pub operator_bytes: usize,
     pub geometry_bytes: usize,
     /// Largest relative defect of the unbalanced row sums (against 1 in a closed scene) and of
@@ -360,7 +361,9 @@ impl Interreflection {
     /// Indirect illuminance (lx, linear RGB) at each receiver, gathered from the leaves'
     /// radiosity `radiosity` (lm/m², linear RGB per leaf): `E(p) = Σ B_S F_{p→S} V`, clusters used
     /// where they are small for their distance (and fully visible), leaves otherwise with the
-    /// exact contour formula; visibility by 2 × 2 rays per leaf, 8 × 8 where partial.
+    /// exact contour formula; visibility by 2 × 2 rays per leaf, 8 × 8 where partial. With
+    /// `linear_gather` each node adds the share of its linear radiosity
+    /// ([`crate::transport::slopes`]; docs/DECISIONS.md "Linear radiosity in the near gather").
     pub fn gather(&self, radiosity: &[[f64; 3]], receivers: &[Receiver]) -> Vec<[f64; 3]> {
         let tree = &self.operator.tree;
         // Node radiosity: the area-weighted mean of its leaves (pull), and whether it is uniform
