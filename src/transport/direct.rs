@@ -180,10 +180,10 @@ pub fn polygon_quadrature_split(
 
 /// [`polygon_quadrature_split`] visiting only the samples whose point `visible` says the source
 /// sees; a piece whose three samples disagree (a shadow line crosses it) is split again, up to
-/// `shadow_splits` more times ([`SHADOW_SPLIT_DEPTH`] by default; 0 keeps the pieces), and so is every piece whose corners disagree once the
-/// polygon's corners do (a straight line through a triangle leaves a corner on each side), so
-/// that the visible part of the polygon is resolved to `4^-depth` of a piece instead of being
-/// weighted by where its edge-midpoint samples fall
+/// `shadow_splits` more times ([`SHADOW_SPLIT_DEPTH`] by default; 0 keeps the pieces), and so
+/// is every piece whose corners disagree once the polygon's corners do (a straight line through
+/// a triangle leaves a corner on each side), so that the visible part of the polygon is resolved
+/// to `4^-depth` of a piece instead of being weighted by where its edge-midpoint samples fall
 /// (docs/DECISIONS.md "Interreflection", "Shadow lines in the patch direct light").
 #[allow(clippy::too_many_arguments)]
 pub fn polygon_quadrature_visible(

@@ -190,10 +190,8 @@ impl LightSolveJob {
             n_columns: 1,
             values: direct,
         };
-        let mut initial = self.initial;
-        if let Some(previous) = self.previous.as_deref()
-            && initial.len() == self.engine.channels()
-        {
+        let mut initial = Some(self.initial).filter(|x| x.len() == self.engine.channels());
+        if let (Some(previous), Some(initial)) = (self.previous.as_deref(), initial.as_mut()) {
             // Warm start `B_old + ρ (E_new − E_old)`: the old solution with its first
             // reflection brought up to date, so GMRES starts one bounce closer (docs/DECISIONS.md
             // "Interreflection", "Warm starts with the first reflection").
@@ -208,8 +206,7 @@ impl LightSolveJob {
                 }
             }
         }
-        let initial = Some(initial.as_slice()).filter(|x| x.len() == self.engine.channels());
-        let solutions = self.engine.solve(&emission, initial, self.tolerance)?;
+        let solutions = self.engine.solve(&emission, initial.as_deref(), self.tolerance)?;
         Ok(LightSolve {
             engine: self.engine,
             cache,
