@@ -1,9 +1,9 @@
 //! The hierarchical indirect engine (docs/BENCHMARKS.md "Hierarchical engine"): on
 //! `rooms/paper.toml`, the engine's build with every light solved (target: paper bake ≤ 0.5 s);
 //! edits of light 0, each with its indirect light interpolated to the fine vertices (target for
-//! a curve edit ≤ 1 ms): one control point's intensity (a weighted sum of the light's
-//! per-control-point solve), one control point's angle (a curve edit: the block solve of that
-//! response), a re-aim between ±5° (a warm-started solve), a dimmer edit (a scaling) and a 0.1 m move
+//! a curve edit ≤ 1 ms): the first edit of a control point's intensity (a solve with that
+//! point's column), more edits of it (a weighted sum of the light's response), one control
+//! point's angle (a solve), a re-aim between ±5° (a warm-started solve), a dimmer edit (a scaling) and a 0.1 m move
 //! that keeps the refinement (a new direct cache and a solve). The same edits on the open-plan
 //! floor of `benches/rooms/open-plan.toml` (targets: a curve edit or re-aim ≤ 10 ms). The
 //! clustered gather at the furnished office's work plane, with linear and constant leaf radiosity.
@@ -30,7 +30,7 @@ fn configured() -> Criterion {
 
 /// Benches the engine on the room at `path` (relative to the crate) under `name_*`: the build
 /// when `time_build`, then the edits of light 0. The γ edit is timed only when `time_gamma`
-/// (otherwise an untimed intensity edit solves the light's response first).
+/// (otherwise an untimed intensity edit adds that point's column to the light's response first).
 fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma: bool) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
     let scene = haiko::scene::load(&path).unwrap_or_else(|e| panic!("bench room: {e}"));
@@ -68,12 +68,29 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
         let raised = 1.1 * c.intensities_cd()[1];
         c.set_intensity(1, raised).unwrap_or_else(|e| panic!("{e}"));
     });
+    // The first edit of a control point: a solve of the light with a column for that point
+    // (docs/DECISIONS.md "Interreflection", "Responses grown a point at a time"), each on a
+    // fresh copy of the engine.
+    let point_two = with_curve(&|c| {
+        let raised = 1.1 * c.intensities_cd()[2];
+        c.set_intensity(2, raised).unwrap_or_else(|e| panic!("{e}"));
+    });
+    group.bench_function(format!("{name}_first_point_edit"), |b| {
+        b.iter_batched(
+            || engine.clone(),
+            |mut copy| {
+                copy.set_light(0, &point_two[1]).unwrap_or_else(|e| panic!("{e}"));
+                black_box(copy.vertex_indirect(0))
+            },
+            criterion::BatchSize::PerIteration,
+        )
+    });
     let widened = with_curve(&|c| {
         let wider = c.gammas_deg()[1] + 0.5 * (c.gammas_deg()[2] - c.gammas_deg()[1]);
         c.set_gamma(1, wider).unwrap_or_else(|e| panic!("{e}"));
     });
     if !time_gamma {
-        // The curve edit that solves the light's response, untimed.
+        // The first edit of the point, which solves its column, untimed.
         engine.set_light(0, &raised[1]).unwrap_or_else(|e| panic!("{e}"));
     }
     let mut k = 0;
@@ -84,7 +101,9 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
             black_box(engine.vertex_indirect(0))
         })
     };
-    // A curve edit first, so that the light's per-control-point solve is in place.
+    // A γ edit first when timed; the intensity edit's first two iterations (in the warm-up)
+    // then solve the light at the angles it is left with and point 1's column, and the timed
+    // ones weigh the response.
     if time_gamma {
         group.bench_function(format!("{name}_gamma_edit"), |b| edit(b, &widened));
     }
@@ -121,9 +140,8 @@ fn paper(c: &mut Criterion) {
     room(c, "paper", "rooms/paper.toml", true, true);
 }
 
-/// The open-plan floor of issue 10 (133 547 leaves, 48 lights): its build (≈ 1 min) is measured
-/// by `haiko bake --json`, not repeated here; its γ edit (a response of every control point,
-/// seconds) is made once untimed.
+/// The open-plan floor of issue 10 (133 781 leaves, 48 lights): its build (≈ 1 min) is measured
+/// by `haiko bake --json`, not repeated here; its γ edit is not timed.
 fn open_plan(c: &mut Criterion) {
     room(c, "open_plan", "benches/rooms/open-plan.toml", false, false);
 }

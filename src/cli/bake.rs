@@ -282,9 +282,10 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
     ));
     if let Some(c) = costs {
         s.push_str(&format!(
-            "per edit of the first light: curve {:.1} ms, then a point's intensity {:.2} ms, re-aim {:.1} ms, dimmer {:.2} ms, 0.1 m move {:.1} ms{}\n",
+            "per edit of the first light: curve {:.1} ms, then a point's intensity {:.1} ms and again {:.2} ms, re-aim {:.1} ms, dimmer {:.2} ms, 0.1 m move {:.1} ms{}\n",
             c.curve_s * 1e3,
             c.point_s * 1e3,
+            c.point_again_s * 1e3,
             c.aim_s * 1e3,
             c.dimmer_s * 1e3,
             c.move_s * 1e3,
@@ -350,6 +351,7 @@ fn bake_json(
         doc["edit_s"] = serde_json::json!({
             "curve": c.curve_s,
             "point": c.point_s,
+            "point_again": c.point_again_s,
             "aim": c.aim_s,
             "dimmer": c.dimmer_s,
             "move": c.move_s,

@@ -23,7 +23,9 @@ use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions, InterreflectionStats};
 use crate::transport::patchdirect::PatchDirectCache;
 use crate::transport::radiosity::PatchColumns;
-use crate::transport::response::{CurveResponse, LightValues, MAX_RESPONSE_POINTS};
+use crate::transport::response::{
+    CurveResponse, LightValues, MAX_RESPONSE_POINTS, RESPONSE_POINTS_PER_SOLVE,
+};
 
 /// One light as the engine keeps it.
 #[derive(Debug, Clone)]
@@ -43,9 +45,9 @@ struct SolvedLight {
     leaf_indirect: Vec<Vec<f32>>,
     /// The curve, aim and dimmer the values above are for (`None` before the first solve).
     solved_for: Option<(Curve, DVec3, f64)>,
-    /// Its values per control point, once a curve edit solved them (where it stands, as aimed,
-    /// at its control-point angles then): an intensity edit that [`CurveResponse::fits`] needs
-    /// no solve.
+    /// Its values and a column per control point edited so far, once a curve edit solved them
+    /// (where it stands, as aimed, at its control-point angles then): an intensity edit that
+    /// [`CurveResponse::fits`] needs no solve.
     response: Option<Arc<CurveResponse>>,
     /// Changes whenever the values above do; unique across lights and engines of a process.
     revision: u64,
@@ -111,8 +113,11 @@ pub struct EditCosts {
     /// shape for any curve with light off its axis, a narrow spot's included).
     pub curve_s: f64,
     /// After that curve edit, one control point's intensity raised by 10 %: a weighted sum of
-    /// the light's response when the curve edit solved one, else a solve.
+    /// the light's response when the curve edit added that point's column (it changed at most
+    /// [`RESPONSE_POINTS_PER_SOLVE`] points), else a solve that adds it.
     pub point_s: f64,
+    /// The same point raised by 10 % again: the light's response weighted, no solve.
+    pub point_again_s: f64,
     /// A re-aim by 10°.
     pub aim_s: f64,
     /// A dimmer change to 0.8 of the current value.
@@ -139,9 +144,18 @@ pub struct LightSolveJob {
     /// start then also takes the change of the first reflection, `ρ (E_new − E_old)`.
     previous: Option<Box<SolvedState>>,
     tolerance: f64,
-    /// Solve the light's [`CurveResponse`] (a column per control point) and take its values
-    /// from it, instead of one column.
-    response: bool,
+    /// Solve the light's [`CurveResponse`] and take its values from it, instead of one column.
+    response: Option<ResponseRequest>,
+}
+
+/// What a curve edit's [`LightSolveJob`] adds to the light's [`CurveResponse`].
+#[derive(Debug, Clone)]
+struct ResponseRequest {
+    /// The light's response whose columns still hold (it stands, is aimed and has its
+    /// control-point angles as then), kept in the new one.
+    carried: Option<Arc<CurveResponse>>,
+    /// The control points to add a column for: those the edit changed.
+    points: Vec<usize>,
 }
 
 /// The direct sample cache, curve, aim and dimmer a light's radiosity was solved for.
@@ -172,16 +186,6 @@ impl LightSolveJob {
             Some(cache) => cache,
             None => Arc::new(self.engine.direct_cache(&self.light)),
         };
-        if self.response {
-            let response = CurveResponse::solve(&self.engine, &cache, &self.light, self.tolerance)?;
-            return Ok(LightSolve {
-                values: response.values(&self.light),
-                engine: self.engine,
-                cache,
-                light: self.light,
-                response: Some(Arc::new(response)),
-            });
-        }
         let state = LightState::from(&self.light);
         let mut direct = vec![0.0; self.engine.n_leaves()];
         cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
@@ -205,6 +209,25 @@ impl LightSolveJob {
                     *x += rho[i] * (emission.values[i] - old[i]);
                 }
             }
+        }
+        if let Some(request) = self.response {
+            let response = CurveResponse::solve(
+                &self.engine,
+                &cache,
+                &self.light,
+                &emission,
+                initial.as_deref(),
+                request.carried.as_deref(),
+                &request.points,
+                self.tolerance,
+            )?;
+            return Ok(LightSolve {
+                values: response.values(&self.light),
+                engine: self.engine,
+                cache,
+                light: self.light,
+                response: Some(Arc::new(response)),
+            });
         }
         let solutions = self.engine.solve(&emission, initial.as_deref(), self.tolerance)?;
         Ok(LightSolve {
@@ -372,14 +395,7 @@ impl HierarchicalIndirect {
             self.revision = next_revision();
             return None;
         }
-        // A curve edit where the light stands, as aimed: more curve edits are likely to follow,
-        // so the job solves the response that makes intensity edits solve-free.
-        let curve_edit = !moved
-            && light.curve.len() <= MAX_RESPONSE_POINTS
-            && old
-                .solved_for
-                .as_ref()
-                .is_some_and(|(curve, aim, _)| *aim == light.aim && *curve != light.curve);
+        let response = (!moved).then(|| curve_edit_response(old, light)).flatten();
         Some(LightSolveJob {
             engine: Arc::clone(&self.engine),
             cache: if moved { None } else { old.cache.clone() },
@@ -406,7 +422,7 @@ impl HierarchicalIndirect {
                     })
                 }),
             tolerance: self.tolerance,
-            response: curve_edit,
+            response,
         })
     }
 
@@ -593,17 +609,26 @@ impl HierarchicalIndirect {
         copy.set_light(i, &curve)?;
         let _ = copy.vertex_indirect(i);
         let curve_s = t.elapsed().as_secs_f64();
-        let mut point = curve.clone();
-        let k = usize::from(point.curve.len() > 1);
-        let raised = 1.1 * point.curve.intensities_cd()[k];
-        point
-            .curve
-            .set_intensity(k, raised)
-            .map_err(|e| crate::error::Error::internal(e.to_string()))?;
+        let k = usize::from(curve.curve.len() > 1);
+        let raised = |from: &Light| -> Result<Light> {
+            let mut raised = from.clone();
+            let candela = 1.1 * raised.curve.intensities_cd()[k];
+            raised
+                .curve
+                .set_intensity(k, candela)
+                .map_err(|e| crate::error::Error::internal(e.to_string()))?;
+            Ok(raised)
+        };
+        let point = raised(&curve)?;
         let t = Instant::now();
         copy.set_light(i, &point)?;
         let _ = copy.vertex_indirect(i);
         let point_s = t.elapsed().as_secs_f64();
+        let again = raised(&point)?;
+        let t = Instant::now();
+        copy.set_light(i, &again)?;
+        let _ = copy.vertex_indirect(i);
+        let point_again_s = t.elapsed().as_secs_f64();
         let step = if light.position.x + 0.1 < scene.room_size.x {
             0.1
         } else {
@@ -633,6 +658,7 @@ impl HierarchicalIndirect {
         Ok(EditCosts {
             curve_s,
             point_s,
+            point_again_s,
             aim_s,
             dimmer_s,
             move_s,
@@ -660,6 +686,34 @@ impl HierarchicalIndirect {
 
 /// Keeps what a light's solve for `light` gives: the radiosity per channel (also the next warm
 /// start), the light's colour, the leaf indirect irradiance `H − E` per channel.
+/// What a solve of `light` (where `old` stands) adds to its curve response, when it is a curve
+/// edit at the same control-point angles, as aimed, with the dimmer on: more edits of the same
+/// control points are likely to follow (docs/DECISIONS.md "Interreflection", "Responses grown a
+/// point at a time"). A column for each point the edit changed, unless it changed more than
+/// [`RESPONSE_POINTS_PER_SOLVE`] (a new shape) or the response would hold more than
+/// [`MAX_RESPONSE_POINTS`]; the columns of the light's response kept when they still hold.
+fn curve_edit_response(old: &SolvedLight, light: &Light) -> Option<ResponseRequest> {
+    let (curve, aim, _) = old.solved_for.as_ref()?;
+    let same_angles = curve.gammas_deg() == light.curve.gammas_deg();
+    if *aim != light.aim || !same_angles || *curve == light.curve || light.dimmer <= 0.0 {
+        return None;
+    }
+    let carried = old.response.clone().filter(|r| r.stands_as(light));
+    let held: Vec<usize> = carried.iter().flat_map(|r| r.points()).collect();
+    let changed: Vec<usize> = curve
+        .intensities_cd()
+        .iter()
+        .zip(light.curve.intensities_cd())
+        .enumerate()
+        .filter(|(k, (was, is))| was != is && !held.contains(k))
+        .map(|(k, _)| k)
+        .collect();
+    let fits =
+        changed.len() <= RESPONSE_POINTS_PER_SOLVE && held.len() + changed.len() <= MAX_RESPONSE_POINTS;
+    let points = if fits { changed } else { Vec::new() };
+    (carried.is_some() || !points.is_empty()).then_some(ResponseRequest { carried, points })
+}
+
 fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
     let single = |values: &[f64]| values.iter().map(|&v| v as f32).collect();
     solved.leaf_indirect = values.indirect.iter().map(|c| single(c)).collect();
@@ -750,41 +804,78 @@ solver_patch_size = 0.5
             .fold(0.0, f64::max)
     }
 
-    /// A curve edit solves the light's response (a column per control point); an intensity
-    /// edit after it needs no solve and equals a fresh engine of the edited room within the
-    /// tolerance; a light moved away and back, and a re-aim, ask for a solve again.
+    /// Light 0 of `engine` equals light 0 of a fresh engine of `scene` within the tolerance: its
+    /// leaf radiosity and its indirect light at the fine vertices.
+    fn assert_matches_fresh(engine: &HierarchicalIndirect, scene: &Scene, what: &str) {
+        let fresh = build(scene);
+        let peak = radiosity(&fresh, 0).iter().map(|b| b[0]).fold(0.0, f64::max);
+        assert!(peak > 0.0, "{what}");
+        let difference = peak_difference(&radiosity(engine, 0), &radiosity(&fresh, 0));
+        assert!(difference < 1e-5 * peak, "{what}: {difference} of {peak}");
+        let fresh_indirect = fresh.vertex_indirect(0);
+        let peak = fresh_indirect.iter().map(|v| v[0]).fold(0.0, f64::max);
+        let difference = peak_difference(&engine.vertex_indirect(0), &fresh_indirect);
+        assert!(
+            difference < 1e-5 * peak,
+            "{what}: vertices {difference} of {peak}"
+        );
+    }
+
+    /// The first edit of a control point's intensity is solved with a column for that point; later
+    /// edits of the points with a column need no solve, at any dimmer, and equal a fresh engine of
+    /// the edited room within the tolerance; an edit of another point adds its column and keeps
+    /// the others; a γ edit, a move away and back and a re-aim are solved.
     #[test]
     fn intensity_edits_after_a_curve_edit_need_no_solve() {
         let scene = room();
         let mut engine = build(&scene);
         let mut edited = scene.clone();
-        edited.lights[0].curve =
-            Curve::new(&[(0.0, 900.0), (40.0, 700.0), (90.0, 400.0), (180.0, 50.0)]).expect("a curve");
-        let job = engine
-            .update_light(0, &edited.lights[0])
-            .expect("a curve edit is solved");
-        let solved = job.run().expect("solves");
-        assert!(engine.install(0, solved));
-        for (point, factor) in [(1, 1.5), (3, 0.0), (0, 0.25)] {
-            let candela = edited.lights[0].curve.intensities_cd()[point] * factor;
-            edited.lights[0]
-                .curve
-                .set_intensity(point, candela)
-                .expect("a valid intensity");
+        let scale = |edited: &mut Scene, point: usize, factor: f64| {
+            let curve = &mut edited.lights[0].curve;
+            let candela = curve.intensities_cd()[point] * factor;
+            curve.set_intensity(point, candela).expect("a valid intensity");
+        };
+        let solve = |engine: &mut HierarchicalIndirect, edited: &Scene, what: &str| {
+            let job = engine
+                .update_light(0, &edited.lights[0])
+                .unwrap_or_else(|| panic!("{what}: a solve"));
+            assert!(engine.install(0, job.run().expect("solves")), "{what}");
+            assert_matches_fresh(engine, edited, what);
+        };
+        let blend = |engine: &mut HierarchicalIndirect, edited: &Scene, what: &str| {
             assert!(
                 engine.update_light(0, &edited.lights[0]).is_none(),
-                "point {point}: no solve"
+                "{what}: no solve"
             );
-            let fresh = build(&edited);
-            let peak = radiosity(&fresh, 0).iter().map(|b| b[0]).fold(0.0, f64::max);
-            assert!(peak > 0.0);
-            let difference = peak_difference(&radiosity(&engine, 0), &radiosity(&fresh, 0));
-            assert!(difference < 1e-5 * peak, "point {point}: {difference} of {peak}");
-            let indirect = engine.vertex_indirect(0);
-            let fresh_indirect = fresh.vertex_indirect(0);
-            let peak = fresh_indirect.iter().map(|v| v[0]).fold(0.0, f64::max);
-            assert!(peak_difference(&indirect, &fresh_indirect) < 1e-5 * peak);
+            assert_matches_fresh(engine, edited, what);
+        };
+        scale(&mut edited, 1, 1.5);
+        solve(&mut engine, &edited, "point 1 first");
+        scale(&mut edited, 1, 0.5);
+        blend(&mut engine, &edited, "point 1 again");
+        scale(&mut edited, 3, 0.0);
+        solve(&mut engine, &edited, "point 3 first");
+        scale(&mut edited, 1, 3.0);
+        blend(&mut engine, &edited, "point 1 after point 3");
+        edited.lights[0].curve.set_intensity(3, 40.0).expect("valid");
+        blend(&mut engine, &edited, "point 3 again");
+        edited.lights[0].dimmer = 0.5;
+        blend(&mut engine, &edited, "dimmed");
+        scale(&mut edited, 1, 0.8);
+        blend(&mut engine, &edited, "point 1 dimmed");
+        scale(&mut edited, 2, 1.2);
+        solve(&mut engine, &edited, "point 2 first, dimmed");
+        for point in 1..4 {
+            scale(&mut edited, point, 0.9);
         }
+        blend(&mut engine, &edited, "every point held");
+        edited.lights[0].curve =
+            Curve::new(&[(0.0, 900.0), (40.0, 700.0), (90.0, 400.0), (180.0, 50.0)]).expect("a curve");
+        solve(&mut engine, &edited, "new angles");
+        edited.lights[0].curve.set_intensity(0, 950.0).expect("valid");
+        solve(&mut engine, &edited, "point 0 at the new angles");
+        edited.lights[0].curve.set_intensity(0, 500.0).expect("valid");
+        blend(&mut engine, &edited, "point 0 again at the new angles");
         // Moved away and back: the response fits the light again, but the engine's light stands
         // elsewhere, so the way back is a solve that puts it where it is.
         let home = edited.lights[0].clone();
@@ -801,6 +892,57 @@ solver_patch_size = 0.5
         assert!(
             engine.update_light(0, &edited.lights[0]).is_some(),
             "a re-aim is solved"
+        );
+    }
+
+    /// An edit of more than [`RESPONSE_POINTS_PER_SOLVE`] points (a new shape) is solved without
+    /// adding their columns, and keeps the columns already held: an edit of a held point after it
+    /// needs no solve, one of the reshaped points does.
+    #[test]
+    fn a_new_shape_keeps_the_held_columns_without_adding_its_own() {
+        let mut scene = room();
+        let points = [
+            (0.0, 900.0),
+            (15.0, 850.0),
+            (30.0, 800.0),
+            (45.0, 600.0),
+            (60.0, 300.0),
+            (90.0, 50.0),
+            (180.0, 0.0),
+        ];
+        scene.lights[0].curve = Curve::new(&points).expect("a curve");
+        let mut engine = build(&scene);
+        let mut edited = scene.clone();
+        let set = |edited: &mut Scene, point: usize, candela: f64| {
+            edited.lights[0]
+                .curve
+                .set_intensity(point, candela)
+                .expect("valid");
+        };
+        set(&mut edited, 2, 700.0);
+        let job = engine
+            .update_light(0, &edited.lights[0])
+            .expect("a first edit is solved");
+        assert!(engine.install(0, job.run().expect("solves")));
+        for point in [0, 1, 3, 4, 5, 6] {
+            let candela = 0.8 * edited.lights[0].curve.intensities_cd()[point];
+            set(&mut edited, point, candela);
+        }
+        let job = engine
+            .update_light(0, &edited.lights[0])
+            .expect("a new shape is solved");
+        assert!(engine.install(0, job.run().expect("solves")));
+        assert_matches_fresh(&engine, &edited, "new shape");
+        set(&mut edited, 2, 750.0);
+        assert!(
+            engine.update_light(0, &edited.lights[0]).is_none(),
+            "point 2 is held"
+        );
+        assert_matches_fresh(&engine, &edited, "point 2 after the new shape");
+        set(&mut edited, 4, 200.0);
+        assert!(
+            engine.update_light(0, &edited.lights[0]).is_some(),
+            "point 4 has no column"
         );
     }
 

@@ -112,29 +112,50 @@ impl PatchDirectCache {
             .collect()
     }
 
-    /// Per patch and control point of `curve` (aimed along the unit vector `aim`), the
-    /// patch-averaged direct irradiance (lx) of the curve with 1 cd at that point and 0 at the
-    /// others, into `out` (patch-major, `curve.len()` per patch): the hat functions' weights of
-    /// every sample, in one pass (the same values as [`Self::irradiance_into`] of each unit curve).
-    pub fn control_point_irradiance_into(&self, curve: &Curve, aim: DVec3, out: &mut [f64]) {
-        let k = curve.len();
-        assert_eq!(out.len(), self.n_patches() * k, "k outputs per patch");
+    /// Per patch and each control point `points[j]` of `curve` (aimed along the unit vector
+    /// `aim`), the patch-averaged direct irradiance (lx) of the curve with 1 cd at that point and
+    /// 0 at the others, into `out` (patch-major, `points.len()` per patch): the hat functions'
+    /// weights of every sample, in one pass (the same values as [`Self::irradiance_into`] of each
+    /// unit curve). Points outside the curve are left 0.
+    pub fn control_point_irradiance_into(
+        &self,
+        curve: &Curve,
+        aim: DVec3,
+        points: &[usize],
+        out: &mut [f64],
+    ) {
+        let m = points.len();
+        assert_eq!(out.len(), self.n_patches() * m, "a column per point");
+        if m == 0 {
+            return;
+        }
+        let mut column_of = vec![None; curve.len()];
+        for (j, &k) in points.iter().enumerate() {
+            if let Some(c) = column_of.get_mut(k) {
+                *c = Some(j);
+            }
+        }
         let aim = aim.as_vec3();
-        out.par_chunks_mut(k)
+        out.par_chunks_mut(m)
             .enumerate()
             .with_min_len(MIN_PATCHES_PER_TASK)
             .for_each(|(p, row)| {
                 row.iter_mut().for_each(|v| *v = 0.0);
                 let range = self.offsets[p] as usize..self.offsets[p + 1] as usize;
+                let mut add = |k: usize, w: f64| {
+                    if let Some(j) = column_of[k] {
+                        row[j] += w;
+                    }
+                };
                 for (&dir, &w) in self.dirs[range.clone()].iter().zip(&self.weights[range]) {
                     let gamma = f64::from(aim.dot(dir).clamp(-1.0, 1.0)).acos().to_degrees();
                     let w = f64::from(w);
                     match curve.segment_deg(gamma) {
                         None => {}
-                        Some((i, None)) => row[i] += w,
+                        Some((i, None)) => add(i, w),
                         Some((i, Some(t))) => {
-                            row[i - 1] += w * (1.0 - t);
-                            row[i] += w * t;
+                            add(i - 1, w * (1.0 - t));
+                            add(i, w * t);
                         }
                     }
                 }
@@ -312,8 +333,9 @@ mod tests {
         .unwrap();
         let aim = DVec3::new(0.2, 0.1, -1.0).normalize();
         let k = curve.len();
+        let every: Vec<usize> = (0..k).collect();
         let mut columns = vec![f64::NAN; cache.n_patches() * k];
-        cache.control_point_irradiance_into(&curve, aim, &mut columns);
+        cache.control_point_irradiance_into(&curve, aim, &every, &mut columns);
         let mut e = [0.0];
         for j in 0..k {
             let mut unit = curve.clone();
@@ -332,5 +354,9 @@ mod tests {
             .map(|(c, i)| c * i)
             .sum();
         assert!((sum - e[0]).abs() <= 1e-12 * e[0], "{sum} vs {}", e[0]);
+        // A few points, in any order: the same columns.
+        let mut some = vec![f64::NAN; 2];
+        cache.control_point_irradiance_into(&curve, aim, &[3, 1], &mut some);
+        assert_eq!(some, [columns[3], columns[1]]);
     }
 }

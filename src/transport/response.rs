@@ -1,24 +1,30 @@
-//! A light's solved values per control point of its curve (docs/DECISIONS.md
-//! "Interreflection", "Curve edits without a solve"). The curve is piecewise linear in γ, so for
-//! fixed control-point angles, aim and position the light's exact patch direct light — and with
-//! it the whole interreflection solve — is linear in the control points' intensities. One block
-//! solve with a column per control point (the light emitting 1 cd at that point, 0 at the others)
-//! turns every later intensity edit into a weighted sum of the columns: the same values as a
-//! solve of the edited curve, to the solver's tolerance, without one.
+//! A light's solved values and their change per control point of its curve (docs/DECISIONS.md
+//! "Interreflection", "Curve edits without a solve", "Responses grown a point at a time"). The
+//! curve is piecewise linear in γ, so for fixed control-point angles, aim and position the
+//! light's exact patch direct light — and with it the whole interreflection solve — is linear in
+//! the control points' intensities. A response holds the light's values for one curve (its base)
+//! and a column for each control point edited so far (the light emitting 1 cd at that point, 0 at
+//! the others): every later edit of those points' intensities is the base plus a weighted sum of
+//! their columns — the same values as a solve of the edited curve, to the solver's tolerance,
+//! without one. A curve edit's solve adds the edited point's column to the light's response.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::scene::Light;
 use crate::transport::interreflection::Interreflection;
 use crate::transport::patchdirect::PatchDirectCache;
 use crate::transport::radiosity::{PatchColumns, Solution};
 
-/// Most control points a curve may have for its response to be solved: the block solve costs
-/// about one single solve per point, so a measured curve with a point per degree keeps one
-/// solve per edit instead.
+/// Most control-point columns a light's response holds (about a solve's worth of memory each:
+/// `2 × channels × leaves × 4` bytes); past it, an edit of another point is solved alone.
 pub const MAX_RESPONSE_POINTS: usize = 48;
+
+/// Most control points one curve edit adds columns for: an edit of one or a few points is
+/// likely followed by more edits of the same points; a change of the whole curve's shape (a
+/// scaled curve, every second point changed) is solved without columns.
+pub const RESPONSE_POINTS_PER_SOLVE: usize = 4;
 
 /// A light's solved values on the engine's leaves, colour not applied.
 #[derive(Debug, Clone)]
@@ -46,115 +52,206 @@ impl LightValues {
     }
 }
 
-/// Leaves × control points in f32 (a response's values are to the solver's relative tolerance,
-/// ≥ 10⁻⁶, so f32's 6·10⁻⁸ loses nothing and halves what an edit reads), row-major.
-#[derive(Debug, Clone)]
-struct ResponseBlock {
-    n_columns: usize,
-    values: Vec<f32>,
-}
-
 /// Leaves per rayon task when combining a response's columns.
 const LEAVES_PER_TASK: usize = 4096;
 
-impl ResponseBlock {
-    fn new(n_columns: usize, values: impl Iterator<Item = f64>) -> Self {
-        ResponseBlock {
-            n_columns,
-            values: values.map(|v| v as f32).collect(),
+/// Solved values per channel on the engine's leaves, in f32 (the values are good to the solver's
+/// relative tolerance, ≥ 10⁻⁶; f32 keeps 6·10⁻⁸ and halves what an edit reads).
+#[derive(Debug, Clone)]
+struct Columns {
+    /// Per channel, the leaf radiosity (lm/m²).
+    radiosity: Vec<Vec<f32>>,
+    /// Per channel, the leaf indirect irradiance `H − E = F·B` (lx).
+    indirect: Vec<Vec<f32>>,
+}
+
+impl Columns {
+    /// Column `c` of a block solve (per channel) whose emission was `emission`.
+    fn of_column(solutions: &[Solution], c: usize, emission: &PatchColumns) -> Self {
+        let n = emission.n_patches;
+        Columns {
+            radiosity: solutions
+                .iter()
+                .map(|s| (0..n).map(|p| s.radiosity.get(p, c) as f32).collect())
+                .collect(),
+            indirect: solutions
+                .iter()
+                .map(|s| {
+                    (0..n)
+                        .map(|p| (s.irradiance.get(p, c) - emission.get(p, c)) as f32)
+                        .collect()
+                })
+                .collect(),
         }
     }
 
-    /// `Σ_j weights[j] · column_j`, per leaf (in parallel over leaves).
-    fn combine(&self, weights: &[f64]) -> Vec<f64> {
-        let k = self.n_columns;
-        let mut out = vec![0.0; self.values.len() / k];
-        out.par_chunks_mut(LEAVES_PER_TASK)
-            .zip(self.values.par_chunks(LEAVES_PER_TASK * k))
-            .for_each(|(out, rows)| {
-                for (o, row) in out.iter_mut().zip(rows.chunks_exact(k)) {
-                    *o = row.iter().zip(weights).map(|(&v, w)| f64::from(v) * w).sum();
-                }
-            });
-        out
+    fn len(&self) -> usize {
+        self.radiosity.iter().chain(&self.indirect).map(Vec::len).sum()
     }
 }
 
-/// One light's values per control point, for the position, radius, aim and control-point
-/// angles it was solved at.
+/// `base_scale · base + Σ weight_j · column_j`, per leaf (in parallel over leaves).
+fn combine(base: &[f32], base_scale: f64, columns: &[(&[f32], f64)]) -> Vec<f64> {
+    let mut out = vec![0.0; base.len()];
+    out.par_chunks_mut(LEAVES_PER_TASK)
+        .enumerate()
+        .for_each(|(chunk, out)| {
+            let start = chunk * LEAVES_PER_TASK;
+            let range = start..start + out.len();
+            for (o, &b) in out.iter_mut().zip(&base[range.clone()]) {
+                *o = base_scale * f64::from(b);
+            }
+            for &(column, w) in columns {
+                for (o, &v) in out.iter_mut().zip(&column[range.clone()]) {
+                    *o += w * f64::from(v);
+                }
+            }
+        });
+    out
+}
+
+/// One light's values for a base curve, and per edited control point the change of its values
+/// per candela at that point, for the position, radius, aim and control-point angles it was
+/// solved at.
 #[derive(Debug, Clone)]
 pub struct CurveResponse {
     position: DVec3,
     radius_m: f64,
     aim: DVec3,
     gammas_deg: Vec<f64>,
-    /// Per solved channel, leaves × control points: indirect irradiance `F·B` (lx per cd,
-    /// dimmer 1).
-    indirect: Vec<ResponseBlock>,
-    /// Per solved channel, leaves × control points: radiosity (lm/m² per cd).
-    radiosity: Vec<ResponseBlock>,
+    /// The control points' intensities (cd) and the dimmer (> 0) the base was solved for.
+    base_cd: Vec<f64>,
+    base_dimmer: f64,
+    /// The light's values for its base curve and dimmer.
+    base: Columns,
+    /// Per control point with a column: its index and its values per cd (dimmer 1).
+    points: Vec<(usize, Columns)>,
 }
 
 impl CurveResponse {
-    /// Solves `light`'s response on `engine` from its direct sample `cache` (for its position),
-    /// to the relative `tolerance` per column.
+    /// Solves `light`'s response on `engine`, to the relative `tolerance` per column: its values
+    /// (its patch direct light `emission`, dimmer applied, started from `warm` per channel when
+    /// given) and a column for each control point of `new_points`, in one block solve, keeping
+    /// the columns of `carried` (a response of the light where it stands, as aimed, at the same
+    /// control-point angles; the caller checks with [`Self::stands_as`]). `cache` is the
+    /// light's direct sample cache for its position.
     ///
-    /// Errors: the solve failing (internal).
-    pub fn solve(
+    /// Errors: the solve failing, or a dimmer ≤ 0 (internal: such a light has nothing to
+    /// respond with).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn solve(
         engine: &Interreflection,
         cache: &PatchDirectCache,
         light: &Light,
+        emission: &PatchColumns,
+        warm: Option<&[PatchColumns]>,
+        carried: Option<&CurveResponse>,
+        new_points: &[usize],
         tolerance: f64,
     ) -> Result<Self> {
+        if light.dimmer <= 0.0 {
+            return Err(Error::internal(
+                "a curve response of a light dimmed to 0".to_string(),
+            ));
+        }
         let n = engine.n_leaves();
-        let k = light.curve.len();
-        let mut direct = PatchColumns::zeros(n, k);
-        cache.control_point_irradiance_into(&light.curve, light.aim.normalize(), &mut direct.values);
-        let (indirect, radiosity) = engine
-            .solve(&direct, None, tolerance)?
-            .into_iter()
-            .map(|s| {
-                let indirect = s.irradiance.values.iter().zip(&direct.values).map(|(h, e)| h - e);
-                (
-                    ResponseBlock::new(k, indirect),
-                    ResponseBlock::new(k, s.radiosity.values.into_iter()),
-                )
+        let m = 1 + new_points.len();
+        let mut hats = vec![0.0; n * new_points.len()];
+        cache.control_point_irradiance_into(&light.curve, light.aim.normalize(), new_points, &mut hats);
+        let mut block = PatchColumns::zeros(n, m);
+        for (p, row) in block.values.chunks_exact_mut(m).enumerate() {
+            row[0] = emission.values[p];
+            row[1..].copy_from_slice(&hats[p * (m - 1)..(p + 1) * (m - 1)]);
+        }
+        // Each column starts one bounce in: the light's from its warm start, each point's from
+        // its first reflection `ρ e_k`.
+        let initial: Vec<PatchColumns> = engine
+            .reflectance
+            .iter()
+            .enumerate()
+            .map(|(ch, rho)| {
+                let mut x0 = PatchColumns::zeros(n, m);
+                let warm = warm.and_then(|w| w.get(ch));
+                for (p, row) in x0.values.chunks_exact_mut(m).enumerate() {
+                    row[0] = warm.map_or(0.0, |w| w.values[p]);
+                    for (x, e) in row[1..].iter_mut().zip(&hats[p * (m - 1)..]) {
+                        *x = rho[p] * e;
+                    }
+                }
+                x0
             })
-            .unzip();
+            .collect();
+        let solutions = engine.solve(&block, Some(&initial), tolerance)?;
+        let kept = carried.map_or(&[][..], |r| &r.points[..]);
+        let points = kept
+            .iter()
+            .filter(|(k, _)| !new_points.contains(k))
+            .cloned()
+            .chain(
+                new_points
+                    .iter()
+                    .enumerate()
+                    .map(|(j, &k)| (k, Columns::of_column(&solutions, 1 + j, &block))),
+            )
+            .collect();
         Ok(CurveResponse {
             position: light.position,
             radius_m: light.radius,
             aim: light.aim,
             gammas_deg: light.curve.gammas_deg().to_vec(),
-            indirect,
-            radiosity,
+            base_cd: light.curve.intensities_cd().to_vec(),
+            base_dimmer: light.dimmer,
+            base: Columns::of_column(&solutions, 0, &block),
+            points,
         })
     }
 
-    /// True when `light` stands where the response was solved, aimed the same way, with a
-    /// curve of the same control-point angles: then [`Self::values`] is its solve.
-    pub fn fits(&self, light: &Light) -> bool {
+    /// True when `light` stands where the response was solved, aimed the same way, with a curve
+    /// of the same control-point angles: its columns hold for it.
+    pub fn stands_as(&self, light: &Light) -> bool {
         light.position == self.position
             && light.radius == self.radius_m
             && light.aim == self.aim
             && light.curve.gammas_deg() == self.gammas_deg
     }
 
-    /// The solved values of `light` (which [`Self::fits`]): the columns weighted by its
-    /// intensities times its dimmer.
-    pub(crate) fn values(&self, light: &Light) -> LightValues {
-        let weights: Vec<f64> = light
-            .curve
-            .intensities_cd()
-            .iter()
-            .map(|i| i * light.dimmer)
-            .collect();
-        LightValues {
-            radiosity: self
-                .radiosity
+    /// The control points with a column.
+    pub fn points(&self) -> impl Iterator<Item = usize> + '_ {
+        self.points.iter().map(|(k, _)| *k)
+    }
+
+    /// True when [`Self::values`] is `light`'s solve: it [`Self::stands_as`] solved, and every
+    /// control point without a column has its base intensity.
+    pub fn fits(&self, light: &Light) -> bool {
+        self.stands_as(light)
+            && light
+                .curve
+                .intensities_cd()
                 .iter()
-                .map(|b| {
-                    let values = b.combine(&weights);
+                .zip(&self.base_cd)
+                .enumerate()
+                .all(|(k, (i, base))| i == base || self.points().any(|p| p == k))
+    }
+
+    /// The solved values of `light` (which [`Self::fits`]): the base scaled by the dimmer's
+    /// ratio, plus each column weighted by its point's change of intensity times the dimmer.
+    pub(crate) fn values(&self, light: &Light) -> LightValues {
+        let intensities = light.curve.intensities_cd();
+        let weighted: Vec<(&Columns, f64)> = self
+            .points
+            .iter()
+            .map(|(k, c)| (c, light.dimmer * (intensities[*k] - self.base_cd[*k])))
+            .filter(|(_, w)| *w != 0.0)
+            .collect();
+        let scale = light.dimmer / self.base_dimmer;
+        let channel = |base: &[f32], pick: &dyn Fn(&Columns) -> &[f32]| {
+            let columns: Vec<(&[f32], f64)> = weighted.iter().map(|(c, w)| (pick(c), *w)).collect();
+            combine(base, scale, &columns)
+        };
+        LightValues {
+            radiosity: (0..self.base.radiosity.len())
+                .map(|ch| {
+                    let values = channel(&self.base.radiosity[ch], &|c| &c.radiosity[ch]);
                     PatchColumns {
                         n_patches: values.len(),
                         n_columns: 1,
@@ -162,18 +259,15 @@ impl CurveResponse {
                     }
                 })
                 .collect(),
-            indirect: self.indirect.iter().map(|b| b.combine(&weights)).collect(),
+            indirect: (0..self.base.indirect.len())
+                .map(|ch| channel(&self.base.indirect[ch], &|c| &c.indirect[ch]))
+                .collect(),
         }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        let values: usize = self
-            .indirect
-            .iter()
-            .chain(&self.radiosity)
-            .map(|b| b.values.len())
-            .sum();
-        4 * values + 8 * self.gammas_deg.len()
+        let values = self.base.len() + self.points.iter().map(|(_, c)| c.len()).sum::<usize>();
+        4 * values + 8 * (self.gammas_deg.len() + self.base_cd.len() + self.points.len())
     }
 }

@@ -543,7 +543,7 @@ fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
         let t = v["time_s"][stage].as_f64().unwrap();
         assert!(t.is_finite() && t >= 0.0, "{stage}: {t}");
     }
-    for edit in ["curve", "point", "aim", "dimmer", "move"] {
+    for edit in ["curve", "point", "point_again", "aim", "dimmer", "move"] {
         let t = v["edit_s"][edit].as_f64().unwrap();
         assert!(t.is_finite() && t > 0.0, "{edit}: {t}");
     }

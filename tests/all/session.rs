@@ -125,8 +125,9 @@ fn hierarchical_edits_moves_and_inserts_match_fresh_sessions() {
 /// The editor's session (`SessionOptions::interactive`): the hierarchical engine's solves leave
 /// the key path as bake jobs. After a curve edit the edited light's direct light is new at once
 /// and its indirect light the previous one while its solve is pending (the light `Updating`); a
-/// solve superseded by a newer one that finished first is dropped; the curve edit's solve makes
-/// a later intensity edit and a dimmer edit need no job;
+/// solve superseded by a newer one that finished first is dropped; the first intensity edit of a
+/// point is solved with that point's column, and makes later edits of it and a dimmer edit need
+/// no job;
 /// a move queues one job that checks the grading off the key path and rebuilds the engine (a
 /// move near the ceiling), during which an edit of the other light queues no solve on the old
 /// engine and after which that light is solved on the new one, or keeps the engine and solves
@@ -187,8 +188,8 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     assert_eq!(s.light_status(0), LightStatus::Ready);
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
 
-    // That solve was a curve edit's: it solved the light per control point, so ↑ on a point
-    // needs no solve at all.
+    // The first ↑ on a point is solved with that point's column; every later edit of it needs
+    // no solve at all.
     apply_both(
         &mut s,
         &mut sync,
@@ -198,10 +199,27 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
             candela: 1800.0,
         },
     );
+    s.relight();
+    let jobs = s.take_bake_jobs();
+    assert_eq!(jobs.len(), 1, "the first edit of a point is solved");
+    for job in jobs {
+        let done = job.run(&mut |_| {});
+        assert_eq!(s.finish_bake(done).unwrap(), Some(0));
+    }
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::SetIntensity {
+            light: 0,
+            point: 1,
+            candela: 2000.0,
+        },
+    );
     assert_eq!(s.relight(), vec![0]);
     assert!(
         s.take_bake_jobs().is_empty(),
-        "an intensity edit is a weighted sum"
+        "a later intensity edit of the point is a weighted sum"
     );
     assert_eq!(s.light_status(0), LightStatus::Ready);
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
