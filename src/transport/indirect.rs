@@ -186,30 +186,8 @@ impl LightSolveJob {
             Some(cache) => cache,
             None => Arc::new(self.engine.direct_cache(&self.light)),
         };
-        let state = LightState::from(&self.light);
-        let mut direct = vec![0.0; self.engine.n_leaves()];
-        cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
-        let emission = PatchColumns {
-            n_patches: direct.len(),
-            n_columns: 1,
-            values: direct,
-        };
-        let mut initial = Some(self.initial).filter(|x| x.len() == self.engine.channels());
-        if let (Some(previous), Some(initial)) = (self.previous.as_deref(), initial.as_mut()) {
-            // Warm start `B_old + ρ (E_new − E_old)`: the old solution with its first
-            // reflection brought up to date, so GMRES starts one bounce closer (docs/DECISIONS.md
-            // "Interreflection", "Warm starts with the first reflection").
-            let mut old = vec![0.0; emission.values.len()];
-            let aim = previous.aim.normalize();
-            previous
-                .cache
-                .irradiance_into(&previous.curve, aim, previous.dimmer, &mut old);
-            for (x0, rho) in initial.iter_mut().zip(&self.engine.reflectance) {
-                for (i, x) in x0.values.iter_mut().enumerate() {
-                    *x += rho[i] * (emission.values[i] - old[i]);
-                }
-            }
-        }
+        let emission = emission(&cache, &self.light);
+        let initial = warm_start(&self.engine, self.initial, self.previous.as_deref(), &emission);
         if let Some(request) = self.response {
             let response = CurveResponse::solve(
                 &self.engine,
@@ -686,6 +664,45 @@ impl HierarchicalIndirect {
 
 /// Keeps what a light's solve for `light` gives: the radiosity per channel (also the next warm
 /// start), the light's colour, the leaf indirect irradiance `H − E` per channel.
+/// `light`'s leaf direct light (lx, dimmer applied) from its sample `cache`, as one column.
+fn emission(cache: &PatchDirectCache, light: &Light) -> PatchColumns {
+    let state = LightState::from(light);
+    let mut direct = vec![0.0; cache.n_patches()];
+    cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
+    PatchColumns {
+        n_patches: direct.len(),
+        n_columns: 1,
+        values: direct,
+    }
+}
+
+/// The start of a light's solve for `emission`: its previous radiosity `initial` (per channel;
+/// `None` when it has none for every channel), plus `ρ (E_new − E_old)` when `previous` (what
+/// `initial` was solved for) still has its direct cache — the old solution with its first
+/// reflection brought up to date, so GMRES starts one bounce closer (docs/DECISIONS.md
+/// "Interreflection", "Warm starts with the first reflection").
+fn warm_start(
+    engine: &Interreflection,
+    initial: Vec<PatchColumns>,
+    previous: Option<&SolvedState>,
+    emission: &PatchColumns,
+) -> Option<Vec<PatchColumns>> {
+    let mut initial = Some(initial).filter(|x| x.len() == engine.channels())?;
+    if let Some(previous) = previous {
+        let mut old = vec![0.0; emission.values.len()];
+        let aim = previous.aim.normalize();
+        previous
+            .cache
+            .irradiance_into(&previous.curve, aim, previous.dimmer, &mut old);
+        for (x0, rho) in initial.iter_mut().zip(&engine.reflectance) {
+            for (i, x) in x0.values.iter_mut().enumerate() {
+                *x += rho[i] * (emission.values[i] - old[i]);
+            }
+        }
+    }
+    Some(initial)
+}
+
 /// What a solve of `light` (where `old` stands) adds to its curve response, when it is a curve
 /// edit at the same control-point angles, as aimed, with the dimmer on: more edits of the same
 /// control points are likely to follow (docs/DECISIONS.md "Interreflection", "Responses grown a
@@ -893,6 +910,42 @@ solver_patch_size = 0.5
             engine.update_light(0, &edited.lights[0]).is_some(),
             "a re-aim is solved"
         );
+    }
+
+    /// A re-aim's solve starts from the old radiosity with its first reflection brought up to
+    /// date: that start is much closer to the new solution than the old radiosity is, and the
+    /// solve from it ends at a fresh engine's answer.
+    #[test]
+    fn a_warm_start_takes_the_first_reflection_along() {
+        let scene = room();
+        let mut engine = build(&scene);
+        let mut reaimed = scene.clone();
+        reaimed.lights[0].aim = DVec3::new(0.6, 0.2, -1.0).normalize();
+        let job = engine
+            .update_light(0, &reaimed.lights[0])
+            .expect("a re-aim is solved");
+        let cache = job.cache.clone().expect("the light kept its direct cache");
+        assert!(job.previous.is_some(), "the previous state comes along");
+        let e = emission(&cache, &reaimed.lights[0]);
+        let old = job.initial.clone();
+        let start =
+            warm_start(&job.engine, job.initial.clone(), job.previous.as_deref(), &e).expect("a start");
+        let fresh = build(&reaimed);
+        let new: Vec<f64> = radiosity(&fresh, 0).iter().map(|b| b[0]).collect();
+        let distance = |x: &PatchColumns| {
+            x.values
+                .iter()
+                .zip(&new)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max)
+        };
+        let (from_old, from_start) = (distance(&old[0]), distance(&start[0]));
+        assert!(
+            from_start < 0.2 * from_old,
+            "the start is {from_start} from the solution, the old radiosity {from_old}"
+        );
+        assert!(engine.install(0, job.run().expect("solves")));
+        assert_matches_fresh(&engine, &reaimed, "re-aimed");
     }
 
     /// An edit of more than [`RESPONSE_POINTS_PER_SOLVE`] points (a new shape) is solved without
