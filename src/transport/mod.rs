@@ -11,6 +11,7 @@ pub mod indirect;
 pub mod interpolate;
 pub mod interreflection;
 pub mod links;
+mod mesh_contacts;
 pub mod occlusion;
 pub mod patchdirect;
 pub mod plan;

@@ -17,6 +17,11 @@
 //!   a few centimetres wide beside a bright pool) is halved further, down to `shadow_min_m`.
 //!   The room's own edges near a light hung close to a room surface (a wall-washer under the
 //!   ceiling) are graded the same way.
+//! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface (its triangles' edges
+//!   lying on a room plane, in any direction), the cells of that surface and the mesh's
+//!   triangles are halved (rectangles across their longer side, triangles 1 → 4) while larger
+//!   than `contact_ratio ×` their distance to a contact edge, down to `contact_min_m`; the room
+//!   surface's cells the mesh covers (the floor under a plinth) are left out of the solve.
 //!
 //! Splits are binary and axis-aligned on the room's and boxes' rectangles (so leaves stay
 //! rectangles of one surface) and 1 → 4 by edge midpoints on OBJ triangles (near lights only).
@@ -30,6 +35,7 @@ use rayon::prelude::*;
 
 use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Patch, PatchMesh, Scene, SurfaceKind};
+use crate::transport::mesh_contacts::MeshContacts;
 use crate::transport::occlusion::Occluders;
 use crate::transport::visibility::Visibility;
 
@@ -104,6 +110,11 @@ pub struct SolverMesh {
     pub near_lamp: Vec<bool>,
     /// Per light that caused splits, what it did.
     pub lamps: Vec<LampRefinement>,
+    /// Edges where OBJ meshes stand on room surfaces, the leaves made along them (beyond the
+    /// coarse patches they replaced), and the room-surface leaves left out as covered by a mesh.
+    pub mesh_contacts: usize,
+    pub mesh_contact_leaves_added: usize,
+    pub covered_leaves: usize,
     /// Contact edges graded towards (where a box meets its support, and room edges beside a
     /// lamp close to them), and the leaves made along them (beyond the coarse patches they
     /// replaced).
@@ -129,6 +140,12 @@ impl SolverMesh {
             notes.push(format!(
                 "graded along {} contact edges (boxes on their supports, room edges beside lamps): +{} patches",
                 self.contacts, self.contact_leaves_added
+            ));
+        }
+        if self.mesh_contacts > 0 {
+            notes.push(format!(
+                "graded along {} OBJ contact edges (meshes on room surfaces): +{} patches, {} covered patches left out",
+                self.mesh_contacts, self.mesh_contact_leaves_added, self.covered_leaves
             ));
         }
         notes
@@ -184,6 +201,12 @@ fn point_box_distance(p: DVec3, b: &Aabb) -> f64 {
     p.distance(p.clamp(b.min, b.max))
 }
 
+/// Pieces of OBJ faces along an OBJ contact edge are split 1 → 4 while their longest edge exceeds
+/// twice this (m): isotropic splits of a triangle touching the edge multiply, and 3 cm pieces
+/// (the rectangles' `contact_min_m` doubled) tripled the OBJ room's leaves for the same errors
+/// against the Monte-Carlo reference (docs/DECISIONS.md "OBJ furniture on its support").
+const MESH_FACE_MIN_M: f64 = 0.06;
+
 /// A strip along a contact edge is split along it while longer than this many times the
 /// distance of its far side to the edge (its width, for a strip touching the edge).
 const CONTACT_ASPECT: f64 = 4.0;
@@ -199,12 +222,24 @@ const CORNER_LAMP_M: f64 = 0.5;
 const CORNER_REACH_FACTOR: f64 = 6.0;
 const CORNER_REACH_M: f64 = 0.3;
 
+/// What the recursive split of one rectangle made.
+#[derive(Default)]
+struct Split {
+    leaves: Vec<Cell>,
+    /// The first light whose rule split it.
+    lamp: Option<usize>,
+    by_contact: bool,
+    by_mesh_contact: bool,
+    covered: usize,
+}
+
 /// What the recursive splits need.
 struct Splitter<'a> {
     scene: &'a Scene,
     options: &'a RefineOptions,
     contacts: Vec<Contact>,
     occluders: Option<Occluders>,
+    mesh_contacts: Option<MeshContacts>,
 }
 
 /// Refines the coarse mesh of `scene`.
@@ -221,6 +256,9 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
             .then(|| Occluders::of_scene(scene))
             .flatten(),
         contacts,
+        mesh_contacts: (options.contact_ratio > 0.0)
+            .then(|| MeshContacts::of_scene(scene))
+            .flatten(),
     };
     // The coarse patches split independently (in parallel); their leaves join the mesh in patch
     // order, so the result does not depend on the threads.
@@ -232,14 +270,18 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
         .collect();
     let mut out = Builder::default();
     let mut lamp_split = vec![(0usize, 0usize); scene.lights.len()];
-    let mut contact_added = 0usize;
+    let (mut contact_added, mut mesh_contact_added, mut covered) = (0usize, 0usize, 0usize);
     for (index, (patch, split)) in scene.coarse.patches.iter().zip(split).enumerate() {
         let near_lamp = split.lamp.is_some();
+        covered += split.covered;
+        let added = (split.leaves.len() + split.covered).saturating_sub(1);
         if let Some(light) = split.lamp {
             lamp_split[light].0 += 1;
             lamp_split[light].1 += split.leaves.len();
+        } else if split.by_mesh_contact {
+            mesh_contact_added += added;
         } else if split.by_contact {
-            contact_added += split.leaves.len() - 1;
+            contact_added += added;
         }
         match split.leaves {
             Leaves::Triangles(leaves) => {
@@ -276,6 +318,9 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
         lamps,
         contacts: splitter.contacts.len(),
         contact_leaves_added: contact_added,
+        mesh_contacts: splitter.mesh_contacts.as_ref().map_or(0, MeshContacts::len),
+        mesh_contact_leaves_added: mesh_contact_added,
+        covered_leaves: covered,
     }
 }
 
@@ -344,6 +389,10 @@ struct SplitPatch {
     lamp: Option<usize>,
     /// Split by the contact rules (and by no light).
     by_contact: bool,
+    /// Split by the OBJ contact rule (and by no light).
+    by_mesh_contact: bool,
+    /// Leaves left out as covered by an OBJ mesh.
+    covered: usize,
 }
 
 impl Splitter<'_> {
@@ -354,50 +403,91 @@ impl Splitter<'_> {
         let surface = &scene.surfaces[patch.surface as usize];
         if matches!(surface.kind, SurfaceKind::Mesh { .. }) || patch.n_vertices != 4 {
             let corners = [0, 1, 2].map(|k| scene.coarse.positions[patch.vertices[k] as usize]);
-            let (leaves, lamp) = split_triangle(scene, self.options, corners, patch);
+            let contacts = self.mesh_contacts.as_ref();
+            let (leaves, lamp, by_mesh_contact) =
+                split_triangle(scene, self.options, contacts, corners, patch);
             return SplitPatch {
                 leaves: Leaves::Triangles(leaves),
                 lamp,
                 by_contact: false,
+                by_mesh_contact,
+                covered: 0,
             };
         }
-        let mut leaves = Vec::new();
-        let mut lamp = None;
-        let mut by_contact = false;
-        self.split(
-            cell_of(&scene.coarse, patch),
-            &mut leaves,
-            &mut lamp,
-            &mut by_contact,
-        );
+        let mut split = Split::default();
+        self.split(cell_of(&scene.coarse, patch), &mut split);
         SplitPatch {
-            leaves: Leaves::Rects(leaves),
-            lamp,
-            by_contact,
+            leaves: Leaves::Rects(split.leaves),
+            lamp: split.lamp,
+            by_contact: split.by_contact,
+            by_mesh_contact: split.by_mesh_contact,
+            covered: split.covered,
         }
     }
 
-    /// Splits a rectangle cell recursively (see the module docs), appending the leaves.
-    fn split(
-        &self,
-        cell: Cell,
-        leaves: &mut Vec<Cell>,
-        first_lamp: &mut Option<usize>,
-        by_contact: &mut bool,
-    ) {
-        let axis = self.lamp_axis(&cell, first_lamp).or_else(|| {
-            let axis = self.contact_axis(&cell);
-            *by_contact |= axis.is_some();
-            axis
-        });
+    /// Splits a rectangle cell recursively (see the module docs), appending the leaves; a leaf
+    /// an OBJ mesh covers is counted and left out.
+    fn split(&self, cell: Cell, out: &mut Split) {
+        // A cell an OBJ mesh covers whole is left out before any rule splits it.
+        if self.covered(&cell, true) {
+            out.covered += 1;
+            return;
+        }
+        let axis = self
+            .lamp_axis(&cell, &mut out.lamp)
+            .or_else(|| {
+                let axis = self.contact_axis(&cell);
+                out.by_contact |= axis.is_some();
+                axis
+            })
+            .or_else(|| {
+                let axis = self.mesh_contact_axis(&cell);
+                out.by_mesh_contact |= axis.is_some();
+                axis
+            });
         match axis {
-            None => leaves.push(cell),
+            None if self.covered(&cell, false) => out.covered += 1,
+            None => out.leaves.push(cell),
             Some(k) => {
                 for half in cell.halves(k) {
-                    self.split(half, leaves, first_lamp, by_contact);
+                    self.split(half, out);
                 }
             }
         }
+    }
+
+    /// True when an OBJ mesh covers the cell's centre, or with `whole` its centre and every
+    /// corner (pulled 1 mm inside the cell).
+    fn covered(&self, cell: &Cell, whole: bool) -> bool {
+        let Some(contacts) = &self.mesh_contacts else {
+            return false;
+        };
+        let r = &cell.rect;
+        let at = |s: f64, k: usize| {
+            let inset = (1e-3f64).min(0.5 * (r.max[k] - r.min[k]));
+            (r.min[k] + s * (r.max[k] - r.min[k])).clamp(r.min[k] + inset, r.max[k] - inset)
+        };
+        let corners: &[(f64, f64)] = if whole {
+            &[(0.5, 0.5), (0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+        } else {
+            &[(0.5, 0.5)]
+        };
+        corners
+            .iter()
+            .all(|&(u, v)| contacts.covered(r.point(at(u, 0), at(v, 1)), r.normal()))
+    }
+
+    /// The longer side, when an OBJ mesh stands on the cell's plane and the cell is larger than
+    /// `contact_ratio ×` its distance to the mesh's nearest contact edge there.
+    fn mesh_contact_axis(&self, cell: &Cell) -> Option<usize> {
+        let contacts = self.mesh_contacts.as_ref()?;
+        let options = self.options;
+        let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
+        if cell.extent(longer) <= 2.0 * options.contact_min_m {
+            return None;
+        }
+        let distance = contacts.distance_to_cell(cell.rect.axis, cell.rect.offset, &cell.bounds())?;
+        (cell.extent(longer) > options.contact_ratio * distance).then_some(longer)
     }
 
     /// The longer side, when the cell is larger than `lamp_ratio ×` its distance to a light in
@@ -504,15 +594,19 @@ impl Splitter<'_> {
 }
 
 /// Splits an OBJ triangle 1 → 4 while its longest edge exceeds `lamp_ratio ×` its distance to a
-/// light in front of it; returns the pieces and the first light that caused a split.
+/// light in front of it, or `contact_ratio ×` its distance to an OBJ contact edge (down to twice
+/// `contact_min_m`); returns the pieces, the first light that caused a split, and whether the
+/// contact rule split it.
 fn split_triangle(
     scene: &Scene,
     options: &RefineOptions,
+    contacts: Option<&MeshContacts>,
     corners: [DVec3; 3],
     patch: &Patch,
-) -> (Vec<[DVec3; 3]>, Option<usize>) {
+) -> (Vec<[DVec3; 3]>, Option<usize>, bool) {
     let mut out = Vec::new();
     let mut first = None;
+    let mut by_contact = false;
     let mut stack = vec![corners];
     while let Some(t) = stack.pop() {
         let longest = (0..3).map(|e| t[e].distance(t[(e + 1) % 3])).fold(0.0, f64::max);
@@ -526,21 +620,28 @@ fn split_triangle(
                 })
             })
             .flatten();
-        match near {
-            Some(i) => {
-                first.get_or_insert(i);
-                let m = [(t[0] + t[1]) / 2.0, (t[1] + t[2]) / 2.0, (t[2] + t[0]) / 2.0];
-                stack.extend([
-                    [t[0], m[0], m[2]],
-                    [m[0], t[1], m[1]],
-                    [m[2], m[1], t[2]],
-                    [m[0], m[1], m[2]],
-                ]);
-            }
-            None => out.push(t),
+        let contact = near.is_none()
+            && longest > 2.0 * MESH_FACE_MIN_M
+            && contacts
+                .and_then(|c| c.distance_to_points(&t))
+                .is_some_and(|d| longest > options.contact_ratio * d);
+        if let Some(i) = near {
+            first.get_or_insert(i);
+        }
+        by_contact |= contact;
+        if near.is_some() || contact {
+            let m = [(t[0] + t[1]) / 2.0, (t[1] + t[2]) / 2.0, (t[2] + t[0]) / 2.0];
+            stack.extend([
+                [t[0], m[0], m[2]],
+                [m[0], t[1], m[1]],
+                [m[2], m[1], t[2]],
+                [m[0], m[1], m[2]],
+            ]);
+        } else {
+            out.push(t);
         }
     }
-    (out, first)
+    (out, first, by_contact)
 }
 
 /// The edges where a box rests on (or against) a room surface or the top of another box,
@@ -739,6 +840,88 @@ solver_patch_size = 0.5
 
     fn total_area(mesh: &PatchMesh) -> f64 {
         mesh.patches.iter().map(|p| p.area).sum()
+    }
+
+    /// An OBJ plinth turned 30° on the floor: no floor leaf is left under it (the covered cells
+    /// are left out, so the floor's leaves cover the floor less the footprint, to the strips
+    /// along its edges), the floor leaves touching its footprint are strips of at most twice
+    /// `contact_min_m`, its faces' pieces touching the floor are at most `2 × MESH_FACE_MIN_M`
+    /// long, and the plan says so.
+    #[test]
+    fn obj_furniture_grades_its_support_and_leaves_out_what_it_covers() {
+        let scene = crate::transport::mesh_contacts::plinth_room();
+        let options = RefineOptions::default();
+        let solver = refine(&scene, &options);
+        let contacts = MeshContacts::of_scene(&scene).expect("contacts");
+        let floor: Vec<&Patch> = solver
+            .mesh
+            .patches
+            .iter()
+            .filter(|p| matches!(scene.surfaces[p.surface as usize].kind, SurfaceKind::Floor))
+            .collect();
+        let footprint = 0.6 * 0.6;
+        let area: f64 = floor.iter().map(|p| p.area).sum();
+        // Strips of ≤ 3 cm along 2.4 m of edges: at most half of each is misassigned.
+        assert!(
+            (area - (12.0 - footprint)).abs() < 2.4 * 0.015,
+            "floor leaves {area} m²"
+        );
+        for p in &floor {
+            assert!(
+                !contacts.covered(p.centroid, DVec3::Z),
+                "a leaf under the plinth at {}",
+                p.centroid
+            );
+            let corners: Vec<DVec3> = p
+                .vertex_ids()
+                .iter()
+                .map(|&v| solver.mesh.positions[v as usize])
+                .collect();
+            let bounds = corners.iter().fold(
+                Aabb {
+                    min: DVec3::INFINITY,
+                    max: DVec3::NEG_INFINITY,
+                },
+                |b, &q| Aabb {
+                    min: b.min.min(q),
+                    max: b.max.max(q),
+                },
+            );
+            if contacts.distance_to_cell(2, 0.0, &bounds) == Some(0.0) {
+                let longer = (bounds.max - bounds.min).max_element();
+                assert!(
+                    longer <= 2.0 * options.contact_min_m + 1e-9,
+                    "a {longer} m leaf on the footprint's edge"
+                );
+            }
+        }
+        let faces = solver
+            .mesh
+            .patches
+            .iter()
+            .filter(|p| matches!(scene.surfaces[p.surface as usize].kind, SurfaceKind::Mesh { .. }));
+        let mut at_floor = 0;
+        for p in faces {
+            let t: Vec<DVec3> = p
+                .vertex_ids()
+                .iter()
+                .map(|&v| solver.mesh.positions[v as usize])
+                .collect();
+            if t.iter().any(|q| q.z.abs() < 1e-9) && p.normal.z.abs() < 0.5 {
+                at_floor += 1;
+                let longest = (0..3).map(|e| t[e].distance(t[(e + 1) % 3])).fold(0.0, f64::max);
+                assert!(
+                    longest <= 2.0 * MESH_FACE_MIN_M + 1e-9,
+                    "a {longest} m piece at the floor"
+                );
+            }
+        }
+        assert!(at_floor >= 4 * 8, "{at_floor} pieces of the faces at the floor");
+        assert_eq!(solver.mesh_contacts, contacts.len());
+        assert!(solver.covered_leaves > 0);
+        let notes = solver.notes(&scene).join("\n");
+        let said = format!("graded along {} OBJ contact edges", contacts.len());
+        assert!(notes.contains(&said), "{notes}");
     }
 
     /// A light far from every surface and no boxes: nothing to refine, the coarse mesh is kept

@@ -1,8 +1,9 @@
 //! Committed Monte-Carlo references of total illuminance for the rooms in
 //! `tests/data/references/*.toml` (box contacts beside lamps close to the ceiling, grazing
-//! wall-washers, hard-edged spots, a white room, an empty room, an office with desks, a 12 m hall),
-//! 70–210 points each on floors, box tops and faces, walls and ceilings, including points 1–20 cm
-//! from box faces. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
+//! wall-washers, hard-edged spots, a white room, an empty room, an office with desks, a 12 m hall,
+//! OBJ furniture — a plinth turned 30° and a sideboard — in a coloured room under a warm spot),
+//! 70–210 points each on floors, box and mesh tops and faces, walls and ceilings, including points
+//! 1–20 cm from box and mesh faces. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
 //! estimate, its standard error (lx, < 0.3 % of the value), the exact direct part and the number of
 //! paths.
 //!
@@ -30,7 +31,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 8] = [
+pub const ROOMS: [&str; 9] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -39,6 +40,7 @@ pub const ROOMS: [&str; 8] = [
     "empty",
     "office",
     "hall",
+    "mesh-colour",
 ];
 
 /// The environment variable that regenerates the references.
@@ -134,8 +136,8 @@ fn mm(x: f64) -> f64 {
     (x * 1000.0).round() / 1000.0
 }
 
-/// Collects receivers, dropping any whose surface side is inside or against a box (or outside the
-/// room).
+/// Collects receivers, dropping any whose surface side is inside or against a box, inside an OBJ
+/// mesh's bounds (or outside the room).
 struct Points<'a> {
     scene: &'a Scene,
     out: Vec<(DVec3, DVec3)>,
@@ -143,6 +145,15 @@ struct Points<'a> {
 
 impl Points<'_> {
     fn add(&mut self, p: DVec3, n: DVec3) {
+        self.add_checked(p, n, true);
+    }
+
+    /// A receiver placed beside an OBJ mesh's faces by the caller, inside the mesh's bounds.
+    fn add_beside_mesh(&mut self, p: DVec3, n: DVec3) {
+        self.add_checked(p, n, false);
+    }
+
+    fn add_checked(&mut self, p: DVec3, n: DVec3, outside_meshes: bool) {
         let p = DVec3::new(mm(p.x), mm(p.y), mm(p.z));
         // 5 mm off the surface the point must be in the room and at least 4 mm from every box
         // (a point on a box's own face is 5 mm from it; one on the floor under a box's edge is
@@ -155,8 +166,14 @@ impl Points<'_> {
             .boxes
             .iter()
             .any(|b| probe.distance(probe.clamp(b.min, b.max)) < 4e-3);
+        let in_mesh = outside_meshes
+            && self
+                .scene
+                .mesh_bounds
+                .iter()
+                .any(|b| probe.distance(probe.clamp(b.min, b.max)) < 4e-3);
         let duplicate = self.out.iter().any(|&(q, m)| q == p && m == n);
-        if inside_room && !in_box && !duplicate {
+        if inside_room && !in_box && !in_mesh && !duplicate {
             self.out.push((p, n));
         }
     }
@@ -164,8 +181,10 @@ impl Points<'_> {
 
 /// The receivers of a reference room: grids on the floor, ceiling and walls; per box its top, the
 /// floor 1–20 cm from its sides and its sides 1–20 cm above the floor; the ceiling and walls near
-/// lights hung close to them; and, for the wall-washer room, the ceiling 5–50 cm from the washed
-/// wall and that wall's top.
+/// lights hung close to them; for the wall-washer room, the ceiling 5–50 cm from the washed
+/// wall and that wall's top; for the OBJ room, the floor 1–20 cm from the turned plinth's faces
+/// and the sideboard's front, those faces 1 cm–0.6 m up, their tops, and the wall above and
+/// beside the sideboard.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
@@ -261,6 +280,41 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
             for z in [2.75, 2.6, 2.4, 2.0, 1.5, 0.8] {
                 pts.add(DVec3::new(x, 0.0, z), DVec3::Y);
             }
+        }
+    }
+    if name == "mesh-colour" {
+        // The plinth of `mesh-colour-plinth.obj`: a 0.6 m square turned 30° about (1.7, 2.0),
+        // 1 m high; its faces' outward normals at 30° + k · 90°. Points on a face are 2 mm in
+        // front of it (the millimetre grid would put some inside the plinth).
+        let centre = DVec3::new(1.7, 2.0, 0.0);
+        for k in 0..4 {
+            let angle = (30.0 + 90.0 * k as f64).to_radians();
+            let out = DVec3::new(angle.cos(), angle.sin(), 0.0);
+            let mid = centre + out * 0.3;
+            for d in [0.01, 0.02, 0.05, 0.1, 0.2] {
+                pts.add_beside_mesh(mid + out * d, DVec3::Z);
+            }
+            for h in [0.01, 0.05, 0.2, 0.6] {
+                pts.add_beside_mesh(mid + out * 0.002 + DVec3::Z * h, out);
+            }
+        }
+        pts.add_beside_mesh(centre + DVec3::Z, DVec3::Z);
+        // The sideboard of `mesh-colour-sideboard.obj`: x 3.0–4.4, y 3.55–4.0 (against the wall
+        // y = 4), 0.8 m high.
+        let front = DVec3::new(3.7, 3.55, 0.0);
+        for d in [0.01, 0.02, 0.05, 0.1, 0.2] {
+            pts.add_beside_mesh(front - DVec3::Y * d, DVec3::Z);
+        }
+        for h in [0.01, 0.05, 0.2, 0.5] {
+            pts.add_beside_mesh(front + DVec3::Z * h, DVec3::NEG_Y);
+        }
+        pts.add_beside_mesh(DVec3::new(3.7, 3.775, 0.8), DVec3::Z);
+        for z in [0.81, 0.85, 1.0] {
+            pts.add_beside_mesh(DVec3::new(3.7, 4.0, z), DVec3::NEG_Y);
+        }
+        for d in [0.02, 0.1] {
+            pts.add_beside_mesh(DVec3::new(4.4 + d, 3.8, 0.0), DVec3::Z);
+            pts.add_beside_mesh(DVec3::new(4.4 + d, 4.0, 0.2), DVec3::NEG_Y);
         }
     }
     pts.out
@@ -428,7 +482,7 @@ pub fn engine_errors(name: &'static str, options: &InterreflectionOptions) -> Ro
 /// docs/ACCURACY.md "Relaxed links"). The spots room's worst point (the floor 2 cm from a box
 /// face in its shadow) was 5.4 % high before the contact strips were kept short along the edge
 /// and the gather followed a linear radiosity on each leaf (2.66 % worst since, elsewhere).
-const ENGINE_BOUNDS: [(&str, f64, f64); 8] = [
+const ENGINE_BOUNDS: [(&str, f64, f64); 9] = [
     ("hotspot-box", 0.005, 0.035),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.015),
@@ -437,6 +491,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 8] = [
     ("empty", 0.005, 0.010),
     ("office", 0.005, 0.040),
     ("hall", 0.005, 0.030),
+    ("mesh-colour", 0.005, 0.030),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them

@@ -202,6 +202,9 @@ struct Node {
 }
 
 /// A median-split BVH over triangles.
+/// Margin (m) around a BVH node's triangles.
+const NODE_PAD_M: f64 = 1e-9;
+
 #[derive(Debug, Clone, Default)]
 struct Bvh {
     nodes: Vec<Node>,
@@ -227,10 +230,13 @@ impl Bvh {
             .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
                 (lo.min(p), hi.max(p))
             });
+        // Padded: a node holding only an axis-aligned face is flat, and the strict slab test
+        // would let every ray through it.
+        let pad = DVec3::splat(NODE_PAD_M);
         let index = nodes.len();
         nodes.push(Node {
-            lo,
-            hi,
+            lo: lo - pad,
+            hi: hi + pad,
             children: [0, 0],
             first: start,
             count: end - start,
