@@ -379,19 +379,12 @@ fn picks_on_the_paper_room_land_on_the_analytic_ray_plane_intersection() {
         );
         // The picked patch is the one under the point: the point lies in its bounding box (to
         // 0.1 mm: vertices are snapped to 1/256 pixel, a few µm at this distance).
-        let patch = &scene.fine.patches[report.patch as usize];
-        let corners = patch
-            .vertex_ids()
-            .iter()
-            .map(|&v| scene.fine.positions[v as usize]);
-        let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p), hi.max(p))
-        });
-        assert!(
-            report.point.cmpge(lo - 1e-4).all() && report.point.cmple(hi + 1e-4).all(),
-            "pixel {pixel:?}: {} outside patch {} [{lo}, {hi}]",
+        assert_in_patch_bounds(
+            &scene.fine,
+            report.patch,
             report.point,
-            report.patch
+            1e-4,
+            &format!("pixel {pixel:?}"),
         );
         let aim = report.aim.unwrap();
         assert!((aim.length() - 1.0).abs() < 1e-12);
@@ -400,6 +393,27 @@ fn picks_on_the_paper_room_land_on_the_analytic_ray_plane_intersection() {
             "aim {aim}"
         );
     }
+}
+
+/// `point` lies in the bounding box of patch `patch` of `mesh`, to `margin` (m).
+fn assert_in_patch_bounds(
+    mesh: &haiko::scene::model::PatchMesh,
+    patch: u32,
+    point: DVec3,
+    margin: f64,
+    what: &str,
+) {
+    let corners = mesh.patches[patch as usize]
+        .vertex_ids()
+        .iter()
+        .map(|&v| mesh.positions[v as usize]);
+    let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p), hi.max(p))
+    });
+    assert!(
+        point.cmpge(lo - margin).all() && point.cmple(hi + margin).all(),
+        "{what}: {point} outside patch {patch} [{lo}, {hi}]"
+    );
 }
 
 #[test]
@@ -638,17 +652,7 @@ fn every_picked_office_pixel_lies_on_its_patch_and_reads_the_probe_value() {
                 hit.point,
                 hit.patch
             );
-            let (lo, hi) = corners
-                .iter()
-                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
-                    (lo.min(p), hi.max(p))
-                });
-            assert!(
-                hit.point.cmpge(lo - 1e-9).all() && hit.point.cmple(hi + 1e-9).all(),
-                "({x}, {y}): {} outside patch {} [{lo}, {hi}]",
-                hit.point,
-                hit.patch
-            );
+            assert_in_patch_bounds(&fine, hit.patch, hit.point, 1e-9, &format!("({x}, {y})"));
             let receiver = haiko::scene::Receiver {
                 point: hit.point,
                 normal: hit.normal,
