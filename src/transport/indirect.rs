@@ -186,7 +186,7 @@ impl LightSolveJob {
             Some(cache) => cache,
             None => Arc::new(self.engine.direct_cache(&self.light)),
         };
-        let emission = emission(&cache, &self.light);
+        let emission = cache.emission(&LightState::from(&self.light));
         let initial = warm_start(&self.engine, self.initial, self.previous.as_deref(), &emission);
         if let Some(request) = self.response {
             let response = CurveResponse::solve(
@@ -662,20 +662,6 @@ impl HierarchicalIndirect {
     }
 }
 
-/// Keeps what a light's solve for `light` gives: the radiosity per channel (also the next warm
-/// start), the light's colour, the leaf indirect irradiance `H − E` per channel.
-/// `light`'s leaf direct light (lx, dimmer applied) from its sample `cache`, as one column.
-fn emission(cache: &PatchDirectCache, light: &Light) -> PatchColumns {
-    let state = LightState::from(light);
-    let mut direct = vec![0.0; cache.n_patches()];
-    cache.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut direct);
-    PatchColumns {
-        n_patches: direct.len(),
-        n_columns: 1,
-        values: direct,
-    }
-}
-
 /// The start of a light's solve for `emission`: its previous radiosity `initial` (per channel;
 /// `None` when it has none for every channel), plus `ρ (E_new − E_old)` when `previous` (what
 /// `initial` was solved for) still has its direct cache — the old solution with its first
@@ -731,10 +717,10 @@ fn curve_edit_response(old: &SolvedLight, light: &Light) -> Option<ResponseReque
     (carried.is_some() || !points.is_empty()).then_some(ResponseRequest { carried, points })
 }
 
+/// Keeps what a light's solve for `light` gives: the radiosity per channel (also the next warm
+/// start), the light's colour, the leaf indirect irradiance `H − E` per channel.
 fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
-    let single = |values: &[f64]| values.iter().map(|&v| v as f32).collect();
-    solved.leaf_indirect = values.indirect.iter().map(|c| single(c)).collect();
-    solved.radiosity = values.radiosity.iter().map(|c| single(&c.values)).collect();
+    (solved.radiosity, solved.leaf_indirect) = values.into_single();
     solved.color = light.color;
     solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
     solved.revision = next_revision();
@@ -926,7 +912,7 @@ solver_patch_size = 0.5
             .expect("a re-aim is solved");
         let cache = job.cache.clone().expect("the light kept its direct cache");
         assert!(job.previous.is_some(), "the previous state comes along");
-        let e = emission(&cache, &reaimed.lights[0]);
+        let e = cache.emission(&LightState::from(&reaimed.lights[0]));
         let old = job.initial.clone();
         let start =
             warm_start(&job.engine, job.initial.clone(), job.previous.as_deref(), &e).expect("a start");

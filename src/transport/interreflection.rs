@@ -331,14 +331,7 @@ impl Interreflection {
         initial: Option<&[PatchColumns]>,
         tolerance: f64,
     ) -> Result<Vec<Solution>> {
-        let mut e = vec![0.0; self.n_leaves()];
-        cache.irradiance_into(&state.curve, state.aim, state.dimmer, &mut e);
-        let emission = PatchColumns {
-            n_patches: e.len(),
-            n_columns: 1,
-            values: e,
-        };
-        self.solve(&emission, initial, tolerance)
+        self.solve(&cache.emission(state), initial, tolerance)
     }
 
     /// Radiosity (lm/m², linear RGB) of every leaf with all of `scene`'s lights in their

@@ -12,9 +12,10 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::photometry::Curve;
+use crate::photometry::{Curve, LightState};
 use crate::scene::{Patch, PatchMesh};
 use crate::transport::direct::polygon_quadrature_visible;
+use crate::transport::radiosity::PatchColumns;
 use crate::transport::visibility::Visibility;
 
 /// Default piece size relative to the distance to the light.
@@ -110,6 +111,18 @@ impl PatchDirectCache {
                 scale * sum
             })
             .collect()
+    }
+
+    /// The light's leaf direct light (lx) in `state` (its curve, aim and dimmer), as the one
+    /// column of emission a solve takes.
+    pub fn emission(&self, state: &LightState) -> PatchColumns {
+        let mut values = vec![0.0; self.n_patches()];
+        self.irradiance_into(&state.curve, state.aim.normalize(), state.dimmer, &mut values);
+        PatchColumns {
+            n_patches: values.len(),
+            n_columns: 1,
+            values,
+        }
     }
 
     /// Per patch and each control point `points[j]` of `curve` (aimed along the unit vector

@@ -202,9 +202,10 @@ fn point_box_distance(p: DVec3, b: &Aabb) -> f64 {
 }
 
 /// Pieces of OBJ faces along an OBJ contact edge are split 1 → 4 while their longest edge exceeds
-/// twice this (m): isotropic splits of a triangle touching the edge multiply, and 3 cm pieces
-/// (the rectangles' `contact_min_m` doubled) tripled the OBJ room's leaves for the same errors
-/// against the Monte-Carlo reference (docs/DECISIONS.md "OBJ furniture on its support").
+/// twice this (m): isotropic splits of a triangle touching the edge multiply, and pieces half as
+/// large (3 cm, the rectangles' `contact_min_m` doubled) doubled the OBJ faces' leaves for about
+/// the same errors against the Monte-Carlo reference (docs/DECISIONS.md "OBJ furniture on its
+/// support").
 const MESH_FACE_MIN_M: f64 = 0.06;
 
 /// A strip along a contact edge is split along it while longer than this many times the

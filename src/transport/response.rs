@@ -50,6 +50,17 @@ impl LightValues {
                 .collect(),
         }
     }
+
+    /// The values in f32, as the engine keeps them (good to the solver's relative tolerance,
+    /// ≥ 10⁻⁶; f32 keeps 6·10⁻⁸): per channel the radiosity, and per channel the indirect
+    /// irradiance.
+    pub(crate) fn into_single(self) -> (Vec<Vec<f32>>, Vec<Vec<f32>>) {
+        let single = |values: &[f64]| values.iter().map(|&v| v as f32).collect();
+        (
+            self.radiosity.iter().map(|c| single(&c.values)).collect(),
+            self.indirect.iter().map(|c| single(c)).collect(),
+        )
+    }
 }
 
 /// Leaves per rayon task when combining a response's columns.
@@ -68,21 +79,8 @@ struct Columns {
 impl Columns {
     /// Column `c` of a block solve (per channel) whose emission was `emission`.
     fn of_column(solutions: &[Solution], c: usize, emission: &PatchColumns) -> Self {
-        let n = emission.n_patches;
-        Columns {
-            radiosity: solutions
-                .iter()
-                .map(|s| (0..n).map(|p| s.radiosity.get(p, c) as f32).collect())
-                .collect(),
-            indirect: solutions
-                .iter()
-                .map(|s| {
-                    (0..n)
-                        .map(|p| (s.irradiance.get(p, c) - emission.get(p, c)) as f32)
-                        .collect()
-                })
-                .collect(),
-        }
+        let (radiosity, indirect) = LightValues::of_column(solutions, c, &emission.column(c)).into_single();
+        Columns { radiosity, indirect }
     }
 
     fn len(&self) -> usize {
