@@ -4,7 +4,8 @@
 //! a curve edit ≤ 1 ms): the first edit of a control point's intensity (a solve with that
 //! point's column), more edits of it (a weighted sum of the light's response), one control
 //! point's angle (a solve), a re-aim between ±5° (a warm-started solve), a dimmer edit (a scaling) and a 0.1 m move
-//! that keeps the refinement (a new direct cache and a solve). The same edits on the open-plan
+//! that keeps the refinement (a new direct cache and a solve), and the editor's estimate of a
+//! re-aim while its solve runs (from the light's SH response). The same edits on the open-plan
 //! floor of `benches/rooms/open-plan.toml` (targets: a curve edit or re-aim ≤ 10 ms). The
 //! clustered gather at the furnished office's work plane, with linear and constant leaf radiosity.
 
@@ -20,6 +21,7 @@ use haiko::transport::direct::Receiver;
 use haiko::transport::indirect::HierarchicalIndirect;
 use haiko::transport::interreflection::InterreflectionOptions;
 use haiko::transport::plan::{PlanOptions, plan};
+use haiko::transport::sh_response::ESTIMATE_ORDER;
 
 fn configured() -> Criterion {
     Criterion::default()
@@ -133,6 +135,24 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
         },
     ];
     group.bench_function(format!("{name}_move_without_regrade"), |b| edit(b, &moved));
+    // The editor's estimate of a re-aim while its solve runs: the light's values from its SH
+    // response (built by the untimed solves aimed −5° then +5° first: at least one is a solve,
+    // whatever the light was left at), interpolated to the vertices; the solve's job is made
+    // and dropped.
+    engine.set_estimates(Some(ESTIMATE_ORDER));
+    for aimed in [&reaimed[1], &reaimed[0]] {
+        engine.set_light(0, aimed).unwrap_or_else(|e| panic!("{e}"));
+    }
+    let mut k = 0;
+    let estimated = [light.clone(), reaimed[1].clone()];
+    group.bench_function(format!("{name}_reaim_estimate"), |b| {
+        b.iter(|| {
+            k ^= 1;
+            let job = engine.update_light(0, &estimated[k]);
+            assert!(engine.is_estimated(0), "an estimate, not a solve");
+            black_box((job, engine.vertex_indirect(0)))
+        })
+    });
     group.finish();
 }
 

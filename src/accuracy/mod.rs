@@ -34,7 +34,7 @@ use crate::scene::{DirectMode, Scene, SurfaceKind};
 use crate::transport::bake::{Bake, BakeOptions, bake, patch_reflectance};
 use crate::transport::direct::{Receiver, illuminance_at, luminance_weight};
 use crate::transport::gather::illuminance_at_receivers;
-use crate::transport::indirect::{HierarchicalIndirect, IndirectStats};
+use crate::transport::indirect::{HierarchicalIndirect, IndirectStats, measured_curve_edit, measured_reaim};
 use crate::transport::interreflection::{InterreflectionOptions, RELAXED_ETA_FAR, RELAXED_NEAR_M};
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{PlanOptions, plan};
@@ -256,6 +256,25 @@ pub struct EngineRow {
     pub errors: FieldErrors,
 }
 
+/// One row of table 8: the editor's estimate of an edit of light 0 while its solve runs, from
+/// the light's SH response of one degree (docs/DECISIONS.md "Re-aims and curve edits estimated
+/// at once").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EstimateRow {
+    /// The response's degree N ((N + 1)² columns); `None`: no estimate, the light's values
+    /// before the edit.
+    pub order: Option<usize>,
+    /// The response's build (the solve of its columns) and one estimate with its interpolation
+    /// to the fine vertices, ms.
+    pub build_ms: f64,
+    pub estimate_ms: f64,
+    /// Largest difference of the light's indirect light at the fine vertices from the edit's
+    /// solve, relative to the solve's largest value: after a 10° re-aim, and after a curve edit
+    /// (every second control point × 0.7).
+    pub reaim: f64,
+    pub curve: f64,
+}
+
 /// A pair of dimensionless errors: on the work plane and on the fine vertices.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct GridVertices {
@@ -311,6 +330,8 @@ pub struct AccuracyReport {
     pub direct: Vec<DirectRow>,
     /// Table 7 (empty when the room reflects no light).
     pub engine: Vec<EngineRow>,
+    /// Table 8 (empty when the room reflects no light or has no lights).
+    pub estimate: Vec<EstimateRow>,
 }
 
 /// Illuminance of one run (lx) on the work plane and on the fine vertices.
@@ -384,6 +405,12 @@ pub fn accuracy(
     progress("hierarchical engine table");
     let (engine, reference) = engine_table(&base, &grid)?;
     references.push(reference);
+    progress("estimate table");
+    let estimate = estimate_table(&base)?;
+    references.push(exact_reference(
+        "estimate",
+        "the edited light's solve on the same engine",
+    ));
     Ok(AccuracyReport {
         room: scene.name.clone(),
         fine_vertices: base.fine.n_vertices(),
@@ -398,6 +425,7 @@ pub fn accuracy(
         quadrature,
         direct,
         engine,
+        estimate,
     })
 }
 
@@ -863,6 +891,50 @@ fn engine_table(base: &Scene, grid: &[Receiver]) -> Result<(Vec<EngineRow>, Refe
         rows.iter().map(|r| r.errors),
     );
     Ok((rows, reference))
+}
+
+/// Degrees of table 8's SH responses.
+const ESTIMATE_ORDERS: [usize; 4] = [2, 4, 6, 8];
+
+/// Table 8: light 0's re-aim and curve edit estimated from its SH response at each of
+/// [`ESTIMATE_ORDERS`], and its values before the edit, against each edit's solve. Empty when
+/// the room reflects no light or has no lights.
+fn estimate_table(base: &Scene) -> Result<Vec<EstimateRow>> {
+    let p = plan(base, PlanOptions::default());
+    let Some(light) = base.lights.first().filter(|_| p.interreflection.on) else {
+        return Ok(Vec::new());
+    };
+    let engine = HierarchicalIndirect::build(
+        base,
+        &base.lights,
+        p.channels,
+        p.visibility.on,
+        ENGINE_TOLERANCE,
+        &InterreflectionOptions::for_leaves(p.leaves),
+    )?;
+    let (reaim, curve) = (measured_reaim(light), measured_curve_edit(light));
+    let mut rows = Vec::new();
+    for order in ESTIMATE_ORDERS {
+        let aimed = engine.measure_estimate(0, light, &reaim, order)?;
+        let edited = engine.measure_estimate(0, light, &curve, order)?;
+        if rows.is_empty() {
+            rows.push(EstimateRow {
+                order: None,
+                build_ms: 0.0,
+                estimate_ms: 0.0,
+                reaim: aimed.unestimated_error,
+                curve: edited.unestimated_error,
+            });
+        }
+        rows.push(EstimateRow {
+            order: Some(order),
+            build_ms: 1e3 * aimed.build_s,
+            estimate_ms: 1e3 * aimed.estimate_s,
+            reaim: aimed.error,
+            curve: edited.error,
+        });
+    }
+    Ok(rows)
 }
 
 /// Floor points (normal +z) on a grid offset from any regular vertex grid, inside floor patches.

@@ -219,6 +219,30 @@ pub fn format_report(r: &AccuracyReport) -> String {
             );
         }
     }
+
+    if !r.estimate.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n8. The editor's estimate of an edit while its solve runs (light 0; its indirect light at the fine vertices against the edit's solve, largest difference / largest value)"
+        );
+        let _ = writeln!(
+            s,
+            "{:<12} {:>9} {:>12} | {:>9} {:>11}",
+            "SH degree", "build ms", "estimate ms", "re-aim", "curve edit"
+        );
+        for row in &r.estimate {
+            let order = row.order.map_or("none".to_string(), |n| n.to_string());
+            let _ = writeln!(
+                s,
+                "{:<12} {:>9.1} {:>12.3} | {:>9} {:>11}",
+                order,
+                row.build_ms,
+                row.estimate_ms,
+                percent(row.reaim),
+                percent(row.curve)
+            );
+        }
+    }
     s
 }
 

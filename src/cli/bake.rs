@@ -291,6 +291,13 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
             c.move_s * 1e3,
             if c.move_rebuilt { " (the move regrades: engine rebuilt)" } else { "" }
         ));
+        s.push_str(&format!(
+            "editor's estimate of that re-aim: {:.2} ms from the light's SH response (built in {:.1} ms), off the solve by {:.2} % of its peak indirect light (without it {:.2} %)\n",
+            c.aim_estimate_s * 1e3,
+            c.estimate_build_s * 1e3,
+            c.aim_estimate_error * 100.0,
+            c.aim_unestimated_error * 100.0,
+        ));
     }
     s
 }
@@ -356,6 +363,12 @@ fn bake_json(
             "dimmer": c.dimmer_s,
             "move": c.move_s,
             "move_rebuilt": c.move_rebuilt,
+            "aim_estimate": c.aim_estimate_s,
+            "estimate_build": c.estimate_build_s,
+        });
+        doc["aim_estimate_error"] = serde_json::json!({
+            "estimated": c.aim_estimate_error,
+            "unestimated": c.aim_unestimated_error,
         });
     }
     doc

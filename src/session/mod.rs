@@ -58,6 +58,7 @@ use crate::transport::indirect::{DIRECT_CACHE_BUDGET_BYTES, HierarchicalIndirect
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{Plan, plan_light};
+use crate::transport::sh_response::ESTIMATE_ORDER;
 use frame::{FrameBuffers, PlaneIndirect};
 use jobs::{Done, LightSnapshot, Placed, RegradeJob, Work};
 
@@ -70,7 +71,9 @@ pub struct SessionOptions {
     pub indirect: bool,
     /// True for the editor: the hierarchical engine's solves (an edited light's, or the whole
     /// engine's when a move changes its grading) leave the key path as [`BakeJob`]s, and the light
-    /// keeps its previous indirect light until [`Session::finish_bake`] installs the new one.
+    /// keeps its previous indirect light — or, for a re-aim or curve edit once its solve built
+    /// its SH response, an estimate of the new — until [`Session::finish_bake`] installs the
+    /// new one.
     /// False (the CLI): every query waits for its solves.
     pub background_solves: bool,
 }
@@ -91,6 +94,13 @@ impl SessionOptions {
     pub fn interactive(mut self) -> Self {
         self.background_solves = true;
         self
+    }
+
+    /// The degree of the SH responses the hierarchical engine builds for estimates of re-aims
+    /// and curve edits while their solves run: [`ESTIMATE_ORDER`] with background solves (the
+    /// editor), none otherwise (every query waits for its solve).
+    fn estimate_order(&self) -> Option<usize> {
+        self.background_solves.then_some(ESTIMATE_ORDER)
     }
 
     /// Indirect light, with the user's bake cache ([`BakeCache::user`]).
@@ -277,13 +287,15 @@ impl Session {
                     Interreflection::build(&scene, planned.channels, planned.visibility.on, &engine_options)
                 }
             };
-            hierarchical = Some(HierarchicalIndirect::on_engine(
+            let mut engine = HierarchicalIndirect::on_engine(
                 Arc::new(engine),
                 &scene,
                 &scene.lights,
                 options.bake.tolerance.unwrap_or(scene.settings.tolerance),
                 DIRECT_CACHE_BUDGET_BYTES,
-            )?);
+            )?;
+            engine.set_estimates(options.estimate_order());
+            hierarchical = Some(engine);
             progress(Progress {
                 stage: "interreflection engine",
                 done: 1,
@@ -851,7 +863,8 @@ impl Session {
     /// Installs a rebuilt engine made for the lights as `snapshot` found them (the session's
     /// lights, same order): receiver sets follow it, and lights edited since are solved again
     /// at the next relight.
-    fn install_engine(&mut self, engine: HierarchicalIndirect, snapshot: &[LightSnapshot]) {
+    fn install_engine(&mut self, mut engine: HierarchicalIndirect, snapshot: &[LightSnapshot]) {
+        engine.set_estimates(self.options.estimate_order());
         let shared = Arc::clone(engine.engine());
         self.hierarchical = Some(engine);
         self.each_receiver_set(|set| set.use_engine(Arc::clone(&shared)));

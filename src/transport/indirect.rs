@@ -26,6 +26,7 @@ use crate::transport::radiosity::PatchColumns;
 use crate::transport::response::{
     CurveResponse, LightValues, MAX_RESPONSE_POINTS, RESPONSE_POINTS_PER_SOLVE,
 };
+use crate::transport::sh_response::{ESTIMATE_ORDER, ESTIMATE_TOLERANCE, ShResponse};
 
 /// One light as the engine keeps it.
 #[derive(Debug, Clone)]
@@ -49,8 +50,36 @@ struct SolvedLight {
     /// (where it stands, as aimed, at its control-point angles then): an intensity edit that
     /// [`CurveResponse::fits`] needs no solve.
     response: Option<Arc<CurveResponse>>,
+    /// Its values per world-frame SH emitter where it stands, once a solve built them (with
+    /// estimates on): a re-aim or curve edit is estimated from them at once while its solve runs.
+    sh_response: Option<Arc<ShResponse>>,
+    /// While a re-aim's or curve edit's solve is pending: the light's values for its new state
+    /// estimated from the solved values above and its SH response, shown instead of them.
+    estimate: Option<Estimated>,
     /// Changes whenever the values above do; unique across lights and engines of a process.
     revision: u64,
+}
+
+/// A light's values estimated for its edited state while that state's solve runs.
+#[derive(Debug, Clone)]
+struct Estimated {
+    /// The state estimated.
+    light: Light,
+    /// Per channel, the leaf radiosity (lm/m², colour not applied).
+    radiosity: Vec<Vec<f32>>,
+    /// Per channel, the leaf indirect irradiance `H − E` (lx, colour not applied).
+    leaf_indirect: Vec<Vec<f32>>,
+}
+
+impl SolvedLight {
+    /// The values shown for the light: its estimate while one is held, else its solve's. Per
+    /// channel the leaf radiosity, and per channel the leaf indirect irradiance.
+    fn shown(&self) -> (&[Vec<f32>], &[Vec<f32>]) {
+        match &self.estimate {
+            Some(e) => (&e.radiosity, &e.leaf_indirect),
+            None => (&self.radiosity, &self.leaf_indirect),
+        }
+    }
 }
 
 /// The indirect light of a scene's lights through one shared [`Interreflection`] engine.
@@ -63,6 +92,9 @@ pub struct HierarchicalIndirect {
     lights: Vec<SolvedLight>,
     /// Most bytes the lights' direct caches may hold ([`DIRECT_CACHE_BUDGET_BYTES`]).
     cache_budget: usize,
+    /// The degree of the SH responses a light's solve builds for the key path's estimates
+    /// ([`Self::set_estimates`]); `None`: no estimates.
+    estimate_order: Option<usize>,
     /// Wall time (s) of the lights' direct caches and of their block solve at build.
     direct_caches_s: f64,
     solve_s: f64,
@@ -76,6 +108,10 @@ pub struct HierarchicalIndirect {
 /// light on a 133 547-leaf open-plan floor (estimated). Past the budget, the caches of the lights edited longest
 /// ago are dropped and rebuilt by their next solve.
 pub const DIRECT_CACHE_BUDGET_BYTES: usize = 128 << 20;
+
+/// Most bytes the lights' SH responses ([`ShResponse`]) may hold together: 9.6 MB per light on
+/// the open-plan floor at degree 2, so the 13 lights solved last keep theirs.
+pub const SH_RESPONSE_BUDGET_BYTES: usize = 128 << 20;
 
 /// The source of [`HierarchicalIndirect::revision`]s.
 static REVISIONS: AtomicU64 = AtomicU64::new(1);
@@ -120,6 +156,16 @@ pub struct EditCosts {
     pub point_again_s: f64,
     /// A re-aim by 10°.
     pub aim_s: f64,
+    /// The same re-aim estimated at once from the light's SH response of the editor's degree
+    /// ([`ESTIMATE_ORDER`]), no solve; the response's build (its columns' solve, as the
+    /// editor's first solve of the light adds it) in `estimate_build_s`.
+    pub aim_estimate_s: f64,
+    pub estimate_build_s: f64,
+    /// The estimate's error: the largest difference of the light's estimated indirect light
+    /// at the fine vertices from the solve's, relative to the solve's largest value; beside it
+    /// the same for the values before the re-aim (what the light shows without an estimate).
+    pub aim_estimate_error: f64,
+    pub aim_unestimated_error: f64,
     /// A dimmer change to 0.8 of the current value.
     pub dimmer_s: f64,
     /// A 0.1 m move: the grading check, then the new direct cache and solve, or the whole
@@ -127,6 +173,19 @@ pub struct EditCosts {
     pub move_s: f64,
     /// True when the measured move needed the rebuild.
     pub move_rebuilt: bool,
+}
+
+/// What [`HierarchicalIndirect::measure_estimate`] found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Wall seconds of the light's SH response (its columns' solve).
+    pub build_s: f64,
+    /// Wall seconds of the estimate and its interpolation to the fine vertices.
+    pub estimate_s: f64,
+    /// Largest difference of the estimated vertex indirect light from the solve's, relative to
+    /// the solve's largest value; `unestimated_error` the same for the values before the edit.
+    pub error: f64,
+    pub unestimated_error: f64,
 }
 
 /// One light's solve, detached from the engine so that it runs on any thread while the
@@ -146,6 +205,8 @@ pub struct LightSolveJob {
     tolerance: f64,
     /// Solve the light's [`CurveResponse`] and take its values from it, instead of one column.
     response: Option<ResponseRequest>,
+    /// After the solve, build the light's [`ShResponse`] of this degree where it stands.
+    sh_response: Option<usize>,
 }
 
 /// What a curve edit's [`LightSolveJob`] adds to the light's [`CurveResponse`].
@@ -175,6 +236,7 @@ pub struct LightSolve {
     light: Light,
     values: LightValues,
     response: Option<Arc<CurveResponse>>,
+    sh_response: Option<Arc<ShResponse>>,
 }
 
 impl LightSolveJob {
@@ -188,32 +250,43 @@ impl LightSolveJob {
         };
         let emission = cache.emission(&LightState::from(&self.light));
         let initial = warm_start(&self.engine, self.initial, self.previous.as_deref(), &emission);
-        if let Some(request) = self.response {
-            let response = CurveResponse::solve(
+        let (values, response) = match self.response {
+            Some(request) => {
+                let response = CurveResponse::solve(
+                    &self.engine,
+                    &cache,
+                    &self.light,
+                    &emission,
+                    initial.as_deref(),
+                    request.carried.as_deref(),
+                    &request.points,
+                    self.tolerance,
+                )?;
+                (response.values(&self.light), Some(Arc::new(response)))
+            }
+            None => {
+                let solutions = self.engine.solve(&emission, initial.as_deref(), self.tolerance)?;
+                (LightValues::of_column(&solutions, 0, &emission.values), None)
+            }
+        };
+        drop(emission);
+        let sh_response = match self.sh_response {
+            Some(order) => Some(Arc::new(ShResponse::solve(
                 &self.engine,
                 &cache,
                 &self.light,
-                &emission,
-                initial.as_deref(),
-                request.carried.as_deref(),
-                &request.points,
-                self.tolerance,
-            )?;
-            return Ok(LightSolve {
-                values: response.values(&self.light),
-                engine: self.engine,
-                cache,
-                light: self.light,
-                response: Some(Arc::new(response)),
-            });
-        }
-        let solutions = self.engine.solve(&emission, initial.as_deref(), self.tolerance)?;
+                order,
+                ESTIMATE_TOLERANCE,
+            )?)),
+            None => None,
+        };
         Ok(LightSolve {
             engine: self.engine,
             cache,
             light: self.light,
-            values: LightValues::of_column(&solutions, 0, &emission.values),
-            response: None,
+            values,
+            response,
+            sh_response,
         })
     }
 }
@@ -291,6 +364,7 @@ impl HierarchicalIndirect {
             tolerance,
             lights: Vec::with_capacity(k),
             cache_budget,
+            estimate_order: None,
             direct_caches_s,
             solve_s: t.elapsed().as_secs_f64(),
             revision: next_revision(),
@@ -306,6 +380,8 @@ impl HierarchicalIndirect {
                 leaf_indirect: Vec::new(),
                 solved_for: None,
                 response: None,
+                sh_response: None,
+                estimate: None,
                 revision: 0,
             };
             store(&mut solved, LightValues::of_column(&solutions, c, &direct), light);
@@ -363,6 +439,7 @@ impl HierarchicalIndirect {
             }
             solved.color = light.color;
             solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
+            solved.estimate = None;
             solved.revision = next_revision();
             self.revision = next_revision();
             return None;
@@ -374,38 +451,86 @@ impl HierarchicalIndirect {
             return None;
         }
         let response = (!moved).then(|| curve_edit_response(old, light)).flatten();
-        Some(LightSolveJob {
-            engine: Arc::clone(&self.engine),
-            cache: if moved { None } else { old.cache.clone() },
-            light: light.clone(),
-            initial: old
-                .radiosity
-                .iter()
-                .map(|channel| PatchColumns {
-                    n_patches: channel.len(),
-                    n_columns: 1,
-                    values: channel.iter().map(|&v| f64::from(v)).collect(),
-                })
-                .collect(),
-            previous: old
-                .cache
-                .clone()
-                .zip(old.solved_for.clone())
-                .map(|(cache, (curve, aim, dimmer))| {
-                    Box::new(SolvedState {
-                        cache,
-                        curve,
-                        aim,
-                        dimmer,
+        let sh_missing = old.sh_response.as_ref().is_none_or(|r| !r.stands_as(light));
+        let job =
+            LightSolveJob {
+                engine: Arc::clone(&self.engine),
+                cache: if moved { None } else { old.cache.clone() },
+                light: light.clone(),
+                initial: old
+                    .radiosity
+                    .iter()
+                    .map(|channel| PatchColumns {
+                        n_patches: channel.len(),
+                        n_columns: 1,
+                        values: channel.iter().map(|&v| f64::from(v)).collect(),
                     })
-                }),
-            tolerance: self.tolerance,
-            response,
-        })
+                    .collect(),
+                previous: old.cache.clone().zip(old.solved_for.clone()).map(
+                    |(cache, (curve, aim, dimmer))| {
+                        Box::new(SolvedState {
+                            cache,
+                            curve,
+                            aim,
+                            dimmer,
+                        })
+                    },
+                ),
+                tolerance: self.tolerance,
+                response,
+                sh_response: self.estimate_order.filter(|_| !moved && sh_missing),
+            };
+        self.show_estimate(i, light);
+        Some(job)
     }
 
-    /// Installs a finished solve of light `i`. Returns false, changing nothing, when the solve
-    /// was made on another engine (this one was rebuilt since).
+    /// Has each light's next solve (unless it moved) also build its [`ShResponse`] of degree
+    /// `order` where it stands when it has none, so that its later re-aims and curve edits are
+    /// estimated at once while their solves run (docs/DECISIONS.md "Interreflection", "Re-aims
+    /// and curve edits estimated at once"); `None` builds none (the responses held stay).
+    pub fn set_estimates(&mut self, order: Option<usize>) {
+        self.estimate_order = order;
+    }
+
+    /// Whether light `i`'s values are an estimate whose solve is pending.
+    pub fn is_estimated(&self, i: usize) -> bool {
+        self.lights[i].estimate.is_some()
+    }
+
+    /// Shows light `i`'s values estimated for its state `light` — its solved values plus the
+    /// change its SH response gives (docs/DECISIONS.md "Interreflection", "Re-aims and curve
+    /// edits estimated at once") — when it has solved values and a response where `light`
+    /// stands; else leaves what it shows.
+    fn show_estimate(&mut self, i: usize, light: &Light) {
+        let solved = &mut self.lights[i];
+        let Some((sh, (curve, aim, dimmer))) = solved
+            .sh_response
+            .as_ref()
+            .filter(|r| r.stands_as(light))
+            .zip(solved.solved_for.as_ref())
+        else {
+            return;
+        };
+        let (radiosity, leaf_indirect) = sh.estimate(
+            (curve, *aim, *dimmer),
+            light,
+            &solved.radiosity,
+            &solved.leaf_indirect,
+        );
+        solved.estimate = Some(Estimated {
+            light: light.clone(),
+            radiosity,
+            leaf_indirect,
+        });
+        solved.color = light.color;
+        solved.revision = next_revision();
+        self.revision = next_revision();
+    }
+
+    /// Installs a finished solve of light `i`; when the light shows an estimate of a later state
+    /// (whose solve is still to come), that estimate is made again from the new values. Returns
+    /// false, changing nothing, when the solve was made on another engine (this one was rebuilt
+    /// since).
     pub fn install(&mut self, i: usize, solved: LightSolve) -> bool {
         if !Arc::ptr_eq(&solved.engine, &self.engine) || i >= self.lights.len() {
             return false;
@@ -417,34 +542,37 @@ impl HierarchicalIndirect {
         if solved.response.is_some() {
             light.response = solved.response;
         }
+        if solved.sh_response.is_some() {
+            light.sh_response = solved.sh_response;
+        }
+        // An estimate of a later state (its solve still to come) is made again from these values.
+        let later = light.estimate.take().map(|e| e.light);
         store(light, solved.values, &solved.light);
         self.revision = next_revision();
+        if let Some(later) = later.filter(|l| !same_state(l, &solved.light)) {
+            self.show_estimate(i, &later);
+        }
         self.trim_caches(i);
         true
     }
 
-    /// Drops the direct caches of the lights solved longest ago (never light `keep`'s) until
-    /// the caches held are within the budget.
+    /// Drops the direct caches, then the SH responses, of the lights solved longest ago (never
+    /// light `keep`'s) until each kind held is within its budget.
     fn trim_caches(&mut self, keep: usize) {
-        let mut held: usize = self
-            .lights
-            .iter()
-            .filter_map(|l| l.cache.as_ref())
-            .map(|c| c.bytes())
-            .sum();
-        while held > self.cache_budget {
-            let Some(oldest) = self
-                .lights
-                .iter_mut()
-                .enumerate()
-                .filter(|(j, l)| *j != keep && l.cache.is_some())
-                .min_by_key(|(_, l)| l.revision)
-                .map(|(_, l)| l)
-            else {
-                return;
-            };
-            held -= oldest.cache.take().map_or(0, |c| c.bytes());
-        }
+        trim_to_budget(
+            &mut self.lights,
+            keep,
+            self.cache_budget,
+            |l| &mut l.cache,
+            |c| c.bytes(),
+        );
+        trim_to_budget(
+            &mut self.lights,
+            keep,
+            SH_RESPONSE_BUDGET_BYTES,
+            |l| &mut l.sh_response,
+            |r| r.bytes(),
+        );
     }
 
     /// Whether light `i`'s direct sample cache is held (else its next solve builds it).
@@ -468,6 +596,8 @@ impl HierarchicalIndirect {
                 leaf_indirect: vec![vec![0.0; n]; self.engine.channels()],
                 solved_for: None,
                 response: None,
+                sh_response: None,
+                estimate: None,
                 revision: next_revision(),
             },
         );
@@ -491,22 +621,24 @@ impl HierarchicalIndirect {
         self.lights[i].revision
     }
 
-    /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied), read where it is kept.
+    /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied), read where it is kept:
+    /// its estimate while its solve is pending ([`Self::is_estimated`]).
     pub fn light_radiosity(&self, i: usize) -> LeafRadiosity<'_> {
         let light = &self.lights[i];
         LeafRadiosity {
-            channels: &light.radiosity,
+            channels: light.shown().0,
             color: light.color,
         }
     }
 
     /// Light `i`'s indirect irradiance at the fine vertices (lx, one value per channel 0..3 per
-    /// vertex, colour not applied), interpolated from its leaves within each surface.
+    /// vertex, colour not applied), interpolated from its leaves within each surface: its
+    /// estimate while its solve is pending ([`Self::is_estimated`]).
     pub fn vertex_indirect(&self, i: usize) -> Vec<[f64; 3]> {
-        let light = &self.lights[i];
-        let channels = light.leaf_indirect.len();
+        let leaf_indirect = self.lights[i].shown().1;
+        let channels = leaf_indirect.len();
         let columns: Vec<f64> = (0..self.engine.n_leaves())
-            .flat_map(|p| light.leaf_indirect.iter().map(move |c| f64::from(c[p])))
+            .flat_map(|p| leaf_indirect.iter().map(move |c| f64::from(c[p])))
             .collect();
         let values = self.interp.apply_columns(&columns, channels);
         values
@@ -562,21 +694,8 @@ impl HierarchicalIndirect {
             let _ = copy.vertex_indirect(i);
             Ok(t.elapsed().as_secs_f64())
         };
-        let points: Vec<(f64, f64)> = light
-            .curve
-            .points()
-            .enumerate()
-            .map(|(k, (g, c))| (g, if k % 2 == 1 { 0.7 * c } else { c }))
-            .collect();
-        let curve = Light {
-            curve: Curve::new(&points).unwrap_or_else(|_| light.curve.clone()),
-            ..light.clone()
-        };
-        let axis = light.aim.any_orthonormal_vector();
-        let aim = Light {
-            aim: DQuat::from_axis_angle(axis, 10f64.to_radians()) * light.aim,
-            ..light.clone()
-        };
+        let curve = measured_curve_edit(light);
+        let aim = measured_reaim(light);
         let dimmer = Light {
             dimmer: 0.8 * light.dimmer,
             ..light.clone()
@@ -633,14 +752,68 @@ impl HierarchicalIndirect {
             let _ = copy.vertex_indirect(i);
         }
         let move_s = t.elapsed().as_secs_f64();
+        let estimate = self.measure_estimate(i, light, &aim, ESTIMATE_ORDER)?;
         Ok(EditCosts {
             curve_s,
             point_s,
             point_again_s,
             aim_s,
+            aim_estimate_s: estimate.estimate_s,
+            estimate_build_s: estimate.build_s,
+            aim_estimate_error: estimate.error,
+            aim_unestimated_error: estimate.unestimated_error,
             dimmer_s,
             move_s,
             move_rebuilt,
+        })
+    }
+
+    /// Measures, on a copy, light `i`'s SH response of degree `order` where it stands (`light`,
+    /// its state), then `edited`'s estimate from it (with the interpolation to the fine
+    /// vertices), and compares the estimate, and the values before, with `edited`'s solve.
+    ///
+    /// Errors: a solve failing (internal).
+    pub fn measure_estimate(
+        &self,
+        i: usize,
+        light: &Light,
+        edited: &Light,
+        order: usize,
+    ) -> Result<Estimate> {
+        let mut copy = self.clone();
+        copy.set_estimates(Some(order));
+        let t = Instant::now();
+        let cache = match &copy.lights[i].cache {
+            Some(cache) => Arc::clone(cache),
+            None => Arc::new(self.engine.direct_cache(light)),
+        };
+        let response = ShResponse::solve(&self.engine, &cache, light, order, ESTIMATE_TOLERANCE)?;
+        let build_s = t.elapsed().as_secs_f64();
+        copy.lights[i].sh_response = Some(Arc::new(response));
+        let before = copy.vertex_indirect(i);
+        let t = Instant::now();
+        let job = copy.update_light(i, edited);
+        let estimated = copy.vertex_indirect(i);
+        let estimate_s = t.elapsed().as_secs_f64();
+        if let Some(job) = job {
+            let solved = job.run()?;
+            copy.install(i, solved);
+        }
+        let exact = copy.vertex_indirect(i);
+        let peak = exact.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        let error = |values: &[[f64; 3]]| {
+            let worst = values
+                .iter()
+                .flatten()
+                .zip(exact.iter().flatten())
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            worst / peak.max(f64::MIN_POSITIVE)
+        };
+        Ok(Estimate {
+            build_s,
+            estimate_s,
+            error: error(&estimated),
+            unestimated_error: error(&before),
         })
     }
 
@@ -651,14 +824,72 @@ impl HierarchicalIndirect {
             .map(|l| {
                 l.cache.as_ref().map_or(0, |c| c.bytes())
                     + l.response.as_ref().map_or(0, |r| r.bytes())
+                    + l.sh_response.as_ref().map_or(0, |r| r.bytes())
                     + 4 * l
                         .radiosity
                         .iter()
                         .chain(&l.leaf_indirect)
+                        .chain(
+                            l.estimate
+                                .iter()
+                                .flat_map(|e| e.radiosity.iter().chain(&e.leaf_indirect)),
+                        )
                         .map(Vec::len)
                         .sum::<usize>()
             })
             .sum()
+    }
+}
+
+/// Drops what `slot` holds (`bytes` each) from the lights solved longest ago, never light
+/// `keep`'s, until what the lights hold there together is within `budget` bytes.
+fn trim_to_budget<T>(
+    lights: &mut [SolvedLight],
+    keep: usize,
+    budget: usize,
+    slot: impl Fn(&mut SolvedLight) -> &mut Option<Arc<T>>,
+    bytes: impl Fn(&T) -> usize,
+) {
+    let mut held: usize = lights
+        .iter_mut()
+        .filter_map(|l| slot(l).as_deref().map(&bytes))
+        .sum();
+    while held > budget {
+        let mut oldest: Option<(u64, usize)> = None;
+        for (j, l) in lights.iter_mut().enumerate() {
+            if j != keep && slot(l).is_some() && oldest.is_none_or(|(r, _)| l.revision < r) {
+                oldest = Some((l.revision, j));
+            }
+        }
+        let Some((_, j)) = oldest else {
+            return;
+        };
+        held -= slot(&mut lights[j]).take().map_or(0, |c| bytes(&c));
+    }
+}
+
+/// The curve edit the engine's measures make of `light` ([`EditCosts::curve_s`]): every second
+/// control point, from the second, scaled by 0.7.
+pub fn measured_curve_edit(light: &Light) -> Light {
+    let points: Vec<(f64, f64)> = light
+        .curve
+        .points()
+        .enumerate()
+        .map(|(k, (g, c))| (g, if k % 2 == 1 { 0.7 * c } else { c }))
+        .collect();
+    Light {
+        curve: Curve::new(&points).unwrap_or_else(|_| light.curve.clone()),
+        ..light.clone()
+    }
+}
+
+/// The re-aim the engine's measures make of `light` ([`EditCosts::aim_s`]): 10° about a
+/// direction across its aim.
+pub fn measured_reaim(light: &Light) -> Light {
+    let axis = light.aim.any_orthonormal_vector();
+    Light {
+        aim: DQuat::from_axis_angle(axis, 10f64.to_radians()) * light.aim,
+        ..light.clone()
     }
 }
 
@@ -717,12 +948,23 @@ fn curve_edit_response(old: &SolvedLight, light: &Light) -> Option<ResponseReque
     (carried.is_some() || !points.is_empty()).then_some(ResponseRequest { carried, points })
 }
 
+/// True when `a` and `b` are the same state of a light: where it stands, its curve, aim and
+/// dimmer (what its solve depends on).
+fn same_state(a: &Light, b: &Light) -> bool {
+    a.position == b.position
+        && a.radius == b.radius
+        && a.curve == b.curve
+        && a.aim == b.aim
+        && a.dimmer == b.dimmer
+}
+
 /// Keeps what a light's solve for `light` gives: the radiosity per channel (also the next warm
 /// start), the light's colour, the leaf indirect irradiance `H − E` per channel.
 fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
     (solved.radiosity, solved.leaf_indirect) = values.into_single();
     solved.color = light.color;
     solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
+    solved.estimate = None;
     solved.revision = next_revision();
 }
 
@@ -896,6 +1138,82 @@ solver_patch_size = 0.5
             engine.update_light(0, &edited.lights[0]).is_some(),
             "a re-aim is solved"
         );
+    }
+
+    /// With estimates on, a light's first solve builds its SH response; a later re-aim, curve
+    /// edit or raise of the whole curve is then estimated at once — much closer to its solve
+    /// than the values before, and for the raise (a change of degree 0) equal to it within the
+    /// response's tolerance — until the solve lands and replaces the estimate. A return to the
+    /// solved state needs no solve and shows the solved values again.
+    #[test]
+    fn edits_are_estimated_until_their_solve_lands() {
+        let scene = room();
+        let mut engine = build(&scene);
+        engine.set_estimates(Some(ESTIMATE_ORDER));
+        let mut solved_scene = scene.clone();
+        solved_scene.lights[0].aim = DVec3::new(0.2, 0.1, -1.0).normalize();
+        let job = engine
+            .update_light(0, &solved_scene.lights[0])
+            .expect("a re-aim is solved");
+        assert!(!engine.is_estimated(0), "no response yet to estimate from");
+        assert!(engine.install(0, job.run().expect("solves")));
+        assert!(engine.lights[0].sh_response.is_some(), "the solve built it");
+        let solved = engine.vertex_indirect(0);
+        let reaim = |l: &mut Light| l.aim = DVec3::new(-0.4, 0.3, -1.0).normalize();
+        let reshape = |l: &mut Light| *l = measured_curve_edit(l);
+        let raise = |l: &mut Light| {
+            for k in 0..l.curve.len() {
+                let candela = l.curve.intensities_cd()[k] + 150.0;
+                l.curve.set_intensity(k, candela).expect("valid");
+            }
+        };
+        type Edit<'a> = &'a dyn Fn(&mut Light);
+        let edits: [(&str, Edit, f64); 3] = [
+            ("re-aim", &reaim, 0.25),
+            ("curve edit", &reshape, 0.25),
+            ("raise", &raise, 1e-3),
+        ];
+        for (what, edit, most) in edits {
+            let mut edited = solved_scene.clone();
+            edit(&mut edited.lights[0]);
+            let job = engine
+                .update_light(0, &edited.lights[0])
+                .unwrap_or_else(|| panic!("{what}: a solve"));
+            assert!(engine.is_estimated(0), "{what}");
+            let fresh = build(&edited).vertex_indirect(0);
+            let (estimate, before) = (
+                peak_difference(&engine.vertex_indirect(0), &fresh),
+                peak_difference(&solved, &fresh),
+            );
+            assert!(
+                estimate < most * before,
+                "{what}: the estimate is {estimate} from the solve, the values before {before}"
+            );
+            // Back to the solved state: no solve, the solved values again.
+            assert!(
+                engine.update_light(0, &solved_scene.lights[0]).is_none(),
+                "{what}"
+            );
+            assert!(!engine.is_estimated(0), "{what}");
+            assert_eq!(engine.vertex_indirect(0), solved, "{what}");
+            drop(job);
+        }
+        // Two edits, each with its solve; the older solve lands first and the later edit's
+        // estimate is made again from it; the later solve replaces that.
+        let mut edited = solved_scene.clone();
+        reaim(&mut edited.lights[0]);
+        let older = engine.update_light(0, &edited.lights[0]).expect("a solve");
+        edited.lights[0].aim = DVec3::new(0.1, -0.3, -1.0).normalize();
+        let newer = engine.update_light(0, &edited.lights[0]).expect("a solve");
+        assert!(engine.install(0, older.run().expect("solves")));
+        assert!(engine.is_estimated(0), "the later edit is still estimated");
+        assert_eq!(
+            engine.lights[0].estimate.as_ref().map(|e| e.light.aim),
+            Some(edited.lights[0].aim)
+        );
+        assert!(engine.install(0, newer.run().expect("solves")));
+        assert!(!engine.is_estimated(0), "the solve replaced the estimate");
+        assert_matches_fresh(&engine, &edited, "re-aimed twice, solved");
     }
 
     /// A re-aim's solve starts from the old radiosity with its first reflection brought up to

@@ -18,5 +18,6 @@ pub mod plan;
 pub mod radiosity;
 pub mod refine;
 pub mod response;
+pub mod sh_response;
 pub mod slopes;
 pub mod visibility;

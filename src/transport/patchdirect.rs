@@ -12,6 +12,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use crate::photometry::sh::{ShBasis, sh_count};
 use crate::photometry::{Curve, LightState};
 use crate::scene::{Patch, PatchMesh};
 use crate::transport::direct::polygon_quadrature_visible;
@@ -171,6 +172,28 @@ impl PatchDirectCache {
                             add(i, w * t);
                         }
                     }
+                }
+            });
+    }
+
+    /// Per patch, the patch-averaged direct irradiance (lx) of each real SH basis emitter
+    /// `I(dir) = Y_k(dir)` (cd, world frame, k < `sh_count(basis.order())`) into `out`
+    /// (patch-major, that many per patch): the emission columns of the light's
+    /// [`crate::transport::sh_response::ShResponse`], in one pass over the samples.
+    pub fn sh_irradiance_into(&self, basis: &ShBasis, out: &mut [f64]) {
+        let m = sh_count(basis.order());
+        assert_eq!(out.len(), self.n_patches() * m, "a column per SH function");
+        out.par_chunks_mut(m)
+            .enumerate()
+            .with_min_len(MIN_PATCHES_PER_TASK)
+            .for_each(|(p, row)| {
+                row.iter_mut().for_each(|v| *v = 0.0);
+                let mut y = vec![0.0; m];
+                let range = self.offsets[p] as usize..self.offsets[p + 1] as usize;
+                for (&dir, &w) in self.dirs[range.clone()].iter().zip(&self.weights[range]) {
+                    basis.eval(dir.as_dvec3().normalize(), &mut y);
+                    let w = f64::from(w);
+                    row.iter_mut().zip(&y).for_each(|(r, y)| *r += w * y);
                 }
             });
     }

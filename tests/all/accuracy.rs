@@ -209,11 +209,30 @@ fn tables_on_a_small_room() {
     }
     assert!(defaults.errors.grid.max_rel < 0.005, "{defaults:?}");
 
+    // 8. The editor's estimates: the values before each edit first, then the SH responses of
+    // degree 2, 4, 6, 8; each much closer to the edit's solve than the values before, and a
+    // higher degree no worse than degree 2.
+    let orders: Vec<Option<usize>> = report.estimate.iter().map(|r| r.order).collect();
+    assert_eq!(orders, [None, Some(2), Some(4), Some(6), Some(8)]);
+    let before = &report.estimate[0];
+    assert!(before.reaim > 0.01 && before.curve > 0.01, "{before:?}");
+    for r in &report.estimate[1..] {
+        assert!(r.build_ms > 0.0 && r.estimate_ms > 0.0, "{r:?}");
+        assert!(
+            r.reaim < 0.5 * before.reaim && r.curve < 0.5 * before.curve,
+            "{r:?} against {before:?}"
+        );
+        assert!(
+            r.reaim <= report.estimate[1].reaim && r.curve <= report.estimate[1].curve,
+            "{r:?}"
+        );
+    }
+
     // References: how they were made, and the checked ones converged on this smooth room —
     // except the engine's, whose rows (within 0.07 % on the work plane since the gather is
     // linear on each leaf) are as close to it as its 0.5 and 0.7 settings are to each other
     // (0.066 %): the table then says "NOT converged", and the reference is still good to 0.1 %.
-    assert_eq!(report.references.len(), 7);
+    assert_eq!(report.references.len(), 8);
     for r in &report.references {
         if r.table == "hierarchical engine" {
             let d = r.difference.expect("the engine's reference is checked");
@@ -233,6 +252,7 @@ fn tables_on_a_small_room() {
         "quadrature",
         "direct",
         "engine",
+        "estimate",
         "references",
     ] {
         let rows = json[table]
@@ -257,6 +277,7 @@ fn tables_on_a_small_room() {
         "5. Quadrature",
         "6. Direct",
         "7. Hierarchical engine",
+        "8. The editor's estimate",
     ] {
         assert!(text.contains(heading), "missing {heading}:\n{text}");
     }

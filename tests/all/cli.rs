@@ -543,10 +543,25 @@ fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
         let t = v["time_s"][stage].as_f64().unwrap();
         assert!(t.is_finite() && t >= 0.0, "{stage}: {t}");
     }
-    for edit in ["curve", "point", "point_again", "aim", "dimmer", "move"] {
+    for edit in [
+        "curve",
+        "point",
+        "point_again",
+        "aim",
+        "dimmer",
+        "move",
+        "aim_estimate",
+        "estimate_build",
+    ] {
         let t = v["edit_s"][edit].as_f64().unwrap();
         assert!(t.is_finite() && t > 0.0, "{edit}: {t}");
     }
+    // The editor's estimate of the re-aim is closer to its solve than the values before it.
+    let (estimated, unestimated) = (
+        v["aim_estimate_error"]["estimated"].as_f64().unwrap(),
+        v["aim_estimate_error"]["unestimated"].as_f64().unwrap(),
+    );
+    assert!(estimated < 0.5 * unestimated, "{estimated} vs {unestimated}");
     let dir = tempfile::tempdir().unwrap();
     let room = dir.path().join("plain.toml");
     std::fs::write(

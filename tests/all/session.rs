@@ -360,6 +360,58 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     );
 }
 
+/// In the editor a light's first solve also builds its SH response; from then on a re-aim
+/// shows an estimate of its indirect light at once, much closer to the new light than the old
+/// values, while its solve runs; the solve then lands as a synchronous session's result.
+#[test]
+fn a_re_aim_is_estimated_at_once_while_its_solve_runs() {
+    let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
+    let mut sync = planned_session(paper());
+    let aim = |d: DVec3| Command::Aim {
+        light: 0,
+        spec: AimSpec::Direction(d),
+    };
+    let indirect = |s: &Session| s.hierarchical().unwrap().vertex_indirect(0);
+    apply_both(&mut s, &mut sync, aim(DVec3::new(0.3, 0.0, -1.0)));
+    s.relight();
+    assert!(
+        !s.hierarchical().unwrap().is_estimated(0),
+        "nothing to estimate from yet"
+    );
+    for job in s.take_bake_jobs() {
+        let done = job.run(&mut |_| {});
+        assert_eq!(s.finish_bake(done).unwrap(), Some(0));
+    }
+    s.relight();
+    let before = indirect(&s);
+    apply_both(&mut s, &mut sync, aim(DVec3::new(-0.2, 0.3, -1.0)));
+    assert_eq!(s.relight(), vec![0]);
+    assert!(s.hierarchical().unwrap().is_estimated(0));
+    assert_eq!(s.light_status(0), LightStatus::Updating);
+    sync.relight();
+    let want = indirect(&sync);
+    let off = |got: &[[f64; 3]]| {
+        got.iter()
+            .flatten()
+            .zip(want.iter().flatten())
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()))
+    };
+    let (estimate, old) = (off(&indirect(&s)), off(&before));
+    assert!(
+        estimate < 0.5 * old,
+        "the estimate is {estimate} lx from the solve, the old values {old} lx"
+    );
+    let jobs = s.take_bake_jobs();
+    assert_eq!(jobs.len(), 1);
+    for job in jobs {
+        let done = job.run(&mut |_| {});
+        assert_eq!(s.finish_bake(done).unwrap(), Some(0));
+    }
+    assert!(!s.hierarchical().unwrap().is_estimated(0));
+    assert_eq!(s.light_status(0), LightStatus::Ready);
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+}
+
 /// Inserts a copy of light 0, named "copy", at index 1, 0.1 m under the ceiling at x 1.5 m,
 /// y 1 m; returns it.
 fn insert_copy(s: &mut Session) -> LightEdit {

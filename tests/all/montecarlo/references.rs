@@ -722,6 +722,53 @@ fn print_open_plan_costs() {
     );
 }
 
+/// Measures the editor's estimates of light 0's 10° re-aim and curve edit on the open-plan
+/// floor of `benches/rooms/open-plan.toml` from SH responses of the degrees in
+/// `HAIKO_ESTIMATE_ORDERS` (comma-separated; 2,4,6 by default): the response's build, the
+/// estimate's time and its error against the edit's solve (a study, not a check; table 8 of
+/// `haiko accuracy` on a room that fits the accuracy run).
+#[test]
+#[ignore = "a study: prints the estimates' costs and errors on the open-plan floor"]
+fn print_open_plan_estimates() {
+    use haiko::transport::indirect::{HierarchicalIndirect, measured_curve_edit, measured_reaim};
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/rooms/open-plan.toml");
+    let scene = load(&path).expect("the open-plan room loads");
+    let p = plan(&scene, PlanOptions::default());
+    let engine = HierarchicalIndirect::build(
+        &scene,
+        &scene.lights,
+        p.channels,
+        p.visibility.on,
+        scene.settings.tolerance,
+        &InterreflectionOptions::for_leaves(p.leaves),
+    )
+    .expect("solves");
+    let orders = std::env::var("HAIKO_ESTIMATE_ORDERS").unwrap_or_else(|_| "2,4,6".into());
+    let light = &scene.lights[0];
+    println!("degree | build s | re-aim: estimate ms, error, without | curve: estimate ms, error, without");
+    for order in orders
+        .split(',')
+        .map(|o| o.trim().parse::<usize>().expect("a degree"))
+    {
+        let aimed = engine
+            .measure_estimate(0, light, &measured_reaim(light), order)
+            .expect("solves");
+        let edited = engine
+            .measure_estimate(0, light, &measured_curve_edit(light), order)
+            .expect("solves");
+        println!(
+            "{order} | {:.2} | {:.2} {:.2} % {:.2} % | {:.2} {:.2} % {:.2} %",
+            aimed.build_s,
+            1e3 * aimed.estimate_s,
+            100.0 * aimed.error,
+            100.0 * aimed.unestimated_error,
+            1e3 * edited.estimate_s,
+            100.0 * edited.error,
+            100.0 * edited.unestimated_error,
+        );
+    }
+}
+
 /// Measures what an edit costs with the interreflection engine on the rooms named by
 /// `HAIKO_COST_ROOMS` (comma-separated paths relative to the crate; `rooms/paper.toml` and
 /// `rooms/office.toml` by default): build, leaves, every light's direct cache, cold solves, a
