@@ -82,8 +82,8 @@ pub struct Tree {
 impl Tree {
     /// Builds the trees over the patches of `mesh`: per surface, recursive halving of the leaf
     /// centroids' bounding box along its longest side. Surfaces whose patches do not all share
-    /// one normal (OBJ objects) get one root per leaf. `hot` marks leaves next to a light (may be
-    /// empty: none).
+    /// one normal (OBJ objects) get one root per leaf. `hot` marks leaves no cluster holding which is
+    /// linked as a whole (next to a light, or in a slot; may be empty: none).
     pub fn build(mesh: &PatchMesh, hot: &[bool]) -> Self {
         let n_surfaces = mesh
             .patches

@@ -192,7 +192,7 @@ impl Interreflection {
         let occluders =
             visibility.then(|| Occluders::of_scene(scene).unwrap_or_else(|| Occluders::from_parts(&[], &[])));
         let t = Instant::now();
-        let tree = Tree::build(&solver.mesh, &solver.near_lamp);
+        let tree = Tree::build(&solver.mesh, &solver.alone);
         let geometry = NodeGeometry::new(&solver.mesh, &tree);
         let neighbours = LeafNeighbours::new(&tree);
         let links::Links { links, rays, near } =

@@ -17,6 +17,11 @@
 //!   a few centimetres wide beside a bright pool) is halved further, down to `shadow_min_m`.
 //!   The room's own edges near a light hung close to a room surface (a wall-washer under the
 //!   ceiling) are graded the same way.
+//! * **In slots**: a box face standing up to `slot_max_m` off a parallel room surface (a
+//!   sideboard 5 cm in front of a wall) lets light into the slot only at its outline, and that
+//!   light fades over a few slot widths. Both sides — the room surface and the box face — are
+//!   graded along the face's outline like a contact (their distance to it counted with the gap
+//!   added) and meshed over the slot no coarser than twice the gap.
 //! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface (its triangles' edges
 //!   lying on a room plane, in any direction), the cells of that surface and the mesh's
 //!   triangles are halved (rectangles across their longer side, triangles 1 → 4) while larger
@@ -57,6 +62,12 @@ pub struct RefineOptions {
     /// the light, others not) is halved across the edge down to this width (m); 0 turns it off.
     /// Default 0.01 m.
     pub shadow_min_m: f64,
+    /// A box face up to this far (m) from a parallel room surface, and not touching it, makes a
+    /// slot: the room surface behind it is graded along the face's outline as along a contact
+    /// edge, the distance to the outline counted with the gap added (so the strips there stay
+    /// about half the gap wide), and both sides of the slot are meshed no coarser than twice the
+    /// gap (docs/DECISIONS.md "Slots behind furniture"); 0 turns it off. Default 0.3 m.
+    pub slot_max_m: f64,
 }
 
 impl Default for RefineOptions {
@@ -69,6 +80,7 @@ impl Default for RefineOptions {
             contact_ratio: 0.5,
             contact_min_m: 0.015,
             shadow_min_m: 0.01,
+            slot_max_m: 0.3,
         }
     }
 }
@@ -80,6 +92,7 @@ impl RefineOptions {
             lamp_ratio: 0.0,
             contact_ratio: 0.0,
             shadow_min_m: 0.0,
+            slot_max_m: 0.0,
             ..RefineOptions::default()
         }
     }
@@ -105,9 +118,11 @@ pub struct SolverMesh {
     pub mesh: PatchMesh,
     /// Per leaf, the coarse patch it came from.
     pub coarse_patch: Vec<u32>,
-    /// Per leaf, true when it was split off because a light is close: its direct light can be a
-    /// hot spot that must not be averaged with its surroundings.
-    pub near_lamp: Vec<bool>,
+    /// Per leaf, true when no cluster holding it may be linked as a whole: it was split off
+    /// because a light is close (its direct light can be a hot spot that must not be averaged
+    /// with its surroundings), or it lies in a slot (dark beside lit neighbours, whose
+    /// cluster's one irradiance would light it; docs/DECISIONS.md "Slots behind furniture").
+    pub alone: Vec<bool>,
     /// Per light that caused splits, what it did.
     pub lamps: Vec<LampRefinement>,
     /// Edges where OBJ meshes stand on room surfaces, the leaves made along them (beyond the
@@ -120,6 +135,12 @@ pub struct SolverMesh {
     /// replaced).
     pub contacts: usize,
     pub contact_leaves_added: usize,
+    /// Slots graded: box faces standing up to [`RefineOptions::slot_max_m`] off a room surface
+    /// (both sides meshed along the face's outline and over it; their leaves are counted in
+    /// `contact_leaves_added`).
+    pub slots: usize,
+    /// The slot distance it was graded with (for the notes).
+    pub slot_max_m: f64,
 }
 
 impl SolverMesh {
@@ -136,9 +157,17 @@ impl SolverMesh {
                 )
             })
             .collect();
-        if self.contacts > 0 && self.contact_leaves_added > 0 {
+        if self.contacts + self.slots > 0 && self.contact_leaves_added > 0 {
+            let slots = if self.slots > 0 {
+                format!(
+                    " and {} slots (box faces standing up to {:.2} m off a room surface)",
+                    self.slots, self.slot_max_m
+                )
+            } else {
+                String::new()
+            };
             notes.push(format!(
-                "graded along {} contact edges (boxes on their supports, room edges beside lamps): +{} patches",
+                "graded along {} contact edges (boxes on their supports, room edges beside lamps){slots}: +{} patches",
                 self.contacts, self.contact_leaves_added
             ));
         }
@@ -152,11 +181,80 @@ impl SolverMesh {
     }
 }
 
-/// A contact edge: an axis-aligned segment where a box meets a supporting surface.
+/// A contact edge: an axis-aligned segment where a box meets a supporting surface, or where the
+/// outline of a box face standing a little off a room surface falls on that surface (a slot).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Contact {
     /// The segment as a degenerate box (zero extent in two axes).
     segment: Aabb,
+    /// Width (m) of the slot between the box face and the room surface; 0 for a contact.
+    gap: f64,
+}
+
+/// A slot: a box face standing a little off a parallel room surface (up to
+/// [`RefineOptions::slot_max_m`], not touching it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Slot {
+    /// The axis both surfaces face along, the room surface's and the box face's coordinate on it.
+    axis: usize,
+    room_side: f64,
+    box_side: f64,
+    /// The box (its extent on the other two axes is the slot's).
+    bounds: Aabb,
+}
+
+impl Slot {
+    /// Width (m) between the box face and the room surface.
+    fn gap(&self) -> f64 {
+        (self.box_side - self.room_side).abs()
+    }
+
+    /// Whether `p` lies in the slot (between the box face and the room surface, within the
+    /// face's outline, boundaries included).
+    fn contains(&self, p: DVec3) -> bool {
+        let mut lo = self.bounds.min;
+        let mut hi = self.bounds.max;
+        lo[self.axis] = self.room_side.min(self.box_side);
+        hi[self.axis] = self.room_side.max(self.box_side);
+        (p.cmpge(lo - 1e-9) & p.cmple(hi + 1e-9)).all()
+    }
+
+    /// Whether `cell` lies on either side of the slot and overlaps it.
+    fn holds(&self, cell: &Cell) -> bool {
+        let r = &cell.rect;
+        if r.axis != self.axis
+            || ((r.offset - self.room_side).abs() > 1e-9 && (r.offset - self.box_side).abs() > 1e-9)
+        {
+            return false;
+        }
+        let b = cell.bounds();
+        (0..3)
+            .filter(|&k| k != self.axis)
+            .all(|k| b.min[k] < self.bounds.max[k] - 1e-9 && b.max[k] > self.bounds.min[k] + 1e-9)
+    }
+}
+
+/// The slots of `scene`: box faces standing up to `slot_max_m` off a parallel room surface.
+fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
+    let size = scene.room_size;
+    let eps = 1e-9 * (1.0 + size.max_element());
+    let mut out = Vec::new();
+    for b in &scene.boxes {
+        for axis in 0..3 {
+            for (box_side, room_side) in [(b.min[axis], 0.0), (b.max[axis], size[axis])] {
+                let gap = (box_side - room_side).abs();
+                if gap > eps && gap <= slot_max_m {
+                    out.push(Slot {
+                        axis,
+                        room_side,
+                        box_side,
+                        bounds: *b,
+                    });
+                }
+            }
+        }
+    }
+    out
 }
 
 /// An axis-aligned rectangle cell of a surface, in its plane's `(u, v)` coordinates.
@@ -239,16 +337,18 @@ struct Splitter<'a> {
     scene: &'a Scene,
     options: &'a RefineOptions,
     contacts: Vec<Contact>,
+    slots: Vec<Slot>,
     occluders: Option<Occluders>,
     mesh_contacts: Option<MeshContacts>,
 }
 
 /// Refines the coarse mesh of `scene`.
 pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
-    let contacts = if options.contact_ratio > 0.0 {
-        contact_edges(scene)
+    let (contacts, slots) = if options.contact_ratio > 0.0 {
+        let slots = slots(scene, options.slot_max_m);
+        (contact_edges(scene, &slots), slots)
     } else {
-        Vec::new()
+        (Vec::new(), Vec::new())
     };
     let splitter = Splitter {
         scene,
@@ -257,6 +357,7 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
             .then(|| Occluders::of_scene(scene))
             .flatten(),
         contacts,
+        slots,
         mesh_contacts: (options.contact_ratio > 0.0)
             .then(|| MeshContacts::of_scene(scene))
             .flatten(),
@@ -292,7 +393,9 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
             }
             Leaves::Rects(leaves) => {
                 for leaf in &leaves {
-                    out.rect(patch, index, leaf, near_lamp);
+                    let centre = (leaf.bounds().min + leaf.bounds().max) / 2.0;
+                    let in_slot = splitter.slots.iter().any(|s| s.contains(centre));
+                    out.rect(patch, index, leaf, near_lamp || in_slot);
                 }
             }
         }
@@ -315,9 +418,11 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
     SolverMesh {
         mesh: out.mesh,
         coarse_patch: out.coarse_patch,
-        near_lamp: out.near_lamp,
+        alone: out.alone,
         lamps,
-        contacts: splitter.contacts.len(),
+        contacts: splitter.contacts.iter().filter(|c| c.gap == 0.0).count(),
+        slots: splitter.slots.len(),
+        slot_max_m: options.slot_max_m,
         contact_leaves_added: contact_added,
         mesh_contacts: splitter.mesh_contacts.as_ref().map_or(0, MeshContacts::len),
         mesh_contact_leaves_added: mesh_contact_added,
@@ -437,7 +542,7 @@ impl Splitter<'_> {
         let axis = self
             .lamp_axis(&cell, &mut out.lamp)
             .or_else(|| {
-                let axis = self.contact_axis(&cell);
+                let axis = self.contact_axis(&cell).or_else(|| self.slot_axis(&cell));
                 out.by_contact |= axis.is_some();
                 axis
             })
@@ -538,7 +643,7 @@ impl Splitter<'_> {
                 continue;
             }
             let width = cell.extent(across);
-            let distance = box_distance(&bounds, seg);
+            let distance = box_distance(&bounds, seg) + contact.gap;
             if width > 2.0 * options.contact_min_m && width > options.contact_ratio * distance {
                 return Some(across);
             }
@@ -554,7 +659,8 @@ impl Splitter<'_> {
             }
             // The shadow rule reaches a few strip widths from the edge: the box's shadow line
             // beside its base, where the nearest receivers still see it at a steep angle.
-            if distance <= SHADOW_REACH * width
+            if contact.gap == 0.0
+                && distance <= SHADOW_REACH * width
                 && width > 2.0 * options.shadow_min_m
                 && self.shadow_line_crosses(cell, across)
             {
@@ -562,6 +668,17 @@ impl Splitter<'_> {
             }
         }
         None
+    }
+
+    /// The longer side, when the cell lies in a slot (on either side) and is longer than twice
+    /// the slot's width: the light a slot lets in fades over a few of its widths
+    /// (docs/DECISIONS.md "Slots behind furniture"). Never below strips of `contact_min_m`.
+    fn slot_axis(&self, cell: &Cell) -> Option<usize> {
+        let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
+        let extent = cell.extent(longer);
+        (extent > 2.0 * self.options.contact_min_m
+            && self.slots.iter().any(|s| extent > 2.0 * s.gap() && s.holds(cell)))
+        .then_some(longer)
     }
 
     /// True when some light in front of the cell sees part of its edges parallel to the contact
@@ -648,12 +765,12 @@ fn split_triangle(
 /// The edges where a box rests on (or against) a room surface or the top of another box,
 /// clipped to the support, leaving out edges that lie on the room's own edges; and the room's own
 /// edges within reach of a light close to a room surface.
-fn contact_edges(scene: &Scene) -> Vec<Contact> {
+fn contact_edges(scene: &Scene, slots: &[Slot]) -> Vec<Contact> {
     let size = scene.room_size;
     let eps = 1e-9 * (1.0 + size.max_element());
     let mut out = Vec::new();
     let mut push_rect_edges =
-        |axis: usize, offset: f64, lo: DVec3, hi: DVec3, support_lo: DVec3, support_hi: DVec3| {
+        |axis: usize, offset: f64, gap: f64, lo: DVec3, hi: DVec3, support_lo: DVec3, support_hi: DVec3| {
             // The rectangle [lo, hi] in the plane coordinate[axis] = offset, clipped to the support.
             let lo = lo.max(support_lo);
             let hi = hi.min(support_hi);
@@ -677,6 +794,7 @@ fn contact_edges(scene: &Scene) -> Vec<Contact> {
                     max[along] = hi[along];
                     out.push(Contact {
                         segment: Aabb { min, max },
+                        gap,
                     });
                 }
             }
@@ -686,7 +804,7 @@ fn contact_edges(scene: &Scene) -> Vec<Contact> {
         for axis in 0..3 {
             for (box_side, room_side) in [(b.min[axis], 0.0), (b.max[axis], size[axis])] {
                 if (box_side - room_side).abs() <= eps {
-                    push_rect_edges(axis, room_side, b.min, b.max, DVec3::ZERO, size);
+                    push_rect_edges(axis, room_side, 0.0, b.min, b.max, DVec3::ZERO, size);
                 }
             }
         }
@@ -697,7 +815,14 @@ fn contact_edges(scene: &Scene) -> Vec<Contact> {
             }
             let lo = DVec3::new(other.min.x, other.min.y, other.max.z);
             let hi = DVec3::new(other.max.x, other.max.y, other.max.z);
-            push_rect_edges(2, other.max.z, b.min, b.max, lo, hi);
+            push_rect_edges(2, other.max.z, 0.0, b.min, b.max, lo, hi);
+        }
+    }
+    // A slot's outline on both its sides, the room surface and the box face.
+    for slot in slots {
+        let b = &slot.bounds;
+        for side in [slot.room_side, slot.box_side] {
+            push_rect_edges(slot.axis, side, slot.gap(), b.min, b.max, DVec3::ZERO, size);
         }
     }
     // The room's edges near lights close to a room surface.
@@ -730,6 +855,7 @@ fn contact_edges(scene: &Scene) -> Vec<Contact> {
                     max[along] = hi;
                     out.push(Contact {
                         segment: Aabb { min, max },
+                        gap: 0.0,
                     });
                 }
             }
@@ -743,7 +869,7 @@ fn contact_edges(scene: &Scene) -> Vec<Contact> {
 struct Builder {
     mesh: PatchMesh,
     coarse_patch: Vec<u32>,
-    near_lamp: Vec<bool>,
+    alone: Vec<bool>,
     ids: HashMap<(u32, [u64; 3]), u32>,
 }
 
@@ -759,7 +885,7 @@ impl Builder {
         })
     }
 
-    fn rect(&mut self, parent: &Patch, index: usize, cell: &Cell, near_lamp: bool) {
+    fn rect(&mut self, parent: &Patch, index: usize, cell: &Cell, alone: bool) {
         let r = &cell.rect;
         let corners = [
             r.point(r.min[0], r.min[1]),
@@ -777,10 +903,10 @@ impl Builder {
             centroid: r.point(0.5 * (r.min[0] + r.max[0]), 0.5 * (r.min[1] + r.max[1])),
         });
         self.coarse_patch.push(index as u32);
-        self.near_lamp.push(near_lamp);
+        self.alone.push(alone);
     }
 
-    fn triangle(&mut self, parent: &Patch, index: usize, t: [DVec3; 3], near_lamp: bool) {
+    fn triangle(&mut self, parent: &Patch, index: usize, t: [DVec3; 3], alone: bool) {
         let v = t.map(|c| self.vertex(parent.surface, c, parent.normal));
         self.mesh.patches.push(Patch {
             vertices: [v[0], v[1], v[2], v[2]],
@@ -791,7 +917,7 @@ impl Builder {
             centroid: (t[0] + t[1] + t[2]) / 3.0,
         });
         self.coarse_patch.push(index as u32);
-        self.near_lamp.push(near_lamp);
+        self.alone.push(alone);
     }
 }
 
@@ -808,6 +934,7 @@ mod tests {
             contact_ratio: 1.0,
             contact_min_m: 0.06,
             shadow_min_m: 0.01,
+            slot_max_m: 0.3,
         }
     }
 
@@ -1040,6 +1167,98 @@ solver_patch_size = 0.5
                 .iter()
                 .any(|n| n.contains("graded along 4 contact edges"))
         );
+    }
+
+    /// A box standing 5 cm in front of the wall y = 3 makes a slot: the wall behind it and the
+    /// box's back face are meshed no coarser than twice the gap (0.1 m) over the slot, and the
+    /// plan says so; the same box 0.5 m off the wall, or the rule off, makes no slot.
+    #[test]
+    fn slots_behind_boxes_are_graded() {
+        let room = |y0: f64, y1: f64| {
+            scene(&EMPTY.replace("[2.0, 1.5, 1.2]", "[3.2, 1.5, 1.5]").replace(
+                "[[light]]",
+                &format!(
+                    "[[box]]\nmin = [1.0, {y0}, 0.0]\nmax = [2.0, {y1}, 0.8]\nreflectance = 0.4\n[[light]]"
+                ),
+            ))
+        };
+        // The longest side of every leaf at y = `y` facing `-y` that overlaps the slot's
+        // outline (x 1–2, z 0–0.8), and their number.
+        let in_slot = |solver: &SolverMesh, y: f64| {
+            solver
+                .mesh
+                .patches
+                .iter()
+                .filter(|p| (p.centroid.y - y).abs() < 1e-9 && p.normal.y < -0.5)
+                .filter_map(|p| {
+                    let corners = p.vertex_ids().iter().map(|&v| solver.mesh.positions[v as usize]);
+                    let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                        (lo.min(c), hi.max(c))
+                    });
+                    (lo.x < 2.0 - 1e-9 && hi.x > 1.0 + 1e-9 && lo.z < 0.8 - 1e-9)
+                        .then(|| (hi - lo).max_element())
+                })
+                .fold((0.0f64, 0usize), |(m, n), l| (m.max(l), n + 1))
+        };
+        let s = room(2.45, 2.95);
+        let solver = refine(&s, &RefineOptions::default());
+        assert_eq!(solver.slots, 1);
+        let (wall, n_wall) = in_slot(&solver, 3.0);
+        assert!(
+            wall <= 0.1 + 1e-9 && n_wall >= 10 * 8,
+            "{wall} m, {n_wall} leaves"
+        );
+        // The box's back face faces +y: its leaves are at y = 2.95 facing +y.
+        let back = solver
+            .mesh
+            .patches
+            .iter()
+            .filter(|p| (p.centroid.y - 2.95).abs() < 1e-9 && p.normal.y > 0.5)
+            .map(|p| {
+                let corners = p.vertex_ids().iter().map(|&v| solver.mesh.positions[v as usize]);
+                let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                    (lo.min(c), hi.max(c))
+                });
+                (hi - lo).max_element()
+            })
+            .fold(0.0f64, f64::max);
+        assert!(back <= 0.1 + 1e-9, "{back} m on the box's back face");
+        // Every leaf in the slot — the wall, the box's back face and the floor strip between
+        // them — is linked alone; the wall beside the box is not.
+        let floor_strip = solver
+            .mesh
+            .patches
+            .iter()
+            .position(|p| {
+                p.normal.z > 0.5
+                    && p.centroid.z.abs() < 1e-9
+                    && p.centroid.y > 2.95
+                    && (1.0..2.0).contains(&p.centroid.x)
+            })
+            .expect("a floor leaf in the slot");
+        assert!(solver.alone[floor_strip]);
+        for (i, p) in solver.mesh.patches.iter().enumerate() {
+            if (p.centroid.y - 3.0).abs() < 1e-9 {
+                let behind = (1.0..=2.0).contains(&p.centroid.x) && p.centroid.z <= 0.8;
+                assert_eq!(solver.alone[i], behind, "{:?}", p.centroid);
+            }
+        }
+        let notes = solver.notes(&s).join("\n");
+        assert!(notes.contains("and 1 slots"), "{notes}");
+        // The rule off: the wall behind keeps leaves of 0.25 m and more there.
+        let off = refine(
+            &s,
+            &RefineOptions {
+                slot_max_m: 0.0,
+                ..RefineOptions::default()
+            },
+        );
+        assert_eq!(off.slots, 0);
+        assert!(in_slot(&off, 3.0).0 >= 0.25, "{:?}", in_slot(&off, 3.0));
+        // 0.5 m off the wall: no slot.
+        let far = refine(&room(2.0, 2.5), &RefineOptions::default());
+        assert_eq!(far.slots, 0);
+        assert!(in_slot(&far, 3.0).0 >= 0.25, "{:?}", in_slot(&far, 3.0));
     }
 
     /// With the default grading the strips of a box side along the floor are at most

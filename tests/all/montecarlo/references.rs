@@ -1,8 +1,8 @@
 //! Committed Monte-Carlo references of total illuminance for the rooms in
 //! `tests/data/references/*.toml` (box contacts beside lamps close to the ceiling, grazing
 //! wall-washers, hard-edged spots, a white room, an empty room, an office with desks, a 12 m hall,
-//! OBJ furniture — a plinth turned 30° and a sideboard — in a coloured room under a warm spot),
-//! 70–210 points each on floors, box and mesh tops and faces, walls and ceilings, including points
+//! OBJ furniture — a plinth turned 30° and a sideboard — in a coloured room under a warm spot,
+//! furniture standing 5 and 10 cm off the walls), 70–222 points each on floors, box and mesh tops and faces, walls and ceilings, including points
 //! 1–20 cm from box and mesh faces. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
 //! estimate, its standard error (lx, < 0.3 % of the value), the exact direct part and the number of
 //! paths.
@@ -31,7 +31,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 9] = [
+pub const ROOMS: [&str; 10] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -41,6 +41,7 @@ pub const ROOMS: [&str; 9] = [
     "office",
     "hall",
     "mesh-colour",
+    "furniture-gaps",
 ];
 
 /// The environment variable that regenerates the references.
@@ -52,7 +53,7 @@ const TARGET_RELATIVE_ERROR: f64 = 0.0025;
 const STRATA: usize = 48;
 /// Batches added per round of the adaptive estimate, and the most batches per point.
 const ROUND_BATCHES: usize = 8;
-const MAX_BATCHES: usize = 1024;
+const MAX_BATCHES: usize = 12_288;
 
 /// The CSV header of a reference file.
 const HEADER: &str = "x,y,z,nx,ny,nz,lux,std_error,direct,paths";
@@ -282,6 +283,30 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
             }
         }
     }
+    if name == "furniture-gaps" {
+        // The back wall (y = 4) behind the sideboard standing 5 cm in front of it (x 1.5–3.1, up to
+        // 0.8 m): in the slot at its middle and 5 cm inside its end, beside the end, and above.
+        for x in [2.3, 1.55, 1.45] {
+            for z in [0.05, 0.2, 0.4, 0.6, 0.75, 0.85, 1.0] {
+                pts.add(DVec3::new(x, s.y, z), DVec3::NEG_Y);
+            }
+        }
+        // The side wall (x = 5) behind the cupboard standing 10 cm in front of it (y 0.8–1.6, up
+        // to 1.8 m), and the floor in that slot.
+        for y in [1.2, 0.85, 0.75] {
+            for z in [0.05, 0.5, 1.2, 1.7, 1.9, 2.2] {
+                pts.add(DVec3::new(s.x, y, z), DVec3::NEG_X);
+            }
+        }
+        for y in [1.2, 0.85] {
+            pts.add(DVec3::new(4.95, y, 0.0), DVec3::Z);
+        }
+        // The cupboard's back face in its slot, and its front.
+        for z in [0.3, 1.0, 1.6] {
+            pts.add(DVec3::new(4.9, 1.2, z), DVec3::X);
+            pts.add(DVec3::new(4.3, 1.2, z), DVec3::NEG_X);
+        }
+    }
     if name == "mesh-colour" {
         // The plinth of `mesh-colour-plinth.obj`: a 0.6 m square turned 30° about (1.7, 2.0),
         // 1 m high; its faces' outward normals at 30° + k · 90°. Points on a face are 2 mm in
@@ -402,7 +427,7 @@ fn committed_references_agree_with_fresh_estimates() {
         let refs = read(name);
         let pts = points(name, &scene);
         assert_eq!(refs.len(), pts.len(), "{name}: number of points");
-        assert!((70..=210).contains(&refs.len()), "{name}: {} points", refs.len());
+        assert!((70..=230).contains(&refs.len()), "{name}: {} points", refs.len());
         for (r, &(p, n)) in refs.iter().zip(&pts) {
             assert!(r.point == p && r.normal == n, "{name}: point {p} {n} vs {r:?}");
             assert!(r.std_error < 0.003 * r.lux, "{name}: {r:?}");
@@ -479,10 +504,11 @@ pub fn engine_errors(name: &'static str, options: &InterreflectionOptions) -> Ro
 /// (docs/ACCURACY.md "After"): (room, median bound, worst bound). Every median is within 0.3 %
 /// (bound 0.5 %) and every worst within 3.3 %, except the office, whose 8 958 leaves are above
 /// the plan's threshold for relaxed links (2.85 % with the exact links, 3.88 % relaxed:
-/// docs/ACCURACY.md "Relaxed links"). The spots room's worst point (the floor 2 cm from a box
+/// docs/ACCURACY.md "Relaxed links"), and the room with furniture off the walls, whose deepest
+/// points in a 5 cm slot are up to 25 % high. The spots room's worst point (the floor 2 cm from a box
 /// face in its shadow) was 5.4 % high before the contact strips were kept short along the edge
 /// and the gather followed a linear radiosity on each leaf (2.66 % worst since, elsewhere).
-const ENGINE_BOUNDS: [(&str, f64, f64); 9] = [
+const ENGINE_BOUNDS: [(&str, f64, f64); 10] = [
     ("hotspot-box", 0.005, 0.035),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.015),
@@ -492,6 +518,10 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 9] = [
     ("office", 0.005, 0.040),
     ("hall", 0.005, 0.030),
     ("mesh-colour", 0.005, 0.030),
+    // The slot 5 cm behind the sideboard: its deepest points (1 lx in a room lit to 100–300 lx)
+    // up to 25 % high, the 10 cm slot behind the cupboard within 6 %, every point outside the
+    // slots within 4 % (docs/ACCURACY.md "Slots behind furniture").
+    ("furniture-gaps", 0.005, 0.30),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
@@ -597,7 +627,7 @@ fn print_engine_errors() {
 }
 
 /// Options of the engine from `HAIKO_ENGINE` (comma-separated `knob=value`; knobs: `eta`,
-/// `lamp_ratio`, `lamp_min`, `contact_ratio`, `contact_min`, `shadow_min`, `split`,
+/// `lamp_ratio`, `lamp_min`, `contact_ratio`, `contact_min`, `shadow_min`, `slot_max`, `split`,
 /// `gather_eta`, `gather_uniformity`, `linear_gather` (0 or 1), `visibility_refine`), over the defaults.
 fn engine_options_from_env() -> InterreflectionOptions {
     let mut o = InterreflectionOptions::default();
@@ -619,6 +649,7 @@ fn engine_options_from_env() -> InterreflectionOptions {
             "contact_ratio" => o.refine.contact_ratio = v,
             "contact_min" => o.refine.contact_min_m = v,
             "shadow_min" => o.refine.shadow_min_m = v,
+            "slot_max" => o.refine.slot_max_m = v,
             "split" => o.direct_split = v,
             "shadow_splits" => o.shadow_splits = v as u32,
             "gather_eta" => o.gather_eta = v,
