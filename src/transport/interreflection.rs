@@ -494,7 +494,7 @@ impl Interreflection {
     fn visibility(&self, p: DVec3, node: &Node, rays: usize) -> f64 {
         let Some(occ) = &self.occluders else { return 1.0 };
         let pad = DVec3::splat(2.0 * RECEIVER_LIFT_M);
-        let shaft = occ.within(node.lo.min(p) - pad, node.hi.max(p) + pad);
+        let shaft = occ.between((p - pad, p + pad), (node.lo - pad, node.hi + pad));
         if shaft.is_empty() {
             return 1.0;
         }

@@ -461,7 +461,7 @@ impl Context<'_> {
     fn visibility(&self, a: &Node, b: &Node, rays: usize) -> f64 {
         let Some(occ) = self.occluders else { return 1.0 };
         let pad = DVec3::splat(LIFT_M * 2.0);
-        let shaft = occ.within(a.lo.min(b.lo) - pad, a.hi.max(b.hi) + pad);
+        let shaft = occ.between((a.lo - pad, a.hi + pad), (b.lo - pad, b.hi + pad));
         if shaft.is_empty() {
             return 1.0;
         }
