@@ -133,19 +133,22 @@ impl Occluders {
     pub fn between(&self, a: (DVec3, DVec3), b: (DVec3, DVec3)) -> LocalOccluders<'_> {
         let mut local = self.within(a.0.min(b.0), a.1.max(b.1));
         let line = (b.0 + b.1 - a.0 - a.1) * 0.5;
-        let axes = [DVec3::X, DVec3::Y, DVec3::Z].map(|e| e.cross(line));
         // The interval of a box's projection on `axis`.
         let span = |lo: DVec3, hi: DVec3, axis: DVec3| {
             let (c, r) = (axis.dot((lo + hi) * 0.5), axis.abs().dot((hi - lo) * 0.5));
             (c - r, c + r)
         };
+        // Per axis, the hull's projection widened by the separation margin, made once.
+        let hull = [DVec3::X, DVec3::Y, DVec3::Z].map(|e| {
+            let axis = e.cross(line);
+            let gap = SEPARATION_M * axis.length();
+            let ((a_lo, a_hi), (b_lo, b_hi)) = (span(a.0, a.1, axis), span(b.0, b.1, axis));
+            (axis, a_lo.min(b_lo) - gap, a_hi.max(b_hi) + gap)
+        });
         local.boxes.retain(|o| {
-            !axes.iter().any(|&axis| {
-                let gap = SEPARATION_M * axis.length();
-                let (a_lo, a_hi) = span(a.0, a.1, axis);
-                let (b_lo, b_hi) = span(b.0, b.1, axis);
+            !hull.iter().any(|&(axis, lo, hi)| {
                 let (o_lo, o_hi) = span(o.min, o.max, axis);
-                a_hi.max(b_hi) + gap < o_lo || o_hi + gap < a_lo.min(b_lo)
+                hi < o_lo || o_hi < lo
             })
         });
         local

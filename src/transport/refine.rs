@@ -234,27 +234,35 @@ impl Slot {
     }
 }
 
+/// Each face of box `b` with the room surface parallel to it: (axis, the box face's coordinate,
+/// the room surface's coordinate), for a room of `size`.
+fn faces_to_room(b: &Aabb, size: DVec3) -> impl Iterator<Item = (usize, f64, f64)> + '_ {
+    (0..3).flat_map(move |axis| [(axis, b.min[axis], 0.0), (axis, b.max[axis], size[axis])])
+}
+
+/// Tolerance (m) below which a box face lies on a room surface, for a room of `size`.
+fn touch_eps(size: DVec3) -> f64 {
+    1e-9 * (1.0 + size.max_element())
+}
+
 /// The slots of `scene`: box faces standing up to `slot_max_m` off a parallel room surface.
 fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
-    let size = scene.room_size;
-    let eps = 1e-9 * (1.0 + size.max_element());
-    let mut out = Vec::new();
-    for b in &scene.boxes {
-        for axis in 0..3 {
-            for (box_side, room_side) in [(b.min[axis], 0.0), (b.max[axis], size[axis])] {
-                let gap = (box_side - room_side).abs();
-                if gap > eps && gap <= slot_max_m {
-                    out.push(Slot {
-                        axis,
-                        room_side,
-                        box_side,
-                        bounds: *b,
-                    });
-                }
-            }
-        }
-    }
-    out
+    let (size, eps) = (scene.room_size, touch_eps(scene.room_size));
+    scene
+        .boxes
+        .iter()
+        .flat_map(|b| faces_to_room(b, size).map(move |face| (b, face)))
+        .filter(|(_, (_, box_side, room_side))| {
+            let gap = (box_side - room_side).abs();
+            gap > eps && gap <= slot_max_m
+        })
+        .map(|(b, (axis, box_side, room_side))| Slot {
+            axis,
+            room_side,
+            box_side,
+            bounds: *b,
+        })
+        .collect()
 }
 
 /// An axis-aligned rectangle cell of a surface, in its plane's `(u, v)` coordinates.
@@ -393,7 +401,8 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
             }
             Leaves::Rects(leaves) => {
                 for leaf in &leaves {
-                    let centre = (leaf.bounds().min + leaf.bounds().max) / 2.0;
+                    let bounds = leaf.bounds();
+                    let centre = (bounds.min + bounds.max) / 2.0;
                     let in_slot = splitter.slots.iter().any(|s| s.contains(centre));
                     out.rect(patch, index, leaf, near_lamp || in_slot);
                 }
@@ -767,7 +776,7 @@ fn split_triangle(
 /// edges within reach of a light close to a room surface.
 fn contact_edges(scene: &Scene, slots: &[Slot]) -> Vec<Contact> {
     let size = scene.room_size;
-    let eps = 1e-9 * (1.0 + size.max_element());
+    let eps = touch_eps(size);
     let mut out = Vec::new();
     let mut push_rect_edges =
         |axis: usize, offset: f64, gap: f64, lo: DVec3, hi: DVec3, support_lo: DVec3, support_hi: DVec3| {
@@ -800,12 +809,10 @@ fn contact_edges(scene: &Scene, slots: &[Slot]) -> Vec<Contact> {
             }
         };
     for b in &scene.boxes {
-        // Room faces: (axis, the box face's coordinate, the room face's coordinate).
-        for axis in 0..3 {
-            for (box_side, room_side) in [(b.min[axis], 0.0), (b.max[axis], size[axis])] {
-                if (box_side - room_side).abs() <= eps {
-                    push_rect_edges(axis, room_side, 0.0, b.min, b.max, DVec3::ZERO, size);
-                }
+        // Faces lying on a room surface.
+        for (axis, box_side, room_side) in faces_to_room(b, size) {
+            if (box_side - room_side).abs() <= eps {
+                push_rect_edges(axis, room_side, 0.0, b.min, b.max, DVec3::ZERO, size);
             }
         }
         // Resting on top of another box.

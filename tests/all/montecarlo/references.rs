@@ -2,7 +2,8 @@
 //! `tests/data/references/*.toml` (box contacts beside lamps close to the ceiling, grazing
 //! wall-washers, hard-edged spots, a white room, an empty room, an office with desks, a 12 m hall,
 //! OBJ furniture — a plinth turned 30° and a sideboard — in a coloured room under a warm spot,
-//! furniture standing 5 and 10 cm off the walls), 70–222 points each on floors, box and mesh tops and faces, walls and ceilings, including points
+//! furniture standing 5 and 10 cm off the walls), 70–222 points each on floors, box and mesh
+//! tops and faces, walls and ceilings, including points
 //! 1–20 cm from box and mesh faces. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
 //! estimate, its standard error (lx, < 0.3 % of the value), the exact direct part and the number of
 //! paths.
@@ -185,7 +186,8 @@ impl Points<'_> {
 /// lights hung close to them; for the wall-washer room, the ceiling 5–50 cm from the washed
 /// wall and that wall's top; for the OBJ room, the floor 1–20 cm from the turned plinth's faces
 /// and the sideboard's front, those faces 1 cm–0.6 m up, their tops, and the wall above and
-/// beside the sideboard.
+/// beside the sideboard; for the room of furniture off the walls, the walls in each slot (its
+/// middle, near its end, beside it and above), the floor and the cupboard's back face in it.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
