@@ -3,6 +3,10 @@
 //! triangles seen from its light, one ray per fine vertex of the room. Shows what the wrapper
 //! costs; the first run of this bench measured Haiko's former own f64 BVH at 3.17 ms against
 //! obvhs's 1.36 ms, which is why triangles now go to obvhs.
+//!
+//! The open-plan floor's 40 desks seen from one of its downlights, one ray per fine vertex:
+//! the boxes through `transport::box_bvh::BoxBvh` against the slab test of every box in turn
+//! (docs/DECISIONS.md "Shadow rays against many boxes").
 
 use std::hint::black_box;
 use std::path::Path;
@@ -11,6 +15,7 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{DVec3, Vec3A};
 use haiko::scene::{SurfaceKind, load};
+use haiko::transport::box_bvh::{BoxBvh, slab};
 use haiko::transport::occlusion::Occluders;
 use obvhs::{BvhBuildParams, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle};
 
@@ -85,5 +90,38 @@ fn visibility(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, visibility);
+fn many_boxes(c: &mut Criterion) {
+    let scene = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/rooms/open-plan.toml"))
+        .expect("bench room");
+    let light = scene.lights[20].position;
+    let targets = &scene.fine.positions;
+    let bvh = BoxBvh::new(&scene.boxes);
+    let (t0, t1) = (1e-7, 1.0 - 1e-7);
+    let one_by_one = |to: DVec3| {
+        let inv_d = (to - light).recip();
+        scene.boxes.iter().any(|b| slab(b, light, inv_d, t0, t1))
+    };
+    let through_tree = |to: DVec3| bvh.blocked(light, (to - light).recip(), t0, t1);
+    let blocked = targets.iter().filter(|&&t| one_by_one(t)).count();
+    let agree = targets
+        .iter()
+        .filter(|&&t| one_by_one(t) == through_tree(t))
+        .count();
+    println!(
+        "{} boxes, {} rays: {blocked} blocked; the tree agrees on {agree}",
+        scene.boxes.len(),
+        targets.len()
+    );
+    let mut group = c.benchmark_group("shadow_rays_open_plan");
+    group.sample_size(20).measurement_time(Duration::from_secs(3));
+    group.bench_function("box_by_box", |b| {
+        b.iter(|| targets.iter().filter(|&&t| one_by_one(black_box(t))).count())
+    });
+    group.bench_function("box_bvh", |b| {
+        b.iter(|| targets.iter().filter(|&&t| through_tree(black_box(t))).count())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, visibility, many_boxes);
 criterion_main!(benches);

@@ -74,25 +74,34 @@ pub fn point_to_polygon_with(p: DVec3, n: DVec3, polygon: &[DVec3], scratch: &mu
     contour_form_factor(p, n, polygon, scratch)
 }
 
-/// [`point_to_polygon`] with a caller-owned scratch buffer for the clipped polygon.
+/// [`point_to_polygon`] with a caller-owned scratch buffer for the clipped polygon (used only
+/// when a corner lies behind `p`).
+///
+/// The angle `β` and the direction of `R_i × R_{i+1}` do not depend on the lengths of the two
+/// vectors, so the vectors from `p` to the corners are used as they are, unnormalised: one
+/// square root and one `atan2` per edge.
 fn contour_form_factor(p: DVec3, n: DVec3, polygon: &[DVec3], clipped: &mut Vec<DVec3>) -> f64 {
-    clip_to_front(p, n, polygon, clipped);
-    if clipped.len() < 3 {
+    let polygon = if polygon.iter().all(|&q| n.dot(q - p) >= 0.0) {
+        polygon
+    } else {
+        clip_to_front(p, n, polygon, clipped);
+        clipped.as_slice()
+    };
+    if polygon.len() < 3 {
         return 0.0;
     }
+    let degenerate2 = DEGENERATE_EDGE * DEGENERATE_EDGE;
     let mut sum = 0.0;
-    for (i, &a) in clipped.iter().enumerate() {
-        let b = clipped[(i + 1) % clipped.len()];
-        let (Some(ra), Some(rb)) = ((a - p).try_normalize(), (b - p).try_normalize()) else {
-            continue;
-        };
+    for (i, &a) in polygon.iter().enumerate() {
+        let (ra, rb) = (a - p, polygon[(i + 1) % polygon.len()] - p);
         let cross = ra.cross(rb);
-        let sin = cross.length();
-        if sin < DEGENERATE_EDGE {
+        let sin2 = cross.length_squared();
+        // |R̂_a × R̂_b| below DEGENERATE_EDGE (or a corner at p): no contribution.
+        if sin2 <= degenerate2 * ra.length_squared() * rb.length_squared() {
             continue;
         }
-        let beta = sin.atan2(ra.dot(rb));
-        sum += beta * n.dot(cross) / sin;
+        let sin = sin2.sqrt();
+        sum += sin.atan2(ra.dot(rb)) * n.dot(cross) / sin;
     }
     // The sign only reflects the winding as seen from p.
     (sum / (2.0 * PI)).abs()
@@ -238,10 +247,16 @@ impl TargetPatch {
     /// on a quad, centroids of the `samples_per_edge²` similar sub-triangles of a triangle),
     /// lifted a hair along the normal; targets of visibility rays.
     pub fn sample_points(&self, samples_per_edge: usize) -> Vec<DVec3> {
+        let mut points = Vec::with_capacity(samples_per_edge.max(1).pow(2));
+        self.sample_points_into(samples_per_edge, &mut points);
+        points
+    }
+
+    /// [`Self::sample_points`] appended to `points` (no allocation when it has room).
+    pub fn sample_points_into(&self, samples_per_edge: usize, points: &mut Vec<DVec3>) {
         let s = samples_per_edge.max(1);
         let c = &self.corners;
         let lift = self.normal * SURFACE_OFFSET_M;
-        let mut points = Vec::with_capacity(s * s);
         if self.n_corners == 4 {
             for a in 0..s {
                 for b in 0..s {
@@ -268,7 +283,6 @@ impl TargetPatch {
                 }
             }
         }
-        points
     }
 }
 

@@ -413,6 +413,7 @@ impl Interreflection {
         let mut e = [0.0; 3];
         let mut stack: Vec<u32> = tree.roots.clone();
         let mut scratch = Vec::with_capacity(6);
+        let mut points = Vec::with_capacity(GATHER_RAYS_PARTIAL);
         while let Some(i) = stack.pop() {
             let node = &tree.nodes[i as usize];
             let b = node_b[i as usize];
@@ -440,7 +441,7 @@ impl Interreflection {
                 continue;
             }
             let (v, moment) = if node.is_leaf() {
-                let v = self.leaf_visibility(p, node);
+                let v = self.leaf_visibility(p, node, &mut points);
                 let leaf = node.leaf as usize;
                 let moment = match linear {
                     Some(l) if v > 0.0 => {
@@ -454,7 +455,7 @@ impl Interreflection {
                 };
                 (v, moment)
             } else {
-                let v = self.visibility(p, node, GATHER_CLUSTER_RAYS);
+                let v = self.visibility(p, node, GATHER_CLUSTER_RAYS, &mut points);
                 if v > 0.0 && v < 1.0 {
                     stack.extend(node.children);
                     continue;
@@ -481,24 +482,26 @@ impl Interreflection {
     }
 
     /// Visible fraction of a leaf from `p`: 2 × 2 rays, 8 × 8 when those disagree.
-    fn leaf_visibility(&self, p: DVec3, node: &Node) -> f64 {
-        let v = self.visibility(p, node, GATHER_RAYS);
+    fn leaf_visibility(&self, p: DVec3, node: &Node, points: &mut Vec<DVec3>) -> f64 {
+        let v = self.visibility(p, node, GATHER_RAYS, points);
         if v > 0.0 && v < 1.0 {
-            self.visibility(p, node, GATHER_RAYS_PARTIAL)
+            self.visibility(p, node, GATHER_RAYS_PARTIAL, points)
         } else {
             v
         }
     }
 
-    /// Unblocked fraction of `rays` rays from `p` to points spread over `node`.
-    fn visibility(&self, p: DVec3, node: &Node, rays: usize) -> f64 {
+    /// Unblocked fraction of `rays` rays from `p` to points spread over `node` (made in
+    /// `points`).
+    fn visibility(&self, p: DVec3, node: &Node, rays: usize, points: &mut Vec<DVec3>) -> f64 {
         let Some(occ) = &self.occluders else { return 1.0 };
         let pad = DVec3::splat(2.0 * RECEIVER_LIFT_M);
         let shaft = occ.between((p - pad, p + pad), (node.lo - pad, node.hi + pad));
         if shaft.is_empty() {
             return 1.0;
         }
-        let points = self.geometry.spread_points(&self.operator.tree, node, rays);
+        self.geometry
+            .spread_points(&self.operator.tree, node, rays, points);
         let seen = points.iter().filter(|&&q| !shaft.blocked(p, q)).count();
         seen as f64 / points.len() as f64
     }

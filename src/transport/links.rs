@@ -34,7 +34,7 @@ use crate::transport::slopes::plane_gradient;
 const LIFT_M: f64 = 1e-6;
 /// Rays per link between nodes, and between two leaves once partially visible.
 const RAYS: usize = 16;
-const LEAF_RAYS: usize = 64;
+pub const LEAF_RAYS: usize = 64;
 
 /// How links are made.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -149,17 +149,21 @@ impl NodeGeometry {
         }
     }
 
-    /// `count` points (a power of four) on the surface of a node, lifted off it: a grid on a
-    /// leaf; on a cluster, the representative points of as many sub-clusters.
-    pub fn spread_points(&self, tree: &Tree, node: &Node, count: usize) -> Vec<DVec3> {
+    /// `count` points (a power of four, at most [`LEAF_RAYS`]) on the surface of a node, lifted
+    /// off it, into `points` (cleared first): a grid on a leaf; on a cluster, the representative
+    /// points of as many sub-clusters.
+    pub fn spread_points(&self, tree: &Tree, node: &Node, count: usize, points: &mut Vec<DVec3>) {
+        assert!(count <= LEAF_RAYS, "{count} spread points");
+        points.clear();
         let per_edge = (count as f64).sqrt().round() as usize;
         if node.is_leaf() {
-            return self.targets[node.leaf as usize].sample_points(per_edge);
+            return self.targets[node.leaf as usize].sample_points_into(per_edge, points);
         }
         // Split the largest frontier node until there are `count` of them (or only leaves).
-        let mut frontier = vec![node];
-        while frontier.len() < count {
-            let Some((i, _)) = frontier
+        let mut frontier = [node; LEAF_RAYS];
+        let mut len = 1;
+        while len < count {
+            let Some((i, _)) = frontier[..len]
                 .iter()
                 .enumerate()
                 .filter(|(_, n)| !n.is_leaf())
@@ -167,12 +171,15 @@ impl NodeGeometry {
             else {
                 break;
             };
-            let n = frontier.swap_remove(i);
-            frontier.extend(n.children.map(|c| &tree.nodes[c as usize]));
+            let [c0, c1] = frontier[i].children.map(|c| &tree.nodes[c as usize]);
+            frontier[i] = frontier[len - 1];
+            frontier[len - 1] = c0;
+            frontier[len] = c1;
+            len += 1;
         }
-        let mut points: Vec<DVec3> = Vec::with_capacity(count);
-        if frontier.len() >= count {
-            for n in frontier.iter().take(count) {
+        let frontier = &frontier[..len];
+        if len >= count {
+            for n in frontier {
                 let leaf = if n.is_leaf() { n.leaf } else { n.representative };
                 debug_assert!(leaf != NONE);
                 let t = &self.targets[leaf as usize];
@@ -180,10 +187,10 @@ impl NodeGeometry {
             }
         } else {
             // Few leaves: several points on each.
-            let each = count.div_ceil(frontier.len());
+            let each = count.div_ceil(len);
             let k = ((each as f64).sqrt().ceil() as usize).max(1);
-            for n in &frontier {
-                points.extend(self.targets[n.leaf as usize].sample_points(k));
+            for n in frontier {
+                self.targets[n.leaf as usize].sample_points_into(k, points);
             }
             points.truncate(count);
             let mut i = 0;
@@ -192,8 +199,15 @@ impl NodeGeometry {
                 i += 1;
             }
         }
-        points
     }
+}
+
+/// A task's links, and the spread points of its shadow rays (kept to save an allocation per
+/// link).
+#[derive(Default)]
+struct Run {
+    links: Vec<Link>,
+    points: [Vec<DVec3>; 2],
 }
 
 struct Context<'a> {
@@ -226,10 +240,10 @@ pub fn build(
     let per_pair: Vec<Vec<Link>> = pairs
         .par_iter()
         .map(|&(r, s)| {
-            let mut out = Vec::new();
-            ctx.refine(r, s, &mut out);
-            out.shrink_to_fit(); // a run grows by doubling: up to twice its links otherwise
-            out
+            let mut run = Run::default();
+            ctx.refine(r, s, &mut run);
+            run.links.shrink_to_fit(); // a run grows by doubling: up to twice its links otherwise
+            run.links
         })
         .collect();
     let links = per_pair;
@@ -317,7 +331,7 @@ impl Context<'_> {
         &self.tree.nodes[i as usize]
     }
 
-    fn refine(&self, r: u32, s: u32, out: &mut Vec<Link>) {
+    fn refine(&self, r: u32, s: u32, out: &mut Run) {
         let (nr, ns) = (self.node(r), self.node(s));
         if !in_front(ns, nr) || !in_front(nr, ns) {
             return;
@@ -333,24 +347,25 @@ impl Context<'_> {
             let (g, grad_a, grad_b) = if admissible {
                 self.far(r, s)
             } else {
-                (self.near(nr.leaf, ns.leaf, dist), [0.0; 2], [0.0; 2])
+                let points = &mut out.points[0];
+                (self.near(nr.leaf, ns.leaf, dist, points), [0.0; 2], [0.0; 2])
             };
             if g <= 0.0 {
                 return;
             }
-            let v = self.visibility(nr, ns, RAYS);
+            let v = self.visibility(nr, ns, RAYS, &mut out.points);
             let partial = v > 0.0 && v < 1.0;
             let important = g / nr.area.min(ns.area) > self.options.visibility_refine;
             if partial && !both_leaves && important {
                 return self.split(r, s, out);
             }
             let v = if partial && both_leaves {
-                self.visibility(nr, ns, LEAF_RAYS)
+                self.visibility(nr, ns, LEAF_RAYS, &mut out.points)
             } else {
                 v
             };
             if v > 0.0 {
-                out.push(Link {
+                out.links.push(Link {
                     a: r,
                     b: s,
                     g: (g * v) as f32,
@@ -365,7 +380,7 @@ impl Context<'_> {
 
     /// Splits the larger of the two (a leaf is never split; a hot cluster first) and refines
     /// both halves.
-    fn split(&self, r: u32, s: u32, out: &mut Vec<Link>) {
+    fn split(&self, r: u32, s: u32, out: &mut Run) {
         let (nr, ns) = (self.node(r), self.node(s));
         let split_r = if nr.hot != ns.hot && !nr.is_leaf() && !ns.is_leaf() {
             nr.hot
@@ -375,13 +390,13 @@ impl Context<'_> {
         let (big, other) = if split_r { (nr, s) } else { (ns, r) };
         let [c0, c1] = big.children;
         if big.leaf_count > 512 {
-            let (mut a, mut b) = (Vec::new(), Vec::new());
+            let (mut a, mut b) = (Run::default(), Run::default());
             rayon::join(
                 || self.refine(c0, other, &mut a),
                 || self.refine(c1, other, &mut b),
             );
-            out.append(&mut a);
-            out.append(&mut b);
+            out.links.append(&mut a.links);
+            out.links.append(&mut b.links);
         } else {
             self.refine(c0, other, out);
             self.refine(c1, other, out);
@@ -432,7 +447,7 @@ impl Context<'_> {
     /// Near `G` of two leaves: the exact contour factor averaged over points of the receiving
     /// leaf, `A_R F̄_{R→S}`, from the smaller leaf (whose factor to the other varies least over
     /// it), averaged both ways when their sizes are alike.
-    fn near(&self, a: u32, b: u32, dist: f64) -> f64 {
+    fn near(&self, a: u32, b: u32, dist: f64, points: &mut Vec<DVec3>) -> f64 {
         let (ta, tb) = (
             &self.geometry.targets[a as usize],
             &self.geometry.targets[b as usize],
@@ -440,7 +455,8 @@ impl Context<'_> {
         let mut scratch = Vec::with_capacity(6);
         let mut one_way = |from: &TargetPatch, to: &TargetPatch| {
             let k = ((2.0 * from.size / dist).ceil() as usize).clamp(1, 4);
-            let points = from.sample_points(k);
+            points.clear();
+            from.sample_points_into(k, points);
             let sum: f64 = points
                 .iter()
                 .map(|&p| to.form_factor_with(p, from.normal, f64::INFINITY, &mut scratch))
@@ -458,15 +474,15 @@ impl Context<'_> {
 
     /// Unblocked fraction of `rays` rays between points spread over both nodes (1 without
     /// occluders in the shaft).
-    fn visibility(&self, a: &Node, b: &Node, rays: usize) -> f64 {
+    fn visibility(&self, a: &Node, b: &Node, rays: usize, [pa, pb]: &mut [Vec<DVec3>; 2]) -> f64 {
         let Some(occ) = self.occluders else { return 1.0 };
         let pad = DVec3::splat(LIFT_M * 2.0);
         let shaft = occ.between((a.lo - pad, a.hi + pad), (b.lo - pad, b.hi + pad));
         if shaft.is_empty() {
             return 1.0;
         }
-        let pa = self.geometry.spread_points(self.tree, a, rays);
-        let pb = self.geometry.spread_points(self.tree, b, rays);
+        self.geometry.spread_points(self.tree, a, rays, pa);
+        self.geometry.spread_points(self.tree, b, rays, pb);
         // Pair point j of `a` with a permuted point of `b` (the multiplier is odd, so coprime
         // with the power-of-two count).
         let stride = if rays == LEAF_RAYS { 27 } else { 7 };

@@ -2,6 +2,7 @@
 
 pub mod bake;
 pub mod basis;
+pub mod box_bvh;
 pub mod cache;
 pub mod direct;
 pub mod formfactor;

@@ -1,5 +1,6 @@
-//! Shadow rays against the scene's occluders: furniture boxes (exact f64 slab tests) and OBJ
-//! triangles (a BVH2 from the `obvhs` crate, f32, built once per scene).
+//! Shadow rays against the scene's occluders: furniture boxes (exact f64 slab tests, in a
+//! [`BoxBvh`] for rays that may meet any of them) and OBJ triangles (a BVH2 from the `obvhs`
+//! crate, f32, built once per scene).
 //!
 //! Room walls never occlude (the room is convex); only boxes and meshes can, so a scene
 //! without them needs no visibility tests at all ([`crate::transport::visibility::Unoccluded`]).
@@ -13,6 +14,7 @@ use glam::{DVec3, Vec3A};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle};
 
 use crate::scene::{Aabb, PatchMesh, Scene, SurfaceKind};
+use crate::transport::box_bvh::{BoxBvh, slab};
 use crate::transport::visibility::Visibility;
 
 /// Relative margin that keeps a ray's end points off the surfaces they lie on (boxes, f64).
@@ -20,19 +22,6 @@ const END_EPS: f64 = 1e-7;
 /// Distance (m) kept from both ends of a shadow ray against triangles (f32 BVH: coordinates of a
 /// few metres carry about 5e-7 m of rounding).
 const TRIANGLE_END_M: f32 = 1e-4;
-
-/// Ray–box slab test: true when the segment `o + t d`, t in (t0, t1), passes through the box's
-/// interior.
-fn slab(b: &Aabb, o: DVec3, inv_d: DVec3, t0: f64, t1: f64) -> bool {
-    let ta = (b.min - o) * inv_d;
-    let tb = (b.max - o) * inv_d;
-    let near = ta.min(tb);
-    let far = ta.max(tb);
-    // NaN (0 · ∞ for a ray in a slab's plane) is dropped by max/min on each axis.
-    let enter = near.x.max(near.y).max(near.z).max(t0);
-    let exit = far.x.min(far.y).min(far.z).min(t1);
-    enter < exit
-}
 
 /// OBJ triangles in an obvhs BVH2.
 #[derive(Clone)]
@@ -50,7 +39,7 @@ impl std::fmt::Debug for TriangleBvh {
 /// The scene's occluders. Answers shadow-ray queries for any number of threads.
 #[derive(Debug, Clone)]
 pub struct Occluders {
-    boxes: Vec<Aabb>,
+    boxes: BoxBvh,
     triangles: Option<TriangleBvh>,
 }
 
@@ -81,14 +70,14 @@ impl Occluders {
             TriangleBvh { triangles, bvh }
         });
         Occluders {
-            boxes: boxes.to_vec(),
+            boxes: BoxBvh::new(boxes),
             triangles,
         }
     }
 
     /// Number of primitives (boxes + triangles).
     pub fn len(&self) -> usize {
-        self.boxes.len() + self.triangles.as_ref().map_or(0, |t| t.triangles.len())
+        self.boxes.boxes().len() + self.triangles.as_ref().map_or(0, |t| t.triangles.len())
     }
 
     /// True when there are no occluders.
@@ -103,6 +92,7 @@ impl Occluders {
     pub fn within(&self, min: DVec3, max: DVec3) -> LocalOccluders<'_> {
         let boxes = self
             .boxes
+            .boxes()
             .iter()
             .filter(|b| b.min.cmplt(max).all() && b.max.cmpgt(min).all())
             .copied()
@@ -168,7 +158,7 @@ impl Occluders {
 
     /// True when any occluder meets the open segment `from → to`.
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
-        segment_blocked(&self.boxes, self.triangles.as_ref(), from, to)
+        segment_blocked(Boxes::Tree(&self.boxes), self.triangles.as_ref(), from, to)
     }
 }
 
@@ -177,6 +167,14 @@ impl Occluders {
 pub struct LocalOccluders<'a> {
     boxes: Vec<Aabb>,
     triangles: Option<&'a TriangleBvh>,
+}
+
+/// The boxes a segment is tested against: a short list one by one (a local view), or all of
+/// them through their hierarchy.
+#[derive(Clone, Copy)]
+enum Boxes<'a> {
+    List(&'a [Aabb]),
+    Tree(&'a BoxBvh),
 }
 
 impl LocalOccluders<'_> {
@@ -188,7 +186,7 @@ impl LocalOccluders<'_> {
     /// True when any of these occluders meets the open segment `from → to` (both inside the
     /// region the view was made for; the same answer as [`Occluders::blocked`] there).
     pub fn blocked(&self, from: DVec3, to: DVec3) -> bool {
-        segment_blocked(&self.boxes, self.triangles, from, to)
+        segment_blocked(Boxes::List(&self.boxes), self.triangles, from, to)
     }
 }
 
@@ -230,10 +228,15 @@ fn hull_meets_box(min: DVec3, max: DVec3, apex: DVec3, b: &Aabb) -> bool {
 const SEPARATION_M: f64 = 1e-9;
 
 /// True when a box or a triangle meets the open segment `from → to`.
-fn segment_blocked(boxes: &[Aabb], triangles: Option<&TriangleBvh>, from: DVec3, to: DVec3) -> bool {
+fn segment_blocked(boxes: Boxes<'_>, triangles: Option<&TriangleBvh>, from: DVec3, to: DVec3) -> bool {
     let d = to - from;
     let inv_d = d.recip();
-    if boxes.iter().any(|b| slab(b, from, inv_d, END_EPS, 1.0 - END_EPS)) {
+    let (t0, t1) = (END_EPS, 1.0 - END_EPS);
+    let box_hit = match boxes {
+        Boxes::List(list) => list.iter().any(|b| slab(b, from, inv_d, t0, t1)),
+        Boxes::Tree(tree) => tree.blocked(from, inv_d, t0, t1),
+    };
+    if box_hit {
         return true;
     }
     let Some(tris) = triangles else { return false };
