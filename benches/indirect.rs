@@ -38,11 +38,9 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
     let scene = haiko::scene::load(&path).unwrap_or_else(|e| panic!("bench room: {e}"));
     let p = plan(&scene, PlanOptions::default());
     let build = || {
-        HierarchicalIndirect::build(
+        HierarchicalIndirect::planned(
             &scene,
-            &scene.lights,
-            p.channels,
-            p.visibility.on,
+            &p,
             scene.settings.tolerance,
             &InterreflectionOptions::for_leaves(p.leaves),
         )
@@ -204,15 +202,8 @@ fn gather(c: &mut Criterion) {
             linear_gather,
             ..InterreflectionOptions::for_leaves(p.leaves)
         };
-        let engine = HierarchicalIndirect::build(
-            &scene,
-            &scene.lights,
-            p.channels,
-            p.visibility.on,
-            scene.settings.tolerance,
-            &options,
-        )
-        .unwrap_or_else(|e| panic!("bench room: {e}"));
+        let engine = HierarchicalIndirect::planned(&scene, &p, scene.settings.tolerance, &options)
+            .unwrap_or_else(|e| panic!("bench room: {e}"));
         group.bench_function(name, |b| b.iter(|| black_box(engine.gather_all(&plane))));
     }
     group.finish();

@@ -37,7 +37,7 @@ use crate::transport::gather::illuminance_at_receivers;
 use crate::transport::indirect::{HierarchicalIndirect, IndirectStats, measured_curve_edit, measured_reaim};
 use crate::transport::interreflection::{InterreflectionOptions, RELAXED_ETA_FAR, RELAXED_NEAR_M};
 use crate::transport::occlusion::Occluders;
-use crate::transport::plan::{Plan, PlanOptions, plan};
+use crate::transport::plan::{PlanOptions, plan};
 use crate::transport::refine::RefineOptions;
 use crate::transport::visibility::Visibility;
 
@@ -822,26 +822,18 @@ fn finer_engine(factor: f64) -> InterreflectionOptions {
 /// One engine run of table 7: the engine with `options`, every light solved; its fields and its
 /// sizes and times. `direct` holds the exact direct light on the work plane and at the fine
 /// vertices.
-/// The hierarchical engine of `base` with `options`, its channels and visibility as `p` plans
-/// them, every light solved to [`ENGINE_TOLERANCE`].
-fn planned_engine(base: &Scene, p: &Plan, options: &InterreflectionOptions) -> Result<HierarchicalIndirect> {
-    HierarchicalIndirect::build(
-        base,
-        &base.lights,
-        p.channels,
-        p.visibility.on,
-        ENGINE_TOLERANCE,
-        options,
-    )
-}
-
 fn engine_run(
     base: &Scene,
     options: &InterreflectionOptions,
     grid: &[Receiver],
     direct: &Fields,
 ) -> Result<(Fields, IndirectStats)> {
-    let engine = planned_engine(base, &plan(base, PlanOptions::default()), options)?;
+    let engine = HierarchicalIndirect::planned(
+        base,
+        &plan(base, PlanOptions::default()),
+        ENGINE_TOLERANCE,
+        options,
+    )?;
     let stats = engine.stats();
     let gathered = lux(&engine.gather_all(grid));
     let mut vertex_indirect = vec![[0.0; 3]; direct.vertices.len()];
@@ -909,7 +901,12 @@ fn estimate_table(base: &Scene) -> Result<Vec<EstimateRow>> {
     let Some(light) = base.lights.first().filter(|_| p.interreflection.on) else {
         return Ok(Vec::new());
     };
-    let engine = planned_engine(base, &p, &InterreflectionOptions::for_leaves(p.leaves))?;
+    let engine = HierarchicalIndirect::planned(
+        base,
+        &p,
+        ENGINE_TOLERANCE,
+        &InterreflectionOptions::for_leaves(p.leaves),
+    )?;
     let (reaim, curve) = (measured_reaim(light), measured_curve_edit(light));
     let mut rows = Vec::new();
     for order in ESTIMATE_ORDERS {

@@ -283,7 +283,10 @@ fn quadrature(
         // Edge-midpoint rule on the flat triangle (exact for quadratics) applied to the solid-angle
         // density, which is ∝ 1/|q|³ on a plane; the weights are rescaled to the exact solid angle.
         let omega = triangle_solid_angle(a, b, c);
-        let density = points.map(|q| q.length_squared().powf(-1.5));
+        let density = points.map(|q| {
+            let r2 = q.length_squared();
+            1.0 / (r2 * r2.sqrt())
+        });
         let norm = omega / (density[0] + density[1] + density[2]);
         for ((q, d), seen) in points.into_iter().zip(density).zip(seen) {
             if !seen {

@@ -258,10 +258,11 @@ impl TargetPatch {
         let c = &self.corners;
         let lift = self.normal * SURFACE_OFFSET_M;
         if self.n_corners == 4 {
+            let step = 1.0 / s as f64;
             for a in 0..s {
+                let u = (a as f64 + 0.5) * step;
                 for b in 0..s {
-                    let u = (a as f64 + 0.5) / s as f64;
-                    let v = (b as f64 + 0.5) / s as f64;
+                    let v = (b as f64 + 0.5) * step;
                     let q = c[0] * ((1.0 - u) * (1.0 - v))
                         + c[1] * (u * (1.0 - v))
                         + c[2] * (u * v)

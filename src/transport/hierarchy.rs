@@ -293,6 +293,79 @@ pub fn plane_axes(normal: DVec3) -> [usize; 2] {
 /// "Interreflection", "Memory and time of the open-plan floor").
 pub const BALANCE_DEFECT: f64 = 1e-7;
 
+/// Columns a receiving node's gather sums at a time, in registers.
+const GATHER_COLUMNS: usize = 4;
+
+/// A receiving node's gather from the node radiosity `b` (node-major, `k` columns): per column
+/// `c`, `value[c] = Σ_e f_e b[s_e][c]` over its links `(sources, coefficients)` and, with the
+/// links' `gradients`, `grad[2c..2c + 2] = Σ_e ∇f_e b[s_e][c]`. The columns go in chunks of up to
+/// [`GATHER_COLUMNS`] whose sums stay in registers across the links (each sum adds its terms in
+/// the links' order, as one term at a time into `value` would).
+fn gather(
+    b: &[f64],
+    k: usize,
+    links: (&[u32], &[f32]),
+    gradients: Option<&[[f32; 2]]>,
+    value: &mut [f64],
+    grad: &mut [f64],
+) {
+    let mut c0 = 0;
+    while c0 < k {
+        let w = (k - c0).min(GATHER_COLUMNS);
+        match w {
+            1 => gather_chunk::<1>(b, k, c0, links, gradients, value, grad),
+            2 => gather_chunk::<2>(b, k, c0, links, gradients, value, grad),
+            3 => gather_chunk::<3>(b, k, c0, links, gradients, value, grad),
+            _ => gather_chunk::<GATHER_COLUMNS>(b, k, c0, links, gradients, value, grad),
+        }
+        c0 += w;
+    }
+}
+
+/// [`gather`] for the `W` columns from `c0`.
+fn gather_chunk<const W: usize>(
+    b: &[f64],
+    k: usize,
+    c0: usize,
+    (sources, coefficients): (&[u32], &[f32]),
+    gradients: Option<&[[f32; 2]]>,
+    value: &mut [f64],
+    grad: &mut [f64],
+) {
+    let mut sum = [0.0; W];
+    let row = |s: u32| -> &[f64; W] {
+        let start = s as usize * k + c0;
+        b[start..start + W].try_into().expect("W columns")
+    };
+    match gradients {
+        None => {
+            for (&s, &f) in sources.iter().zip(coefficients) {
+                let (f, x) = (f64::from(f), row(s));
+                for c in 0..W {
+                    sum[c] += f * x[c];
+                }
+            }
+        }
+        Some(gradients) => {
+            let (mut gu_sum, mut gv_sum) = ([0.0; W], [0.0; W]);
+            for ((&s, &f), g) in sources.iter().zip(coefficients).zip(gradients) {
+                let (f, x) = (f64::from(f), row(s));
+                let [gu, gv] = g.map(f64::from);
+                for c in 0..W {
+                    sum[c] += f * x[c];
+                    gu_sum[c] += gu * x[c];
+                    gv_sum[c] += gv * x[c];
+                }
+            }
+            for c in 0..W {
+                grad[2 * (c0 + c)] = gu_sum[c];
+                grad[2 * (c0 + c) + 1] = gv_sum[c];
+            }
+        }
+    }
+    value[c0..c0 + W].copy_from_slice(&sum);
+}
+
 /// The hierarchical form-factor operator `F` on the leaves.
 #[derive(Debug, Clone)]
 pub struct Operator {
@@ -446,26 +519,12 @@ impl Operator {
             .for_each(|(r, out)| {
                 let (value, grad) = out.split_at_mut(k);
                 let entries = self.offsets[r]..self.offsets[r + 1];
+                let links = (&self.sources[entries.clone()], &self.coefficients[entries]);
                 if nodes[r].is_leaf() {
-                    for e in entries {
-                        let s = self.sources[e] as usize;
-                        let f = f64::from(self.coefficients[e]);
-                        for (v, &x) in value.iter_mut().zip(&b[s * k..(s + 1) * k]) {
-                            *v += f * x;
-                        }
-                    }
-                    return;
-                }
-                let gradients = &self.gradients[self.gradient_start[r]..self.gradient_start[r + 1]];
-                for (e, g) in entries.zip(gradients) {
-                    let s = self.sources[e] as usize;
-                    let f = f64::from(self.coefficients[e]);
-                    let [gu, gv] = g.map(f64::from);
-                    for (c, &x) in b[s * k..(s + 1) * k].iter().enumerate() {
-                        value[c] += f * x;
-                        grad[2 * c] += gu * x;
-                        grad[2 * c + 1] += gv * x;
-                    }
+                    gather(&b, k, links, None, value, grad);
+                } else {
+                    let gradients = &self.gradients[self.gradient_start[r]..self.gradient_start[r + 1]];
+                    gather(&b, k, links, Some(gradients), value, grad);
                 }
             });
         // Push: a child gets its parent's linear field at its centroid, and the gradient.

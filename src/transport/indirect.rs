@@ -22,6 +22,7 @@ use crate::transport::direct::Receiver;
 use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions, InterreflectionStats};
 use crate::transport::patchdirect::PatchDirectCache;
+use crate::transport::plan::Plan;
 use crate::transport::radiosity::PatchColumns;
 use crate::transport::response::{
     CurveResponse, LightValues, MAX_RESPONSE_POINTS, RESPONSE_POINTS_PER_SOLVE,
@@ -312,6 +313,27 @@ impl HierarchicalIndirect {
             lights,
             tolerance,
             DIRECT_CACHE_BUDGET_BYTES,
+        )
+    }
+
+    /// [`Self::build`] for every light of `scene` with the channels and visibility that `plan`
+    /// (the plan of `scene`) chose; `options` are the engine's (`InterreflectionOptions::for_leaves`
+    /// of the plan's leaves unless a study varies them).
+    ///
+    /// Errors: the solve failing (internal).
+    pub fn planned(
+        scene: &Scene,
+        plan: &Plan,
+        tolerance: f64,
+        options: &InterreflectionOptions,
+    ) -> Result<Self> {
+        Self::build(
+            scene,
+            &scene.lights,
+            plan.channels,
+            plan.visibility.on,
+            tolerance,
+            options,
         )
     }
 

@@ -412,21 +412,20 @@ impl Context<'_> {
             let node = self.node(from);
             let normal = node.normal;
             let (pieces, k) = &self.geometry.pieces[from as usize];
-            let values: Vec<(f64, DVec3, f64)> = pieces[..*k]
-                .iter()
-                .map(|&(a, c)| {
-                    let f =
-                        self.geometry
-                            .node_factor(self.tree, to, c + normal * LIFT_M, normal, &mut scratch);
-                    (a, c, f)
-                })
-                .collect();
+            let mut values = [(0.0, DVec3::ZERO, 0.0); 4];
+            for (v, &(a, c)) in values.iter_mut().zip(&pieces[..*k]) {
+                let f = self
+                    .geometry
+                    .node_factor(self.tree, to, c + normal * LIFT_M, normal, &mut scratch);
+                *v = (a, c, f);
+            }
+            let values = &values[..*k];
             let g: f64 = values.iter().map(|(a, _, f)| a * f).sum();
             let gradient = if node.is_leaf() || node.area <= 0.0 {
                 [0.0; 2]
             } else {
                 let axes = plane_axes(normal);
-                let grad = fit_gradient(&values, node.centroid, axes);
+                let grad = fit_gradient(values, node.centroid, axes);
                 // Keep the linear field non-negative over the node's bounds.
                 let reach = axes.map(|k| (node.centroid[k] - node.lo[k]).max(node.hi[k] - node.centroid[k]));
                 let mean = g / node.area;

@@ -767,11 +767,9 @@ fn print_open_plan_estimates() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/rooms/open-plan.toml");
     let scene = load(&path).expect("the open-plan room loads");
     let p = plan(&scene, PlanOptions::default());
-    let engine = HierarchicalIndirect::build(
+    let engine = HierarchicalIndirect::planned(
         &scene,
-        &scene.lights,
-        p.channels,
-        p.visibility.on,
+        &p,
         scene.settings.tolerance,
         &InterreflectionOptions::for_leaves(p.leaves),
     )
