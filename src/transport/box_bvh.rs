@@ -16,13 +16,16 @@ use crate::scene::Aabb;
 const LEAF_BOXES: usize = 2;
 
 /// Ray–box slab test: true when the segment `o + t d`, t in (t0, t1), passes through the box's
-/// interior (`inv_d` = 1/d per axis).
+/// interior (`inv_d` = 1/d per axis). A ray parallel to an axis and lying in the plane of a face
+/// makes `0 · ∞ = NaN` on that axis; the vector `min`/`max` keep it or not depending on the face
+/// and the direction's sign, and the scalar chain below drops it, so such a grazing ray counts on
+/// that axis as crossing one face's plane and not the other's. A node's bounds answer the same way
+/// for every box of positive extent inside them.
 pub fn slab(b: &Aabb, o: DVec3, inv_d: DVec3, t0: f64, t1: f64) -> bool {
     let ta = (b.min - o) * inv_d;
     let tb = (b.max - o) * inv_d;
     let near = ta.min(tb);
     let far = ta.max(tb);
-    // NaN (0 · ∞ for a ray in a slab's plane) is dropped by max/min on each axis.
     let enter = near.x.max(near.y).max(near.z).max(t0);
     let exit = far.x.min(far.y).min(far.z).min(t1);
     enter < exit
@@ -48,8 +51,13 @@ pub struct BoxBvh {
 }
 
 impl BoxBvh {
-    /// The hierarchy over `boxes`.
+    /// The hierarchy over `boxes`, each with a positive extent on every axis (as a room file's
+    /// boxes are): a box flat on an axis could be met by a grazing ray its node's bounds miss.
     pub fn new(boxes: &[Aabb]) -> Self {
+        debug_assert!(
+            boxes.iter().all(|b| b.min.cmplt(b.max).all()),
+            "boxes with a positive extent on every axis"
+        );
         let mut bvh = BoxBvh {
             boxes: boxes.to_vec(),
             nodes: Vec::with_capacity(2 * boxes.len()),

@@ -81,12 +81,7 @@ pub fn point_to_polygon_with(p: DVec3, n: DVec3, polygon: &[DVec3], scratch: &mu
 /// vectors, so the vectors from `p` to the corners are used as they are, unnormalised: one
 /// square root and one `atan2` per edge.
 fn contour_form_factor(p: DVec3, n: DVec3, polygon: &[DVec3], clipped: &mut Vec<DVec3>) -> f64 {
-    let polygon = if polygon.iter().all(|&q| n.dot(q - p) >= 0.0) {
-        polygon
-    } else {
-        clip_to_front(p, n, polygon, clipped);
-        clipped.as_slice()
-    };
+    let polygon = front_part(p, n, polygon, clipped);
     if polygon.len() < 3 {
         return 0.0;
     }
@@ -96,7 +91,7 @@ fn contour_form_factor(p: DVec3, n: DVec3, polygon: &[DVec3], clipped: &mut Vec<
         let (ra, rb) = (a - p, polygon[(i + 1) % polygon.len()] - p);
         let cross = ra.cross(rb);
         let sin2 = cross.length_squared();
-        // |R̂_a × R̂_b| below DEGENERATE_EDGE (or a corner at p): no contribution.
+        // |R̂_a × R̂_b| at most DEGENERATE_EDGE (or a corner at p): no contribution.
         if sin2 <= degenerate2 * ra.length_squared() * rb.length_squared() {
             continue;
         }
@@ -107,21 +102,26 @@ fn contour_form_factor(p: DVec3, n: DVec3, polygon: &[DVec3], clipped: &mut Vec<
     (sum / (2.0 * PI)).abs()
 }
 
-/// Sutherland–Hodgman against the single plane `n·(x − p) = 0`, keeping the front side.
-fn clip_to_front(p: DVec3, n: DVec3, polygon: &[DVec3], out: &mut Vec<DVec3>) {
-    out.clear();
+/// The part of `polygon` in front of the plane `n·(x − p) = 0`: the polygon itself when no
+/// corner is behind it, else its Sutherland–Hodgman clip written into `clipped`.
+fn front_part<'a>(p: DVec3, n: DVec3, polygon: &'a [DVec3], clipped: &'a mut Vec<DVec3>) -> &'a [DVec3] {
     let height = |q: DVec3| n.dot(q - p);
+    if polygon.iter().all(|&q| height(q) >= 0.0) {
+        return polygon;
+    }
+    clipped.clear();
     for (i, &a) in polygon.iter().enumerate() {
         let b = polygon[(i + 1) % polygon.len()];
         let (ha, hb) = (height(a), height(b));
         if ha >= 0.0 {
-            out.push(a);
+            clipped.push(a);
         }
         if (ha >= 0.0) != (hb >= 0.0) {
             let t = ha / (ha - hb);
-            out.push(a + (b - a) * t);
+            clipped.push(a + (b - a) * t);
         }
     }
+    clipped
 }
 
 /// A patch as the target of form factors: its polygon and what the far-field rule needs.

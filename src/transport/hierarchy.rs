@@ -300,7 +300,8 @@ const GATHER_COLUMNS: usize = 4;
 /// `c`, `value[c] = Σ_e f_e b[s_e][c]` over its links `(sources, coefficients)` and, with the
 /// links' `gradients`, `grad[2c..2c + 2] = Σ_e ∇f_e b[s_e][c]`. The columns go in chunks of up to
 /// [`GATHER_COLUMNS`] whose sums stay in registers across the links (each sum adds its terms in
-/// the links' order, as one term at a time into `value` would).
+/// the links' order, as one term at a time into `value` would). Without `gradients`, `grad` is
+/// left as it is (zero in [`Operator::apply_block`]'s output).
 fn gather(
     b: &[f64],
     k: usize,

@@ -20,7 +20,7 @@ use crate::scene::{Light, Scene, SurfaceKind};
 use crate::transport::direct::{Receiver, SHADOW_SPLIT_DEPTH};
 use crate::transport::formfactor::kernel_gradient;
 use crate::transport::hierarchy::{Node, Operator, Tree};
-use crate::transport::links::{self, LinkOptions, NodeGeometry};
+use crate::transport::links::{self, LinkOptions, MAX_SPREAD_POINTS, NodeGeometry};
 use crate::transport::occlusion::Occluders;
 use crate::transport::patchdirect::{DEFAULT_SPLIT, PatchDirectCache, Split};
 use crate::transport::radiosity::{PatchColumns, Solution, SolveOptions, solve_from};
@@ -35,6 +35,7 @@ const GATHER_RAYS: usize = 4;
 const GATHER_RAYS_PARTIAL: usize = 64;
 /// Rays to a cluster when gathering.
 const GATHER_CLUSTER_RAYS: usize = 16;
+const _: () = assert!(GATHER_RAYS_PARTIAL <= MAX_SPREAD_POINTS && GATHER_CLUSTER_RAYS <= MAX_SPREAD_POINTS);
 
 /// The knobs of the engine; `Default` is what the bake uses.
 #[derive(Debug, Clone, Copy, PartialEq)]

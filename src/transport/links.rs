@@ -34,7 +34,12 @@ use crate::transport::slopes::plane_gradient;
 const LIFT_M: f64 = 1e-6;
 /// Rays per link between nodes, and between two leaves once partially visible.
 const RAYS: usize = 16;
-pub const LEAF_RAYS: usize = 64;
+const LEAF_RAYS: usize = 64;
+/// Most points [`NodeGeometry::spread_points`] spreads over a node (the size of its frontier).
+pub const MAX_SPREAD_POINTS: usize = 64;
+const _: () = assert!(RAYS <= MAX_SPREAD_POINTS && LEAF_RAYS <= MAX_SPREAD_POINTS);
+/// Pieces of a node for the far-field midpoint rule.
+const PIECES: usize = 4;
 
 /// How links are made.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -83,7 +88,7 @@ pub struct Links {
 }
 
 /// Up to four (area, centroid) pieces of a node for the far-field midpoint rule.
-type Pieces = ([(f64, DVec3); 4], usize);
+type Pieces = ([(f64, DVec3); PIECES], usize);
 
 /// What links and gathers need of every node: the leaves' polygons and each node's pieces.
 #[derive(Debug, Clone)]
@@ -149,18 +154,18 @@ impl NodeGeometry {
         }
     }
 
-    /// `count` points (a power of four, at most [`LEAF_RAYS`]) on the surface of a node, lifted
+    /// `count` points (a power of four, 1 to [`MAX_SPREAD_POINTS`]) on the surface of a node, lifted
     /// off it, into `points` (cleared first): a grid on a leaf; on a cluster, the representative
     /// points of as many sub-clusters.
     pub fn spread_points(&self, tree: &Tree, node: &Node, count: usize, points: &mut Vec<DVec3>) {
-        assert!(count <= LEAF_RAYS, "{count} spread points");
+        assert!((1..=MAX_SPREAD_POINTS).contains(&count), "{count} spread points");
         points.clear();
         let per_edge = (count as f64).sqrt().round() as usize;
         if node.is_leaf() {
             return self.targets[node.leaf as usize].sample_points_into(per_edge, points);
         }
         // Split the largest frontier node until there are `count` of them (or only leaves).
-        let mut frontier = [node; LEAF_RAYS];
+        let mut frontier = [node; MAX_SPREAD_POINTS];
         let mut len = 1;
         while len < count {
             let Some((i, _)) = frontier[..len]
@@ -262,7 +267,7 @@ pub fn build(
 /// The pieces of a node: its grandchildren (children that are leaves count as themselves), or
 /// for a leaf a 2 × 2 split (four sub-triangles of a triangle).
 fn node_pieces(tree: &Tree, targets: &[TargetPatch], node: &Node) -> Pieces {
-    let mut out = [(0.0, DVec3::ZERO); 4];
+    let mut out = [(0.0, DVec3::ZERO); PIECES];
     let mut n = 0;
     if node.is_leaf() {
         let t = &targets[node.leaf as usize];
@@ -412,7 +417,7 @@ impl Context<'_> {
             let node = self.node(from);
             let normal = node.normal;
             let (pieces, k) = &self.geometry.pieces[from as usize];
-            let mut values = [(0.0, DVec3::ZERO, 0.0); 4];
+            let mut values = [(0.0, DVec3::ZERO, 0.0); PIECES];
             for (v, &(a, c)) in values.iter_mut().zip(&pieces[..*k]) {
                 let f = self
                     .geometry
