@@ -273,10 +273,12 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
         mb(stats.total_bytes())
     ));
     s.push_str(&format!(
-        "time: refinement {:.1} ms, links {:.1} ms, balancing {:.1} ms, direct caches {:.1} ms, solve {:.1} ms\n",
+        "time: refinement {:.1} ms, links {:.1} ms, balancing {:.1} ms ({} sweeps, power conserved to {:.1e}), direct caches {:.1} ms, solve {:.1} ms\n",
         e.refine_s * 1e3,
         e.links_s * 1e3,
         e.balance_s * 1e3,
+        e.balance_sweeps,
+        e.balance_defect,
         stats.direct_caches_s * 1e3,
         stats.solve_s * 1e3
     ));
@@ -338,6 +340,7 @@ fn bake_json(
         "links": e.links,
         "near_links": e.near_links,
         "rays": e.rays,
+        "balancing": {"sweeps": e.balance_sweeps, "defect": e.balance_defect},
         "memory_bytes": {
             "operator": e.operator_bytes,
             "node_geometry": e.geometry_bytes,

@@ -293,6 +293,14 @@ pub fn plane_axes(normal: DVec3) -> [usize; 2] {
 /// "Interreflection", "Memory and time of the open-plan floor").
 pub const BALANCE_DEFECT: f64 = 1e-7;
 
+/// Balancing also stops when its defect has not fallen below this fraction of what it was
+/// [`BALANCE_STALL_SWEEPS`] sweeps before: the rows' targets and the columns' power then cannot
+/// be met together (an OBJ room keeps each row's own sum, and those sums do not add up to the
+/// area the columns conserve), and further sweeps change nothing (docs/DECISIONS.md "Balancing
+/// stops when it stalls").
+const BALANCE_STALL: f64 = 0.99;
+const BALANCE_STALL_SWEEPS: usize = 5;
+
 /// Columns a receiving node's gather sums at a time, in registers.
 const GATHER_COLUMNS: usize = 4;
 
@@ -365,6 +373,19 @@ fn gather_chunk<const W: usize>(
         }
     }
     value[c0..c0 + W].copy_from_slice(&sum);
+}
+
+/// What [`Operator::balance`] found and reached.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Balance {
+    /// Largest relative defect of the unbalanced rows against their target.
+    pub row_defect: f64,
+    /// Largest relative defect of the unbalanced area-weighted column sums.
+    pub column_defect: f64,
+    /// Sweeps made.
+    pub sweeps: usize,
+    /// Largest relative column defect left (below [`BALANCE_DEFECT`] unless it stalled).
+    pub defect: f64,
 }
 
 /// The hierarchical form-factor operator `F` on the leaves.
@@ -560,9 +581,8 @@ impl Operator {
     /// Alternating diagonal scalings (Sinkhorn) until, to [`BALANCE_DEFECT`], each leaf's row sums to
     /// `target` (or, with `None`, to its unbalanced sum) and every column conserves power:
     /// `Σ_i A_i F_ij = A_j` (the column sums come from the transposed operator, since the
-    /// gradient terms make it unsymmetric). Returns the largest relative defect of the unbalanced
-    /// rows against the target and of the unbalanced area-weighted columns.
-    pub fn balance(&mut self, target: Option<f64>) -> (f64, f64) {
+    /// gradient terms make it unsymmetric), or until it stalls ([`BALANCE_STALL`]).
+    pub fn balance(&mut self, target: Option<f64>) -> Balance {
         let n = self.n_leaves();
         let areas = self.leaf_areas();
         let ones = vec![1.0; n];
@@ -589,6 +609,7 @@ impl Operator {
         let column_defect = cd.iter().map(|c| (c - 1.0).abs()).fold(0.0, f64::max);
         let mut row = vec![1.0; n];
         let mut col = vec![1.0; n];
+        let mut defects: Vec<f64> = Vec::new();
         for _ in 0..200 {
             for j in 0..n {
                 col[j] = if cd[j] > 0.0 { 1.0 / cd[j] } else { 1.0 };
@@ -603,13 +624,23 @@ impl Operator {
                 .filter(|&j| cd[j] > 0.0)
                 .map(|j| (col[j] * cd[j] - 1.0).abs())
                 .fold(0.0, f64::max);
-            if worst < BALANCE_DEFECT {
+            let stalled = defects
+                .len()
+                .checked_sub(BALANCE_STALL_SWEEPS)
+                .is_some_and(|i| worst > BALANCE_STALL * defects[i]);
+            defects.push(worst);
+            if worst < BALANCE_DEFECT || stalled {
                 break;
             }
         }
         self.row_scale = row;
         self.col_scale = col;
-        (row_defect, column_defect)
+        Balance {
+            row_defect,
+            column_defect,
+            sweeps: defects.len(),
+            defect: defects.last().copied().unwrap_or(0.0),
+        }
     }
 
     /// `Fᵀ y` of the unscaled operator (one column): the transposed push (a node collects its
@@ -702,5 +733,79 @@ impl Operator {
     /// `Fᵀ·y` before balancing (for tests).
     pub(crate) fn apply_transpose_for_test(&self, y: &[f64]) -> Vec<f64> {
         self.apply_transpose_raw(y)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Patch;
+
+    /// Two facing squares at z = 0 (side 1, up) and z = 1 (side `s`, down), each its own surface.
+    fn two_squares(s: f64) -> PatchMesh {
+        let positions = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(0.0, s, 1.0),
+            DVec3::new(s, s, 1.0),
+            DVec3::new(s, 0.0, 1.0),
+        ];
+        let patch = |first: u32, surface: u32, normal: DVec3, area: f64, centroid: DVec3| Patch {
+            vertices: [first, first + 1, first + 2, first + 3],
+            n_vertices: 4,
+            surface,
+            normal,
+            area,
+            centroid,
+        };
+        PatchMesh {
+            normals: vec![
+                DVec3::Z,
+                DVec3::Z,
+                DVec3::Z,
+                DVec3::Z,
+                DVec3::NEG_Z,
+                DVec3::NEG_Z,
+                DVec3::NEG_Z,
+                DVec3::NEG_Z,
+            ],
+            vertex_surface: vec![0, 0, 0, 0, 1, 1, 1, 1],
+            patches: vec![
+                patch(0, 0, DVec3::Z, 1.0, DVec3::new(0.5, 0.5, 0.0)),
+                patch(4, 1, DVec3::NEG_Z, s * s, DVec3::new(s / 2.0, s / 2.0, 1.0)),
+            ],
+            positions,
+        }
+    }
+
+    /// Rows summing to 1 on two leaves of areas 1 and 2 that see only each other would need
+    /// `A_1 · 1 = A_2` for the second's power: no scaling meets both, and balancing stops when
+    /// its defect stalls instead of running its 200 sweeps, with the rows exact.
+    #[test]
+    fn balancing_stops_when_rows_and_columns_cannot_both_be_met() {
+        let operator = |side: f64| {
+            let tree = Tree::build(&two_squares(side), &[]);
+            let link = Link {
+                a: tree.leaf_node[0],
+                b: tree.leaf_node[1],
+                g: 0.4,
+                grad_a: [0.0; 2],
+                grad_b: [0.0; 2],
+            };
+            Operator::new(tree, &[vec![link]])
+        };
+        let mut operator_unequal = operator(2f64.sqrt());
+        let balance = operator_unequal.balance(Some(1.0));
+        assert!(balance.sweeps <= 2 * BALANCE_STALL_SWEEPS, "{balance:?}");
+        assert!(balance.defect > 0.1, "{balance:?}");
+        for row in operator_unequal.row_sums() {
+            assert!((row - 1.0).abs() < 1e-12, "row sum {row}");
+        }
+        // Equal areas: both can be met, and balancing meets them.
+        let balance = operator(1.0).balance(Some(1.0));
+        assert!(balance.defect < BALANCE_DEFECT, "{balance:?}");
     }
 }

@@ -121,6 +121,9 @@ pub struct InterreflectionStats {
     /// the unbalanced area-weighted column sums.
     pub row_defect: f64,
     pub column_defect: f64,
+    /// Balancing's sweeps and the largest relative column defect it left.
+    pub balance_sweeps: usize,
+    pub balance_defect: f64,
     /// Wall time (s) of the refinement, the links (with their rays) and the balancing.
     pub refine_s: f64,
     pub links_s: f64,
@@ -210,7 +213,7 @@ impl Interreflection {
             .surfaces
             .iter()
             .any(|s| matches!(s.kind, SurfaceKind::Mesh { .. }));
-        let (row_defect, column_defect) = operator.balance(closed.then_some(1.0));
+        let balance = operator.balance(closed.then_some(1.0));
         let balance_s = t.elapsed().as_secs_f64();
         let reflectance = (0..channels.clamp(1, 3))
             .map(|ch| {
@@ -231,8 +234,10 @@ impl Interreflection {
             rays,
             operator_bytes: operator.bytes(),
             geometry_bytes: geometry.bytes() + neighbours.bytes(),
-            row_defect,
-            column_defect,
+            row_defect: balance.row_defect,
+            column_defect: balance.column_defect,
+            balance_sweeps: balance.sweeps,
+            balance_defect: balance.defect,
             refine_s: 0.0,
             links_s,
             balance_s,

@@ -513,8 +513,8 @@ fn bad_room_files_fail_before_anything_else() {
 
 /// `haiko bake --json` on the paper room (the hierarchical engine): leaf, node and link counts
 /// above zero, more leaves than coarse patches (the lamps 0.1 m under the ceiling refine it),
-/// memory parts that sum to the total, stage times and the four per-edit costs measured (finite,
-/// positive). A room whose light hangs far from every surface, with nothing on the floor, gets no
+/// balancing that met its rows and columns, memory parts that sum to the total, stage times and
+/// the four per-edit costs measured (finite, positive). A room whose light hangs far from every surface, with nothing on the floor, gets no
 /// refinement: `haiko plan` prints no refinement line and its JSON lists none.
 #[test]
 fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
@@ -532,6 +532,10 @@ fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
         "{v}"
     );
     assert!(count("nodes") >= count("leaves") && count("links") > 0, "{v}");
+    // The paper room is closed: balancing meets rows and columns, to 1e-7 (hierarchy::BALANCE_DEFECT).
+    let sweeps = v["balancing"]["sweeps"].as_u64().unwrap();
+    let defect = v["balancing"]["defect"].as_f64().unwrap();
+    assert!((1..200).contains(&sweeps) && (0.0..1e-7).contains(&defect), "{v}");
     let memory = v["memory_bytes"].as_object().unwrap();
     let parts: u64 = ["operator", "node_geometry", "lights", "interpolation"]
         .iter()
