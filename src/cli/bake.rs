@@ -277,8 +277,8 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
         e.refine_s * 1e3,
         e.links_s * 1e3,
         e.balance_s * 1e3,
-        e.balance_sweeps,
-        e.balance_defect,
+        e.balance.sweeps,
+        e.balance.defect,
         stats.direct_caches_s * 1e3,
         stats.solve_s * 1e3
     ));
@@ -340,7 +340,7 @@ fn bake_json(
         "links": e.links,
         "near_links": e.near_links,
         "rays": e.rays,
-        "balancing": {"sweeps": e.balance_sweeps, "defect": e.balance_defect},
+        "balancing": {"sweeps": e.balance.sweeps, "defect": e.balance.defect},
         "memory_bytes": {
             "operator": e.operator_bytes,
             "node_geometry": e.geometry_bytes,

@@ -376,7 +376,7 @@ fn gather_chunk<const W: usize>(
 }
 
 /// What [`Operator::balance`] found and reached.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Balance {
     /// Largest relative defect of the unbalanced rows against their target.
     pub row_defect: f64,

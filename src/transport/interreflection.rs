@@ -19,9 +19,9 @@ use crate::photometry::LightState;
 use crate::scene::{Light, Scene, SurfaceKind};
 use crate::transport::direct::{Receiver, SHADOW_SPLIT_DEPTH};
 use crate::transport::formfactor::kernel_gradient;
-use crate::transport::hierarchy::{Node, Operator, Tree};
+use crate::transport::hierarchy::{Balance, Node, Operator, Tree};
 use crate::transport::links::{self, LinkOptions, MAX_SPREAD_POINTS, NodeGeometry};
-use crate::transport::occlusion::Occluders;
+use crate::transport::occlusion::{LocalOccluders, Occluders};
 use crate::transport::patchdirect::{DEFAULT_SPLIT, PatchDirectCache, Split};
 use crate::transport::radiosity::{PatchColumns, Solution, SolveOptions, solve_from};
 use crate::transport::refine::{RefineOptions, SolverMesh, refine};
@@ -117,13 +117,9 @@ pub struct InterreflectionStats {
     /// the leaves' neighbours.
     pub operator_bytes: usize,
     pub geometry_bytes: usize,
-    /// Largest relative defect of the unbalanced row sums (against 1 in a closed scene) and of
-    /// the unbalanced area-weighted column sums.
-    pub row_defect: f64,
-    pub column_defect: f64,
-    /// Balancing's sweeps and the largest relative column defect it left.
-    pub balance_sweeps: usize,
-    pub balance_defect: f64,
+    /// What balancing found (the unbalanced rows' and columns' defects, against 1 for the rows
+    /// in a closed scene) and reached.
+    pub balance: Balance,
     /// Wall time (s) of the refinement, the links (with their rays) and the balancing.
     pub refine_s: f64,
     pub links_s: f64,
@@ -234,10 +230,7 @@ impl Interreflection {
             rays,
             operator_bytes: operator.bytes(),
             geometry_bytes: geometry.bytes() + neighbours.bytes(),
-            row_defect: balance.row_defect,
-            column_defect: balance.column_defect,
-            balance_sweeps: balance.sweeps,
-            balance_defect: balance.defect,
+            balance,
             refine_s: 0.0,
             links_s,
             balance_s,
@@ -461,7 +454,8 @@ impl Interreflection {
                 };
                 (v, moment)
             } else {
-                let v = self.visibility(p, node, GATHER_CLUSTER_RAYS, &mut points);
+                let shaft = self.shaft(p, node);
+                let v = self.visibility(shaft.as_ref(), p, node, GATHER_CLUSTER_RAYS, &mut points);
                 if v > 0.0 && v < 1.0 {
                     stack.extend(node.children);
                     continue;
@@ -489,23 +483,36 @@ impl Interreflection {
 
     /// Visible fraction of a leaf from `p`: 2 × 2 rays, 8 × 8 when those disagree.
     fn leaf_visibility(&self, p: DVec3, node: &Node, points: &mut Vec<DVec3>) -> f64 {
-        let v = self.visibility(p, node, GATHER_RAYS, points);
+        let shaft = self.shaft(p, node);
+        let v = self.visibility(shaft.as_ref(), p, node, GATHER_RAYS, points);
         if v > 0.0 && v < 1.0 {
-            self.visibility(p, node, GATHER_RAYS_PARTIAL, points)
+            self.visibility(shaft.as_ref(), p, node, GATHER_RAYS_PARTIAL, points)
         } else {
             v
         }
     }
 
-    /// Unblocked fraction of `rays` rays from `p` to points spread over `node` (made in
-    /// `points`).
-    fn visibility(&self, p: DVec3, node: &Node, rays: usize, points: &mut Vec<DVec3>) -> f64 {
-        let Some(occ) = &self.occluders else { return 1.0 };
+    /// The occluders a segment from `p` to `node` can meet, `None` when there are none.
+    fn shaft(&self, p: DVec3, node: &Node) -> Option<LocalOccluders<'_>> {
         let pad = DVec3::splat(2.0 * RECEIVER_LIFT_M);
-        let shaft = occ.between((p - pad, p + pad), (node.lo - pad, node.hi + pad));
-        if shaft.is_empty() {
-            return 1.0;
-        }
+        let shaft = self
+            .occluders
+            .as_ref()?
+            .between((p - pad, p + pad), (node.lo - pad, node.hi + pad));
+        (!shaft.is_empty()).then_some(shaft)
+    }
+
+    /// Unblocked fraction of `rays` rays from `p` to points spread over `node` (made in
+    /// `points`; 1 without occluders in the `shaft`).
+    fn visibility(
+        &self,
+        shaft: Option<&LocalOccluders<'_>>,
+        p: DVec3,
+        node: &Node,
+        rays: usize,
+        points: &mut Vec<DVec3>,
+    ) -> f64 {
+        let Some(shaft) = shaft else { return 1.0 };
         self.geometry
             .spread_points(&self.operator.tree, node, rays, points);
         let seen = points.iter().filter(|&&q| !shaft.blocked(p, q)).count();

@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use crate::scene::PatchMesh;
 use crate::transport::formfactor::{TargetPatch, point_to_polygon_with, triangle_quarters};
 use crate::transport::hierarchy::{Link, NONE, Node, Tree, plane_axes};
-use crate::transport::occlusion::Occluders;
+use crate::transport::occlusion::{LocalOccluders, Occluders};
 use crate::transport::slopes::plane_gradient;
 
 /// Lift (m) of sample points off their surface.
@@ -358,14 +358,15 @@ impl Context<'_> {
             if g <= 0.0 {
                 return;
             }
-            let v = self.visibility(nr, ns, RAYS, &mut out.points);
+            let shaft = self.shaft(nr, ns);
+            let v = self.visibility(shaft.as_ref(), nr, ns, RAYS, &mut out.points);
             let partial = v > 0.0 && v < 1.0;
             let important = g / nr.area.min(ns.area) > self.options.visibility_refine;
             if partial && !both_leaves && important {
                 return self.split(r, s, out);
             }
             let v = if partial && both_leaves {
-                self.visibility(nr, ns, LEAF_RAYS, &mut out.points)
+                self.visibility(shaft.as_ref(), nr, ns, LEAF_RAYS, &mut out.points)
             } else {
                 v
             };
@@ -476,15 +477,27 @@ impl Context<'_> {
         }
     }
 
-    /// Unblocked fraction of `rays` rays between points spread over both nodes (1 without
-    /// occluders in the shaft).
-    fn visibility(&self, a: &Node, b: &Node, rays: usize, [pa, pb]: &mut [Vec<DVec3>; 2]) -> f64 {
-        let Some(occ) = self.occluders else { return 1.0 };
+    /// The occluders a segment between the two nodes can meet (their shaft), `None` when there
+    /// are none: made once per link, for its rays and, when partial, its denser re-estimate.
+    fn shaft(&self, a: &Node, b: &Node) -> Option<LocalOccluders<'_>> {
         let pad = DVec3::splat(LIFT_M * 2.0);
-        let shaft = occ.between((a.lo - pad, a.hi + pad), (b.lo - pad, b.hi + pad));
-        if shaft.is_empty() {
-            return 1.0;
-        }
+        let shaft = self
+            .occluders?
+            .between((a.lo - pad, a.hi + pad), (b.lo - pad, b.hi + pad));
+        (!shaft.is_empty()).then_some(shaft)
+    }
+
+    /// Unblocked fraction of `rays` rays between points spread over both nodes (1 without
+    /// occluders in their `shaft`).
+    fn visibility(
+        &self,
+        shaft: Option<&LocalOccluders<'_>>,
+        a: &Node,
+        b: &Node,
+        rays: usize,
+        [pa, pb]: &mut [Vec<DVec3>; 2],
+    ) -> f64 {
+        let Some(shaft) = shaft else { return 1.0 };
         self.geometry.spread_points(self.tree, a, rays, pa);
         self.geometry.spread_points(self.tree, b, rays, pb);
         // Pair point j of `a` with a permuted point of `b` (the multiplier is odd, so coprime
