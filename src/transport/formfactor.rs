@@ -54,6 +54,19 @@ pub fn differential(p: DVec3, n: DVec3, centroid: DVec3, normal: DVec3, area: f6
     cos_p * cos_j * area / (PI * r2)
 }
 
+/// The point-to-point kernel `cosθ_p cosθ_q / r²` (1/m², without the `1/π`) between a point `p`
+/// of unit normal `n` and a point `q = p + d` of unit normal `normal`; zero when either side faces
+/// away. It weighs shadow rays so that a partly visible patch counts the parts that matter most
+/// ([`crate::transport::visibility::weighted_fraction`]).
+pub fn kernel(n: DVec3, normal: DVec3, d: DVec3) -> f64 {
+    let (u, v) = (n.dot(d), -normal.dot(d));
+    let r2 = d.length_squared();
+    if u <= 0.0 || v <= 0.0 || r2 == 0.0 {
+        return 0.0;
+    }
+    u * v / (r2 * r2)
+}
+
 /// The gradient (1/m³, world frame) over a surface point `x` with unit normal `normal` of the
 /// point-to-point kernel `K(x) = cosθ_p cosθ_x / (π r²)` from a point `p` with unit normal `n`:
 /// the first-order change of [`differential`] per unit area as `x` moves. Zero when either

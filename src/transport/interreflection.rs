@@ -18,7 +18,7 @@ use crate::error::Result;
 use crate::photometry::LightState;
 use crate::scene::{Light, Scene, SurfaceKind};
 use crate::transport::direct::{Receiver, SHADOW_SPLIT_DEPTH};
-use crate::transport::formfactor::kernel_gradient;
+use crate::transport::formfactor::{kernel, kernel_gradient};
 use crate::transport::hierarchy::{Balance, Node, Operator, Tree};
 use crate::transport::links::{self, LinkOptions, MAX_SPREAD_POINTS, NodeGeometry};
 use crate::transport::occlusion::{LocalOccluders, Occluders};
@@ -26,13 +26,17 @@ use crate::transport::patchdirect::{DEFAULT_SPLIT, PatchDirectCache, Split};
 use crate::transport::radiosity::{PatchColumns, Solution, SolveOptions, solve_from};
 use crate::transport::refine::{RefineOptions, SolverMesh, refine};
 use crate::transport::slopes::{LeafNeighbours, LinearRadiosity};
-use crate::transport::visibility::Visibility;
+use crate::transport::visibility::{Visibility, weighted_fraction};
 
 /// Receivers are lifted this far along their normal before gathering.
 const RECEIVER_LIFT_M: f64 = 1e-6;
 /// Rays to a leaf when gathering, and once its visibility is partial (2 × 2, then 8 × 8).
 const GATHER_RAYS: usize = 4;
 const GATHER_RAYS_PARTIAL: usize = 64;
+/// A node whose first rays are all blocked is looked at again (a cluster split, a leaf with
+/// 8 × 8 rays) when its unoccluded form factor exceeds this: a thin visible sliver — the ceiling
+/// seen through a slot — falls between the first rays.
+const HIDDEN_REFINE: f64 = 0.002;
 /// Rays to a cluster when gathering.
 const GATHER_CLUSTER_RAYS: usize = 16;
 const _: () = assert!(GATHER_RAYS_PARTIAL <= MAX_SPREAD_POINTS && GATHER_CLUSTER_RAYS <= MAX_SPREAD_POINTS);
@@ -83,19 +87,29 @@ pub const RELAXED_LINKS_ABOVE_LEAVES: usize = 8000;
 pub const RELAXED_NEAR_M: f64 = 0.5;
 pub const RELAXED_ETA_FAR: f64 = 0.3;
 
+/// Above this many leaves partly visible links are refined only above
+/// [`COARSE_VISIBILITY_REFINE`] (a floor's worth of desks: the open-plan floor's links take
+/// 42 s instead of 26 s at the default).
+pub const COARSE_VISIBILITY_ABOVE_LEAVES: usize = 50_000;
+pub const COARSE_VISIBILITY_REFINE: f64 = 0.002;
+
 impl InterreflectionOptions {
     /// The options the plan uses for a graded mesh of `leaves` leaves: the defaults, with the
     /// links relaxed beyond [`RELAXED_NEAR_M`] and no shadow splits of the patch direct light
     /// (their rays cost the open-plan floor 10–20 s) above [`RELAXED_LINKS_ABOVE_LEAVES`] (a leaf's
     /// links grow like `1/eta²`: 97 M links and a 3.1 GB operator on the 133 547 leaves of the
     /// open-plan floor at `eta` 0.1, 16 M and 0.56 GB relaxed; docs/ACCURACY.md "Relaxed links"
-    /// has the accuracy this costs).
+    /// has the accuracy this costs), and partly visible links refined less above
+    /// [`COARSE_VISIBILITY_ABOVE_LEAVES`].
     pub fn for_leaves(leaves: usize) -> Self {
         let mut options = InterreflectionOptions::default();
         if leaves > RELAXED_LINKS_ABOVE_LEAVES {
             options.links.near_m = RELAXED_NEAR_M;
             options.links.eta_far = RELAXED_ETA_FAR;
             options.shadow_splits = 0;
+        }
+        if leaves > COARSE_VISIBILITY_ABOVE_LEAVES {
+            options.links.visibility_refine = COARSE_VISIBILITY_REFINE;
         }
         options
     }
@@ -195,8 +209,13 @@ impl Interreflection {
         let tree = Tree::build(&solver.mesh, &solver.alone);
         let geometry = NodeGeometry::new(&solver.mesh, &tree);
         let neighbours = LeafNeighbours::new(&tree);
-        let links::Links { links, rays, near } =
-            links::build(&tree, &geometry, occluders.as_ref(), options.links);
+        let links::Links { links, rays, near } = links::build(
+            &tree,
+            &solver.in_slot,
+            &geometry,
+            occluders.as_ref(),
+            options.links,
+        );
         let links_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let mut operator = Operator::new(tree, &links);
@@ -440,7 +459,7 @@ impl Interreflection {
                 continue;
             }
             let (v, moment) = if node.is_leaf() {
-                let v = self.leaf_visibility(p, node, &mut points);
+                let v = self.leaf_visibility((p, n), node, f, &mut points);
                 let leaf = node.leaf as usize;
                 let moment = match linear {
                     Some(l) if v > 0.0 => {
@@ -455,8 +474,8 @@ impl Interreflection {
                 (v, moment)
             } else {
                 let shaft = self.shaft(p, node);
-                let v = self.visibility(shaft.as_ref(), p, node, GATHER_CLUSTER_RAYS, &mut points);
-                if v > 0.0 && v < 1.0 {
+                let v = self.visibility(shaft.as_ref(), (p, n), node, GATHER_CLUSTER_RAYS, &mut points);
+                if v < 1.0 && (v > 0.0 || f > HIDDEN_REFINE) {
                     stack.extend(node.children);
                     continue;
                 }
@@ -482,11 +501,11 @@ impl Interreflection {
     }
 
     /// Visible fraction of a leaf from `p`: 2 × 2 rays, 8 × 8 when those disagree.
-    fn leaf_visibility(&self, p: DVec3, node: &Node, points: &mut Vec<DVec3>) -> f64 {
+    fn leaf_visibility(&self, (p, n): (DVec3, DVec3), node: &Node, f: f64, points: &mut Vec<DVec3>) -> f64 {
         let shaft = self.shaft(p, node);
-        let v = self.visibility(shaft.as_ref(), p, node, GATHER_RAYS, points);
-        if v > 0.0 && v < 1.0 {
-            self.visibility(shaft.as_ref(), p, node, GATHER_RAYS_PARTIAL, points)
+        let v = self.visibility(shaft.as_ref(), (p, n), node, GATHER_RAYS, points);
+        if v < 1.0 && (v > 0.0 || f > HIDDEN_REFINE) {
+            self.visibility(shaft.as_ref(), (p, n), node, GATHER_RAYS_PARTIAL, points)
         } else {
             v
         }
@@ -502,12 +521,12 @@ impl Interreflection {
         (!shaft.is_empty()).then_some(shaft)
     }
 
-    /// Unblocked fraction of `rays` rays from `p` to points spread over `node` (made in
-    /// `points`; 1 without occluders in the `shaft`).
+    /// Visible fraction of `node` from `p` (unit normal `n`): `rays` rays to points spread over
+    /// it (made in `points`), weighted by the kernel; 1 without occluders in the `shaft`.
     fn visibility(
         &self,
         shaft: Option<&LocalOccluders<'_>>,
-        p: DVec3,
+        (p, n): (DVec3, DVec3),
         node: &Node,
         rays: usize,
         points: &mut Vec<DVec3>,
@@ -515,8 +534,11 @@ impl Interreflection {
         let Some(shaft) = shaft else { return 1.0 };
         self.geometry
             .spread_points(&self.operator.tree, node, rays, points);
-        let seen = points.iter().filter(|&&q| !shaft.blocked(p, q)).count();
-        seen as f64 / points.len() as f64
+        weighted_fraction(points.iter().map(|&q| {
+            let d = q - p;
+            let weight = kernel(n, node.normal, d);
+            (weight, !shaft.blocked(p, q))
+        }))
     }
 }
 

@@ -25,10 +25,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::scene::PatchMesh;
-use crate::transport::formfactor::{TargetPatch, point_to_polygon_with, triangle_quarters};
+use crate::transport::formfactor::{TargetPatch, kernel, point_to_polygon_with, triangle_quarters};
 use crate::transport::hierarchy::{Link, NONE, Node, Tree, plane_axes};
 use crate::transport::occlusion::{LocalOccluders, Occluders};
 use crate::transport::slopes::plane_gradient;
+use crate::transport::visibility::weighted_fraction;
 
 /// Lift (m) of sample points off their surface.
 const LIFT_M: f64 = 1e-6;
@@ -53,8 +54,13 @@ pub struct LinkOptions {
     /// links"). Defaults 1 m and 0.1: no growth.
     pub near_m: f64,
     pub eta_far: f64,
-    /// Refine a partially visible link whose larger form factor exceeds this. Default 0.002.
+    /// Refine a partially visible link whose larger form factor exceeds this. Default 0.0005
+    /// (0.002 on floors of more than 50 000 leaves: docs/DECISIONS.md "Shadow rays weighted by
+    /// the kernel").
     pub visibility_refine: f64,
+    /// The same for a link to a leaf in a slot, which sees the room only through a narrow
+    /// opening, so that small partly visible links carry most of its light. Default 0.0005.
+    pub slot_visibility_refine: f64,
 }
 
 impl LinkOptions {
@@ -70,7 +76,8 @@ impl Default for LinkOptions {
             eta: 0.1,
             near_m: 1.0,
             eta_far: 0.1,
-            visibility_refine: 0.002,
+            visibility_refine: 0.0005,
+            slot_visibility_refine: 0.0005,
         }
     }
 }
@@ -217,22 +224,27 @@ struct Run {
 
 struct Context<'a> {
     tree: &'a Tree,
+    /// Per leaf, whether it lies in a slot.
+    in_slot: &'a [bool],
     geometry: &'a NodeGeometry,
     occluders: Option<&'a Occluders>,
     options: LinkOptions,
     rays: AtomicU64,
 }
 
-/// Makes the links of `tree`, whose leaf polygons and pieces are `geometry`, with visibility
-/// against `occluders` where given (in parallel; deterministic output order).
+/// Makes the links of `tree`, whose leaf polygons and pieces are `geometry` and whose leaves
+/// `in_slot` lie in slots, with visibility against `occluders` where given (in parallel;
+/// deterministic output order).
 pub fn build(
     tree: &Tree,
+    in_slot: &[bool],
     geometry: &NodeGeometry,
     occluders: Option<&Occluders>,
     options: LinkOptions,
 ) -> Links {
     let ctx = Context {
         tree,
+        in_slot,
         geometry,
         occluders,
         options,
@@ -361,7 +373,15 @@ impl Context<'_> {
             let shaft = self.shaft(nr, ns);
             let v = self.visibility(shaft.as_ref(), nr, ns, RAYS, &mut out.points);
             let partial = v > 0.0 && v < 1.0;
-            let important = g / nr.area.min(ns.area) > self.options.visibility_refine;
+            let slot = [nr, ns]
+                .iter()
+                .any(|n| n.is_leaf() && self.in_slot.get(n.leaf as usize).copied().unwrap_or(false));
+            let refine_above = if slot {
+                self.options.slot_visibility_refine
+            } else {
+                self.options.visibility_refine
+            };
+            let important = g / nr.area.min(ns.area) > refine_above;
             if partial && !both_leaves && important {
                 return self.split(r, s, out);
             }
@@ -487,8 +507,8 @@ impl Context<'_> {
         (!shaft.is_empty()).then_some(shaft)
     }
 
-    /// Unblocked fraction of `rays` rays between points spread over both nodes (1 without
-    /// occluders in their `shaft`).
+    /// Visible fraction between the two nodes: `rays` rays between points spread over both,
+    /// weighted by the kernel (1 without occluders in their `shaft`).
     fn visibility(
         &self,
         shaft: Option<&LocalOccluders<'_>>,
@@ -503,10 +523,10 @@ impl Context<'_> {
         // Pair point j of `a` with a permuted point of `b` (the multiplier is odd, so coprime
         // with the power-of-two count).
         let stride = if rays == LEAF_RAYS { 27 } else { 7 };
-        let seen = (0..rays)
-            .filter(|&j| !shaft.blocked(pa[j], pb[(j * stride + 3) % rays]))
-            .count();
         self.rays.fetch_add(rays as u64, Ordering::Relaxed);
-        seen as f64 / rays as f64
+        weighted_fraction((0..rays).map(|j| {
+            let (from, to) = (pa[j], pb[(j * stride + 3) % rays]);
+            (kernel(a.normal, b.normal, to - from), !shaft.blocked(from, to))
+        }))
     }
 }

@@ -21,7 +21,9 @@
 //!   sideboard 5 cm in front of a wall) lets light into the slot only at its outline, and that
 //!   light fades over a few slot widths. Both sides — the room surface and the box face — are
 //!   graded along the face's outline like a contact (their distance to it counted with the gap
-//!   added) and meshed over the slot no coarser than twice the gap.
+//!   added) and meshed over the slot no coarser than twice the gap; where a light's shadow line
+//!   crosses the slot (the lit band on the wall below the box's top edge, from which the rest
+//!   of the slot is lit), the cells are halved across it down to `shadow_min_m`.
 //! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface (its triangles' edges
 //!   lying on a room plane, in any direction), the cells of that surface and the mesh's
 //!   triangles are halved (rectangles across their longer side, triangles 1 → 4) while larger
@@ -123,6 +125,9 @@ pub struct SolverMesh {
     /// with its surroundings), or it lies in a slot (dark beside lit neighbours, whose
     /// cluster's one irradiance would light it; docs/DECISIONS.md "Slots behind furniture").
     pub alone: Vec<bool>,
+    /// Per leaf, true when it lies in a slot: its partly visible links are refined further
+    /// ([`crate::transport::links::LinkOptions::slot_visibility_refine`]).
+    pub in_slot: Vec<bool>,
     /// Per light that caused splits, what it did.
     pub lamps: Vec<LampRefinement>,
     /// Edges where OBJ meshes stand on room surfaces, the leaves made along them (beyond the
@@ -232,6 +237,18 @@ impl Slot {
             .filter(|&k| k != self.axis)
             .all(|k| b.min[k] < self.bounds.max[k] - 1e-9 && b.max[k] > self.bounds.min[k] + 1e-9)
     }
+}
+
+/// Three points on the edge of `cell` where in-plane coordinate `k` is `side` (at 1/6, 1/2 and
+/// 5/6 along it), lifted 1 µm off the surface: where shadow lines are looked for.
+fn edge_points(cell: &Cell, k: usize, side: f64) -> [DVec3; 3] {
+    let r = &cell.rect;
+    [1.0 / 6.0, 0.5, 5.0 / 6.0].map(|t| {
+        let mut uv = [0.0; 2];
+        uv[k] = side;
+        uv[1 - k] = r.min[1 - k] + t * (r.max[1 - k] - r.min[1 - k]);
+        r.point(uv[0], uv[1]) + r.normal() * 1e-6
+    })
 }
 
 /// Each face of box `b` with the room surface parallel to it: (axis, the box face's coordinate,
@@ -404,7 +421,7 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
                     let bounds = leaf.bounds();
                     let centre = (bounds.min + bounds.max) / 2.0;
                     let in_slot = splitter.slots.iter().any(|s| s.contains(centre));
-                    out.rect(patch, index, leaf, near_lamp || in_slot);
+                    out.rect(patch, index, leaf, near_lamp, in_slot);
                 }
             }
         }
@@ -428,6 +445,7 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
         mesh: out.mesh,
         coarse_patch: out.coarse_patch,
         alone: out.alone,
+        in_slot: out.in_slot,
         lamps,
         contacts: splitter.contacts.iter().filter(|c| c.gap == 0.0).count(),
         slots: splitter.slots.len(),
@@ -685,27 +703,58 @@ impl Splitter<'_> {
     fn slot_axis(&self, cell: &Cell) -> Option<usize> {
         let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
         let extent = cell.extent(longer);
-        (extent > 2.0 * self.options.contact_min_m
-            && self.slots.iter().any(|s| extent > 2.0 * s.gap() && s.holds(cell)))
-        .then_some(longer)
+        let mut slots = self.slots.iter().filter(|s| s.holds(cell)).peekable();
+        slots.peek()?;
+        if extent > 2.0 * self.options.contact_min_m && slots.any(|s| extent > 2.0 * s.gap()) {
+            return Some(longer);
+        }
+        // The box's shadow line on the room surface in the slot (the lit band below the box's
+        // top edge): everything deeper in the slot is lit from that band, so a cell smearing it
+        // would carry its light too deep.
+        let shadow_min = self.options.shadow_min_m;
+        if shadow_min <= 0.0 {
+            return None;
+        }
+        self.shadow_line_axis(cell)
+            .filter(|&k| cell.extent(k) > 2.0 * shadow_min)
+    }
+
+    /// The in-plane axis across which a light's shadow line runs through the cell: of the
+    /// two, the one whose opposite edges (three points on each, lifted off the surface) differ
+    /// most in how many see some light in front of the cell; `None` when no edge point's view
+    /// of a light differs from another's.
+    fn shadow_line_axis(&self, cell: &Cell) -> Option<usize> {
+        let occ = self.occluders.as_ref()?;
+        let r = &cell.rect;
+        let normal = r.normal();
+        let mut best: Option<(usize, usize)> = None;
+        for light in &self.scene.lights {
+            for k in 0..2 {
+                let seen = [r.min[k], r.max[k]].map(|side| {
+                    edge_points(cell, k, side)
+                        .iter()
+                        .filter(|&&p| normal.dot(light.position - p) > 0.0 && occ.visible(light.position, p))
+                        .count()
+                });
+                let differ = seen[0].abs_diff(seen[1]);
+                if differ > 0 && best.is_none_or(|(_, d)| differ > d) {
+                    best = Some((k, differ));
+                }
+            }
+        }
+        best.map(|(k, _)| k)
     }
 
     /// True when some light in front of the cell sees part of its edges parallel to the contact
     /// (three points on each, lifted off the surface) and not the rest.
     fn shadow_line_crosses(&self, cell: &Cell, across: usize) -> bool {
         let Some(occ) = &self.occluders else { return false };
-        let along = 1 - across;
+        let normal = cell.rect.normal();
         let r = &cell.rect;
-        let normal = r.normal();
-        let mut points = Vec::with_capacity(6);
-        for side in [r.min[across], r.max[across]] {
-            for t in [1.0 / 6.0, 0.5, 5.0 / 6.0] {
-                let mut uv = [0.0; 2];
-                uv[across] = side;
-                uv[along] = r.min[along] + t * (r.max[along] - r.min[along]);
-                points.push(r.point(uv[0], uv[1]) + normal * 1e-6);
-            }
-        }
+        let points: Vec<DVec3> = [r.min[across], r.max[across]]
+            .into_iter()
+            .flat_map(|side| edge_points(cell, across, side))
+            .collect();
         self.scene.lights.iter().any(|light| {
             let in_front: Vec<&DVec3> = points
                 .iter()
@@ -877,6 +926,7 @@ struct Builder {
     mesh: PatchMesh,
     coarse_patch: Vec<u32>,
     alone: Vec<bool>,
+    in_slot: Vec<bool>,
     ids: HashMap<(u32, [u64; 3]), u32>,
 }
 
@@ -892,7 +942,7 @@ impl Builder {
         })
     }
 
-    fn rect(&mut self, parent: &Patch, index: usize, cell: &Cell, alone: bool) {
+    fn rect(&mut self, parent: &Patch, index: usize, cell: &Cell, near_lamp: bool, in_slot: bool) {
         let r = &cell.rect;
         let corners = [
             r.point(r.min[0], r.min[1]),
@@ -910,7 +960,8 @@ impl Builder {
             centroid: r.point(0.5 * (r.min[0] + r.max[0]), 0.5 * (r.min[1] + r.max[1])),
         });
         self.coarse_patch.push(index as u32);
-        self.alone.push(alone);
+        self.alone.push(near_lamp || in_slot);
+        self.in_slot.push(in_slot);
     }
 
     fn triangle(&mut self, parent: &Patch, index: usize, t: [DVec3; 3], alone: bool) {
@@ -925,6 +976,7 @@ impl Builder {
         });
         self.coarse_patch.push(index as u32);
         self.alone.push(alone);
+        self.in_slot.push(false);
     }
 }
 
@@ -1173,6 +1225,68 @@ solver_patch_size = 0.5
                 .notes(&s)
                 .iter()
                 .any(|n| n.contains("graded along 4 contact edges"))
+        );
+    }
+
+    /// The box's shadow line on the wall in a slot (the light 1.5 m up in front of a 0.8 m box
+    /// 5 cm off the wall lights the wall behind it down to z ≈ 0.78) is graded across the line
+    /// down to `shadow_min_m`: thin strips there (and along the box's outline, which the slot
+    /// rule grades anyway), none holding the line with the rule off.
+    #[test]
+    fn shadow_line_in_a_slot_is_graded() {
+        let s = scene(&EMPTY.replace("[2.0, 1.5, 1.2]", "[1.5, 1.5, 1.5]").replace(
+            "[[light]]",
+            "[[box]]\nmin = [1.0, 2.45, 0.0]\nmax = [2.0, 2.95, 0.8]\nreflectance = 0.4\n[[light]]",
+        ));
+        // (bottom, top) of every wall leaf behind the box (y = 3, facing −y, x 1–2, z < 0.8).
+        let wall_leaves = |solver: &SolverMesh| -> Vec<(f64, f64)> {
+            solver
+                .mesh
+                .patches
+                .iter()
+                .filter(|p| (p.centroid.y - 3.0).abs() < 1e-9 && p.normal.y < -0.5)
+                .filter(|p| (1.0..2.0).contains(&p.centroid.x) && p.centroid.z < 0.8)
+                .map(|p| {
+                    let z = p
+                        .vertex_ids()
+                        .iter()
+                        .map(|&v| solver.mesh.positions[v as usize].z);
+                    z.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
+                        (lo.min(z), hi.max(z))
+                    })
+                })
+                .collect()
+        };
+        // The shadow line at x = 1.5: the ray from the light over the box's top edge.
+        let line = 0.8 - 0.05 * (1.5 - 0.8) / (2.95 - 1.5);
+        let options = RefineOptions::default();
+        let graded = wall_leaves(&refine(&s, &options));
+        let thin: Vec<_> = graded
+            .iter()
+            .filter(|(lo, hi)| hi - lo <= 2.0 * options.shadow_min_m + 1e-9)
+            .collect();
+        assert!(!thin.is_empty(), "{graded:?}");
+        for (lo, hi) in &thin {
+            assert!(
+                *hi > line - 0.05 && *lo < line + 0.05,
+                "a thin strip at {lo}–{hi}, the line at {line}"
+            );
+        }
+        assert!(
+            thin.iter().any(|(lo, hi)| *lo <= line && line <= *hi),
+            "no thin strip holds the line at {line}: {thin:?}"
+        );
+        let off = wall_leaves(&refine(
+            &s,
+            &RefineOptions {
+                shadow_min_m: 0.0,
+                ..options
+            },
+        ));
+        assert!(
+            !off.iter()
+                .any(|(lo, hi)| hi - lo <= 2.0 * options.shadow_min_m + 1e-9 && *lo <= line && line <= *hi),
+            "{off:?}"
         );
     }
 
