@@ -18,7 +18,8 @@
 //!   The room's own edges near a light hung close to a room surface (a wall-washer under the
 //!   ceiling) are graded the same way.
 //! * **In slots**: a box face standing up to `slot_max_m` off a parallel room surface (a
-//!   sideboard 5 cm in front of a wall) lets light into the slot only at its outline, and that
+//!   sideboard 5 cm in front of a wall), or off the facing face of another box (two cupboards
+//!   side by side) lets light into the slot only at its outline, and that
 //!   light fades over a few slot widths. Both sides — the room surface and the box face — are
 //!   graded along the face's outline like a contact (their distance to it counted with the gap
 //!   added) and meshed over the slot no coarser than twice the gap; where a light's shadow line
@@ -141,6 +142,7 @@ pub struct SolverMesh {
     pub contacts: usize,
     pub contact_leaves_added: usize,
     /// Slots graded: box faces standing up to [`RefineOptions::slot_max_m`] off a room surface
+    /// or another box
     /// (both sides meshed along the face's outline and over it; their leaves are counted in
     /// `contact_leaves_added`).
     pub slots: usize,
@@ -165,7 +167,7 @@ impl SolverMesh {
         if self.contacts + self.slots > 0 && self.contact_leaves_added > 0 {
             let slots = if self.slots > 0 {
                 format!(
-                    " and {} slots (box faces standing up to {:.2} m off a room surface)",
+                    " and {} slots (box faces standing up to {:.2} m off a room surface or another box)",
                     self.slots, self.slot_max_m
                 )
             } else {
@@ -196,15 +198,17 @@ struct Contact {
     gap: f64,
 }
 
-/// A slot: a box face standing a little off a parallel room surface (up to
-/// [`RefineOptions::slot_max_m`], not touching it).
+/// A slot: a box face standing a little off a parallel room surface, or off the facing face of
+/// another box (up to [`RefineOptions::slot_max_m`], not touching it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Slot {
-    /// The axis both surfaces face along, the room surface's and the box face's coordinate on it.
+    /// The axis both surfaces face along, and the coordinates on it of the surface the box
+    /// faces (a room surface or the other box's face) and of the box face.
     axis: usize,
     room_side: f64,
     box_side: f64,
-    /// The box (its extent on the other two axes is the slot's).
+    /// The slot's extent on the other two axes (the box's, or where the two boxes' faces
+    /// overlap).
     bounds: Aabb,
 }
 
@@ -262,10 +266,11 @@ fn touch_eps(size: DVec3) -> f64 {
     1e-9 * (1.0 + size.max_element())
 }
 
-/// The slots of `scene`: box faces standing up to `slot_max_m` off a parallel room surface.
+/// The slots of `scene`: box faces standing up to `slot_max_m` off a parallel room surface, and
+/// pairs of box faces facing each other across a gap up to `slot_max_m` where they overlap.
 fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
     let (size, eps) = (scene.room_size, touch_eps(scene.room_size));
-    scene
+    let to_room = scene
         .boxes
         .iter()
         .flat_map(|b| faces_to_room(b, size).map(move |face| (b, face)))
@@ -278,8 +283,29 @@ fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
             room_side,
             box_side,
             bounds: *b,
+        });
+    // Box `a`'s upper face on `axis` facing box `b`'s lower face.
+    let between = scene.boxes.iter().flat_map(|a| {
+        scene.boxes.iter().flat_map(move |b| {
+            (0..3).filter_map(move |axis| {
+                let gap = b.min[axis] - a.max[axis];
+                let bounds = Aabb {
+                    min: a.min.max(b.min),
+                    max: a.max.min(b.max),
+                };
+                let overlaps = (0..3)
+                    .filter(|&k| k != axis)
+                    .all(|k| bounds.max[k] - bounds.min[k] > eps);
+                (gap > eps && gap <= slot_max_m && overlaps).then_some(Slot {
+                    axis,
+                    room_side: b.min[axis],
+                    box_side: a.max[axis],
+                    bounds,
+                })
+            })
         })
-        .collect()
+    });
+    to_room.chain(between).collect()
 }
 
 /// An axis-aligned rectangle cell of a surface, in its plane's `(u, v)` coordinates.
@@ -1226,6 +1252,69 @@ solver_patch_size = 0.5
                 .iter()
                 .any(|n| n.contains("graded along 4 contact edges"))
         );
+    }
+
+    /// Two cupboards 5 cm apart make a slot between their facing faces (graded no coarser than
+    /// twice the gap where the faces overlap, its leaves — the floor strip between them too —
+    /// linked alone); 0.5 m apart they make none.
+    #[test]
+    fn slots_between_boxes_are_graded() {
+        let room = |x1: f64| {
+            scene(&EMPTY.replace(
+                "[[light]]",
+                &format!(
+                    "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [1.6, 1.8, 1.5]\nreflectance = 0.5\n\
+                     [[box]]\nmin = [{x1}, 1.2, 0.0]\nmax = [{}, 2.0, 1.2]\nreflectance = 0.5\n[[light]]",
+                    x1 + 0.6
+                ),
+            ))
+        };
+        // The longest side of every leaf on the plane x = `x` facing `sign` · x within the
+        // faces' overlap (y 1.2–1.8, z 0–1.2).
+        let longest = |solver: &SolverMesh, x: f64, sign: f64| {
+            solver
+                .mesh
+                .patches
+                .iter()
+                .filter(|p| (p.centroid.x - x).abs() < 1e-9 && p.normal.x * sign > 0.5)
+                .filter(|p| (1.2..1.8).contains(&p.centroid.y) && p.centroid.z < 1.2)
+                .map(|p| {
+                    let corners = p.vertex_ids().iter().map(|&v| solver.mesh.positions[v as usize]);
+                    let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                        (lo.min(c), hi.max(c))
+                    });
+                    (hi - lo).max_element()
+                })
+                .fold(0.0f64, f64::max)
+        };
+        let s = room(1.65);
+        let solver = refine(&s, &RefineOptions::default());
+        assert_eq!(solver.slots, 1);
+        assert!(
+            longest(&solver, 1.6, 1.0) <= 0.1 + 1e-9,
+            "{}",
+            longest(&solver, 1.6, 1.0)
+        );
+        assert!(
+            longest(&solver, 1.65, -1.0) <= 0.1 + 1e-9,
+            "{}",
+            longest(&solver, 1.65, -1.0)
+        );
+        let floor_strip = solver
+            .mesh
+            .patches
+            .iter()
+            .position(|p| {
+                p.normal.z > 0.5
+                    && p.centroid.z.abs() < 1e-9
+                    && (1.6..1.65).contains(&p.centroid.x)
+                    && (1.2..1.8).contains(&p.centroid.y)
+            })
+            .expect("a floor leaf between the boxes");
+        assert!(solver.in_slot[floor_strip] && solver.alone[floor_strip]);
+        let far = refine(&room(2.1), &RefineOptions::default());
+        assert_eq!(far.slots, 0);
+        assert!(longest(&far, 1.6, 1.0) >= 0.2, "{}", longest(&far, 1.6, 1.0));
     }
 
     /// The box's shadow line on the wall in a slot (the light 1.5 m up in front of a 0.8 m box

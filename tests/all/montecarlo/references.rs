@@ -2,7 +2,7 @@
 //! `tests/data/references/*.toml` (box contacts beside lamps close to the ceiling, grazing
 //! wall-washers, hard-edged spots, a white room, an empty room, an office with desks, a 12 m hall,
 //! OBJ furniture — a plinth turned 30° and a sideboard — in a coloured room under a warm spot,
-//! furniture standing 5 and 10 cm off the walls), 70–222 points each on floors, box and mesh
+//! furniture standing 5 and 10 cm off the walls, two cupboards 5 cm apart), 70–222 points each on floors, box and mesh
 //! tops and faces, walls and ceilings, including points
 //! 1–20 cm from box and mesh faces. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
 //! estimate, its standard error (lx, < 0.3 % of the value), the exact direct part and the number of
@@ -32,7 +32,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 10] = [
+pub const ROOMS: [&str; 11] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -43,6 +43,7 @@ pub const ROOMS: [&str; 10] = [
     "hall",
     "mesh-colour",
     "furniture-gaps",
+    "cupboards",
 ];
 
 /// The environment variable that regenerates the references.
@@ -187,7 +188,9 @@ impl Points<'_> {
 /// wall and that wall's top; for the OBJ room, the floor 1–20 cm from the turned plinth's faces
 /// and the sideboard's front, those faces 1 cm–0.6 m up, their tops, and the wall above and
 /// beside the sideboard; for the room of furniture off the walls, the walls in each slot (its
-/// middle, near its end, beside it and above), the floor and the cupboard's back face in it.
+/// middle, near its end, beside it and above), the floor and the cupboard's back face in it; for
+/// the two cupboards, both faces in the slot between them, the floor there and the taller
+/// one's face above the slot.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
@@ -307,6 +310,24 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
         for z in [0.3, 1.0, 1.6] {
             pts.add(DVec3::new(4.9, 1.2, z), DVec3::X);
             pts.add(DVec3::new(4.3, 1.2, z), DVec3::NEG_X);
+        }
+    }
+    if name == "cupboards" {
+        // The 5 cm slot between the 1.6 m cupboard's face x = 2.4 and the 1.2 m one's face
+        // x = 2.45 (overlapping over y 1.5–2.2, z 0–1.2): both faces in its middle and near its
+        // ends, from 5 cm up to just under the lower cupboard's top; the floor between them; the
+        // taller cupboard's face above the slot.
+        for y in [1.85, 1.55, 2.15] {
+            for z in [0.05, 0.2, 0.6, 1.0, 1.15] {
+                pts.add(DVec3::new(2.4, y, z), DVec3::X);
+                pts.add(DVec3::new(2.45, y, z), DVec3::NEG_X);
+            }
+        }
+        for y in [1.85, 1.55] {
+            pts.add(DVec3::new(2.425, y, 0.0), DVec3::Z);
+        }
+        for z in [1.3, 1.5] {
+            pts.add(DVec3::new(2.4, 1.85, z), DVec3::X);
         }
     }
     if name == "mesh-colour" {
@@ -510,13 +531,14 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 
 /// What the interreflection engine reaches with the plan's options on each reference room
 /// (docs/ACCURACY.md "After"): (room, median bound, worst bound). Every median is within 0.3 %
-/// (bound 0.5 %) and every worst within 2.7 % (bounds a little above each room's). The
+/// (bound 0.5 %) and every worst within 2.7 % (bounds a little above each room's) but the two
+/// cupboards' slot (below). The
 /// furniture-gaps room's deepest slot points were 25 % high before shadow rays were weighted by
 /// the kernel and the gather looked again at nodes its first rays found hidden (a ceiling seen
 /// through the slot's top), the office's desk faces 1 cm above the floor 3.9 % before partly
 /// visible links were refined down to a form factor of 0.0005 (docs/DECISIONS.md "Shadow rays
 /// weighted by the kernel").
-const ENGINE_BOUNDS: [(&str, f64, f64); 10] = [
+const ENGINE_BOUNDS: [(&str, f64, f64); 11] = [
     ("hotspot-box", 0.005, 0.025),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.015),
@@ -527,6 +549,12 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 10] = [
     ("hall", 0.005, 0.030),
     ("mesh-colour", 0.005, 0.030),
     ("furniture-gaps", 0.005, 0.030),
+    // Two cupboards 5 cm apart: 300 % high in their slot before slots between boxes were graded;
+    // now the faces within 2 % near the slot's ends and 6–8 % at its middle, but points on the
+    // line where a face's coarse patches meet (y 1.8 on the taller one, 1.9 on the other) 15 %
+    // low and 11 % high although the leaves beside them are right (docs/ACCURACY.md "Slots
+    // between two boxes"): not understood yet.
+    ("cupboards", 0.005, 0.17),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
