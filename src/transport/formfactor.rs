@@ -60,10 +60,10 @@ pub fn differential(p: DVec3, n: DVec3, centroid: DVec3, normal: DVec3, area: f6
 /// ([`crate::transport::visibility::weighted_fraction`]).
 pub fn kernel(n: DVec3, normal: DVec3, d: DVec3) -> f64 {
     let (u, v) = (n.dot(d), -normal.dot(d));
-    let r2 = d.length_squared();
-    if u <= 0.0 || v <= 0.0 || r2 == 0.0 {
+    if u <= 0.0 || v <= 0.0 {
         return 0.0;
     }
+    let r2 = d.length_squared();
     u * v / (r2 * r2)
 }
 

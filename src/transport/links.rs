@@ -13,10 +13,12 @@
 //!   when their sizes are alike), `F̄` the exact point-to-polygon factor averaged over a grid of
 //!   up to 4 × 4 points of `R` (denser when the leaves are close).
 //! * Visibility: none when no occluder's bounds meet the bounds of the two nodes (the shaft);
-//!   otherwise the unblocked fraction of 16 rays between points spread over both nodes. A
-//!   partially visible link whose larger form factor exceeds `visibility_refine` is refined
-//!   (split the larger node); between two leaves a partial result is re-estimated with 64 rays
-//!   (8 × 8 points each), so shadow lines are resolved where they matter.
+//!   otherwise the unblocked fraction of 16 rays between points spread over both nodes, each
+//!   ray weighted by the kernel between its end points. A partially visible link whose larger
+//!   form factor exceeds `visibility_refine` (`slot_visibility_refine` for a link to a leaf in a
+//!   slot) is refined (split the larger node); between two leaves a partial result is
+//!   re-estimated with 64 rays (8 × 8 points each), so shadow lines are resolved where they
+//!   matter.
 
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -242,6 +244,7 @@ pub fn build(
     occluders: Option<&Occluders>,
     options: LinkOptions,
 ) -> Links {
+    debug_assert_eq!(in_slot.len(), tree.leaf_node.len(), "one slot flag per leaf");
     let ctx = Context {
         tree,
         in_slot,
@@ -375,7 +378,7 @@ impl Context<'_> {
             let partial = v > 0.0 && v < 1.0;
             let slot = [nr, ns]
                 .iter()
-                .any(|n| n.is_leaf() && self.in_slot.get(n.leaf as usize).copied().unwrap_or(false));
+                .any(|n| n.is_leaf() && self.in_slot[n.leaf as usize]);
             let refine_above = if slot {
                 self.options.slot_visibility_refine
             } else {

@@ -9,7 +9,9 @@ use crate::error::printable;
 use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
 use crate::scene::{DirectMode, Scene};
 use crate::transport::formfactor::FormFactorOptions;
-use crate::transport::interreflection::{InterreflectionOptions, RELAXED_LINKS_ABOVE_LEAVES};
+use crate::transport::interreflection::{
+    COARSE_VISIBILITY_ABOVE_LEAVES, InterreflectionOptions, RELAXED_LINKS_ABOVE_LEAVES,
+};
 use crate::transport::refine::{RefineOptions, SolverMesh, refine};
 
 /// Target relative L2 error of a curve's SH series when the basis carries only indirect light
@@ -280,14 +282,20 @@ fn engine_decision(choice: EngineChoice, interreflection: bool, paper: bool, lea
 /// of its links, as a clause of the engine decision (empty when nothing).
 fn relaxed_links_note(leaves: usize) -> String {
     let links = InterreflectionOptions::for_leaves(leaves).links;
+    let mut note = String::new();
     if links.eta_far > links.eta {
-        format!(
+        note += &format!(
             "; above {RELAXED_LINKS_ABOVE_LEAVES} leaves the links relax beyond {} m (admissible ratio {} growing to {}) and shadow lines are not followed inside the leaves' direct light",
             links.near_m, links.eta, links.eta_far
-        )
-    } else {
-        String::new()
+        );
     }
+    if links.visibility_refine > links.slot_visibility_refine {
+        note += &format!(
+            "; above {COARSE_VISIBILITY_ABOVE_LEAVES} leaves partly visible links are refined only above a form factor of {} ({} in slots)",
+            links.visibility_refine, links.slot_visibility_refine
+        );
+    }
+    note
 }
 
 /// The plan of one light of `scene` (its order — the room file's, or the lowest that meets the

@@ -62,8 +62,8 @@ pub struct RefineOptions {
     /// Default 0.015 m.
     pub contact_min_m: f64,
     /// A strip along a contact edge that a light's shadow line crosses (some points of it see
-    /// the light, others not) is halved across the edge down to this width (m); 0 turns it off.
-    /// Default 0.01 m.
+    /// the light, others not) is halved across the edge down to this width (m), and so is a
+    /// slot's cell across a shadow line through it; 0 turns both off. Default 0.01 m.
     pub shadow_min_m: f64,
     /// A box face up to this far (m) from a parallel room surface, and not touching it, makes a
     /// slot: the room surface behind it is graded along the face's outline as along a contact
@@ -725,7 +725,9 @@ impl Splitter<'_> {
 
     /// The longer side, when the cell lies in a slot (on either side) and is longer than twice
     /// the slot's width: the light a slot lets in fades over a few of its widths
-    /// (docs/DECISIONS.md "Slots behind furniture"). Never below strips of `contact_min_m`.
+    /// (docs/DECISIONS.md "Slots behind furniture"), never below strips of `contact_min_m`;
+    /// otherwise the axis across a light's shadow line through the slot cell, down to strips of
+    /// `shadow_min_m` (docs/DECISIONS.md "The shadow line in a slot").
     fn slot_axis(&self, cell: &Cell) -> Option<usize> {
         let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
         let extent = cell.extent(longer);

@@ -20,8 +20,9 @@ impl Visibility for Unoccluded {
     }
 }
 
-/// The visible fraction of a patch from shadow rays `(weight, unblocked)` to points spread evenly
-/// over it, each weighted by the form-factor kernel at its point
+/// The visible fraction of a patch from shadow rays `(weight, unblocked)` to points spread over
+/// it (a grid on a leaf; on a cluster one point per sub-cluster, whose areas differ, which this
+/// does not weigh), each weighted by the form-factor kernel at its point
 /// ([`crate::transport::formfactor::kernel`]): the patch's exact unoccluded form factor times this
 /// fraction is its occluded one up to the spread's resolution. An unweighted fraction is biased
 /// where visibility follows the kernel — a ceiling seen through a slot behind a sideboard shows
