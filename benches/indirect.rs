@@ -173,9 +173,10 @@ fn open_plan(c: &mut Criterion) {
 }
 
 /// The clustered gather at a work plane of the furnished office (`rooms/office.toml`, its lights
-/// solved): 0.8 m high, a 0.25 m grid, with the leaves' radiosity linear (the default) and
+/// solved): 0.8 m high, a 0.25 m grid, with the leaves' radiosity linear (the default),
 /// constant on each leaf (docs/DECISIONS.md "Interreflection", "Linear radiosity in the near
-/// gather").
+/// gather"), and without the second looks where rays may have missed a gap (docs/DECISIONS.md
+/// "The gather looks again where its rays may have missed a gap").
 fn gather(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("rooms/office.toml");
     let scene = haiko::scene::load(&path).unwrap_or_else(|e| panic!("bench room: {e}"));
@@ -194,13 +195,16 @@ fn gather(c: &mut Criterion) {
         })
         .collect();
     let mut group = c.benchmark_group("indirect");
-    for (name, linear_gather) in [
-        ("office_gather_plane", true),
-        ("office_gather_plane_constant", false),
+    let planned = InterreflectionOptions::for_leaves(p.leaves);
+    for (name, linear_gather, gather_doubt) in [
+        ("office_gather_plane", true, planned.gather_doubt),
+        ("office_gather_plane_constant", false, planned.gather_doubt),
+        ("office_gather_plane_first_looks", true, f64::MAX),
     ] {
         let options = InterreflectionOptions {
             linear_gather,
-            ..InterreflectionOptions::for_leaves(p.leaves)
+            gather_doubt,
+            ..planned
         };
         let engine = HierarchicalIndirect::planned(&scene, &p, scene.settings.tolerance, &options)
             .unwrap_or_else(|e| panic!("bench room: {e}"));
