@@ -194,7 +194,12 @@ impl Points<'_> {
 /// beside the sideboard; for the room of furniture off the walls, the walls in each slot (its
 /// middle, near its end, beside it and above), the floor and the cupboard's back face in it; for
 /// the two cupboards, both faces in the slot between them, the floor there and the taller
-/// one's face above the slot.
+/// one's face above the slot; in every room the floor, ceiling and walls 2–15 cm from the
+/// middles of the floor and ceiling edges; for the stacked boxes, the cabinet's top and the
+/// upper box's faces around their contact and the wall beside them; for the white corridor, the
+/// washed end wall, the ceiling by it and the corner the spot's pool fills; for the spot on the
+/// edge, the desk's top, front face and the floor across the spot's cut-off, and the side table
+/// and ceiling around the table lamp.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
