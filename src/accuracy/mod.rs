@@ -791,6 +791,7 @@ fn engine_variants() -> Vec<(&'static str, InterreflectionOptions)> {
                 o.refine.contact_ratio = 1.0;
             }),
         ),
+        ("room edges not graded", with(&|o| o.refine.room_edge_min_m = 0.0)),
         ("no refinement", with(&|o| o.refine = RefineOptions::none())),
         (
             "direct pieces 1/8 of distance",

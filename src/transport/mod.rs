@@ -19,6 +19,7 @@ pub mod plan;
 pub mod radiosity;
 pub mod refine;
 pub mod response;
+pub mod room_edges;
 pub mod sh_response;
 pub mod slopes;
 pub mod visibility;

@@ -17,6 +17,11 @@
 //!   a few centimetres wide beside a bright pool) is halved further, down to `shadow_min_m`.
 //!   The room's own edges near a light hung close to a room surface (a wall-washer under the
 //!   ceiling) are graded the same way.
+//! * **Along room edges where the direct light bends**: the pieces of the room's own edges
+//!   where the direct light on either surface next to them is far from linear across a coarse
+//!   patch ([`crate::transport::room_edges`]: a pool ending by a wall, a lamp's horizon under the
+//!   ceiling) are graded like contacts down to strips of `room_edge_min_m`, up to
+//!   `ROOM_EDGE_ASPECT` times as long as their distance to the edge.
 //! * **In slots**: a box face standing up to `slot_max_m` off a parallel room surface (a
 //!   sideboard 5 cm in front of a wall), or off the facing face of another box (two cupboards
 //!   side by side) lets light into the slot only at its outline, and that
@@ -45,6 +50,7 @@ use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Patch, PatchMesh, Scene, SurfaceKind};
 use crate::transport::mesh_contacts::MeshContacts;
 use crate::transport::occlusion::Occluders;
+use crate::transport::room_edges::bending_edge_pieces;
 use crate::transport::visibility::Visibility;
 
 /// How the solver mesh is graded. `Default` is what the bake uses.
@@ -71,6 +77,12 @@ pub struct RefineOptions {
     /// about half the gap wide), and both sides of the slot are meshed no coarser than twice the
     /// gap (docs/DECISIONS.md "Slots behind furniture"); 0 turns it off. Default 0.3 m.
     pub slot_max_m: f64,
+    /// Pieces of the room's own edges (floor, ceiling and walls meeting) where the direct light
+    /// next to them bends are graded like contact edges down to strips of this width (m; a strip
+    /// is halved while wider than twice this), without the shadow rule and up to
+    /// `ROOM_EDGE_ASPECT` times as long as far from the edge (docs/DECISIONS.md "Room edges are
+    /// graded where the direct light bends"); 0 turns it off. Default 0.1 m.
+    pub room_edge_min_m: f64,
 }
 
 impl Default for RefineOptions {
@@ -84,6 +96,7 @@ impl Default for RefineOptions {
             contact_min_m: 0.015,
             shadow_min_m: 0.01,
             slot_max_m: 0.3,
+            room_edge_min_m: 0.1,
         }
     }
 }
@@ -96,6 +109,7 @@ impl RefineOptions {
             contact_ratio: 0.0,
             shadow_min_m: 0.0,
             slot_max_m: 0.0,
+            room_edge_min_m: 0.0,
             ..RefineOptions::default()
         }
     }
@@ -148,6 +162,13 @@ pub struct SolverMesh {
     pub slots: usize,
     /// The slot distance it was graded with (for the notes).
     pub slot_max_m: f64,
+    /// Pieces of the room's own edges graded towards (about one coarse patch long each, where
+    /// the direct light next to them bends), the narrowest strip they were graded to (m), and
+    /// the leaves made along them (beyond the coarse patches they replaced; patches a light or a
+    /// contact split too are counted there).
+    pub room_edges: usize,
+    pub room_edge_min_m: f64,
+    pub room_edge_leaves_added: usize,
 }
 
 impl SolverMesh {
@@ -178,6 +199,14 @@ impl SolverMesh {
                 self.contacts, self.contact_leaves_added
             ));
         }
+        if self.room_edges > 0 && self.room_edge_leaves_added > 0 {
+            notes.push(format!(
+                "graded along {} pieces of the room's edges where the direct light next to them bends (strips down to {:.2} m): +{} patches",
+                self.room_edges,
+                self.room_edge_min_m,
+                self.room_edge_leaves_added
+            ));
+        }
         if self.mesh_contacts > 0 {
             notes.push(format!(
                 "graded along {} OBJ contact edges (meshes on room surfaces): +{} patches, {} covered patches left out",
@@ -196,6 +225,9 @@ struct Contact {
     segment: Aabb,
     /// Width (m) of the slot between the box face and the room surface; 0 for a contact.
     gap: f64,
+    /// One of the room's own edges, graded to [`RefineOptions::room_edge_min_m`] (rather than
+    /// `contact_min_m`), without the shadow rule.
+    room_edge: bool,
 }
 
 /// A slot: a box face standing a little off a parallel room surface, or off the facing face of
@@ -361,6 +393,17 @@ const MESH_FACE_MIN_M: f64 = 0.06;
 /// distance of its far side to the edge (its width, for a strip touching the edge).
 const CONTACT_ASPECT: f64 = 4.0;
 
+/// A strip along one of the room's own edges is split along it while longer than this many times
+/// the distance of its far side to the edge: the light on a room surface changes along its
+/// edges slowly (over the room's and the lights' spacing), so the strips stay long
+/// (docs/DECISIONS.md "Room edges are graded where the direct light bends").
+const ROOM_EDGE_ASPECT: f64 = 8.0;
+
+/// A piece of a room edge is graded where the direct light next to it bends enough to put the
+/// indirect light a few centimetres from the edge off by this fraction of the room's indirect
+/// irradiance (docs/DECISIONS.md "Room edges are graded where the direct light bends").
+const ROOM_EDGE_TOLERANCE: f64 = 0.02;
+
 /// A strip is split at a light's shadow line while it lies within this many of its widths of the
 /// contact edge.
 const SHADOW_REACH: f64 = 4.0;
@@ -379,6 +422,7 @@ struct Split {
     /// The first light whose rule split it.
     lamp: Option<usize>,
     by_contact: bool,
+    by_room_edge: bool,
     by_mesh_contact: bool,
     covered: usize,
 }
@@ -397,7 +441,12 @@ struct Splitter<'a> {
 pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
     let (contacts, slots) = if options.contact_ratio > 0.0 {
         let slots = slots(scene, options.slot_max_m);
-        (contact_edges(scene, &slots), slots)
+        let room_edges = if options.room_edge_min_m > 0.0 {
+            bending_edge_pieces(scene, scene.settings.solver_patch_size, ROOM_EDGE_TOLERANCE)
+        } else {
+            Vec::new()
+        };
+        (contact_edges(scene, &slots, &room_edges), slots)
     } else {
         (Vec::new(), Vec::new())
     };
@@ -424,6 +473,7 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
     let mut out = Builder::default();
     let mut lamp_split = vec![(0usize, 0usize); scene.lights.len()];
     let (mut contact_added, mut mesh_contact_added, mut covered) = (0usize, 0usize, 0usize);
+    let mut room_edge_added = 0usize;
     for (index, (patch, split)) in scene.coarse.patches.iter().zip(split).enumerate() {
         let near_lamp = split.lamp.is_some();
         covered += split.covered;
@@ -435,6 +485,8 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
             mesh_contact_added += added;
         } else if split.by_contact {
             contact_added += added;
+        } else if split.by_room_edge {
+            room_edge_added += added;
         }
         match split.leaves {
             Leaves::Triangles(leaves) => {
@@ -473,7 +525,14 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
         alone: out.alone,
         in_slot: out.in_slot,
         lamps,
-        contacts: splitter.contacts.iter().filter(|c| c.gap == 0.0).count(),
+        contacts: splitter
+            .contacts
+            .iter()
+            .filter(|c| c.gap == 0.0 && !c.room_edge)
+            .count(),
+        room_edges: splitter.contacts.iter().filter(|c| c.room_edge).count(),
+        room_edge_min_m: options.room_edge_min_m,
+        room_edge_leaves_added: room_edge_added,
         slots: splitter.slots.len(),
         slot_max_m: options.slot_max_m,
         contact_leaves_added: contact_added,
@@ -548,6 +607,8 @@ struct SplitPatch {
     lamp: Option<usize>,
     /// Split by the contact rules (and by no light).
     by_contact: bool,
+    /// Split by the room-edge rule (and by no light nor contact).
+    by_room_edge: bool,
     /// Split by the OBJ contact rule (and by no light).
     by_mesh_contact: bool,
     /// Leaves left out as covered by an OBJ mesh.
@@ -569,6 +630,7 @@ impl Splitter<'_> {
                 leaves: Leaves::Triangles(leaves),
                 lamp,
                 by_contact: false,
+                by_room_edge: false,
                 by_mesh_contact,
                 covered: 0,
             };
@@ -579,6 +641,7 @@ impl Splitter<'_> {
             leaves: Leaves::Rects(split.leaves),
             lamp: split.lamp,
             by_contact: split.by_contact,
+            by_room_edge: split.by_room_edge,
             by_mesh_contact: split.by_mesh_contact,
             covered: split.covered,
         }
@@ -594,10 +657,16 @@ impl Splitter<'_> {
         }
         let axis = self
             .lamp_axis(&cell, &mut out.lamp)
-            .or_else(|| {
-                let axis = self.contact_axis(&cell).or_else(|| self.slot_axis(&cell));
-                out.by_contact |= axis.is_some();
-                axis
+            .or_else(|| match self.contact_axis(&cell) {
+                Some((axis, true)) => {
+                    out.by_room_edge = true;
+                    Some(axis)
+                }
+                by_contact => {
+                    let axis = by_contact.map(|(k, _)| k).or_else(|| self.slot_axis(&cell));
+                    out.by_contact |= axis.is_some();
+                    axis
+                }
             })
             .or_else(|| {
                 let axis = self.mesh_contact_axis(&cell);
@@ -670,8 +739,8 @@ impl Splitter<'_> {
 
     /// The axis across a contact edge in the cell's plane, when the cell is wider across it than
     /// `contact_ratio ×` its distance to it, or when it touches the edge and a light's shadow line
-    /// runs through it.
-    fn contact_axis(&self, cell: &Cell) -> Option<usize> {
+    /// runs through it; with whether that edge is one of the room's own edges.
+    fn contact_axis(&self, cell: &Cell) -> Option<(usize, bool)> {
         let options = self.options;
         if options.contact_ratio <= 0.0 {
             return None;
@@ -697,8 +766,14 @@ impl Splitter<'_> {
             }
             let width = cell.extent(across);
             let distance = box_distance(&bounds, seg) + contact.gap;
-            if width > 2.0 * options.contact_min_m && width > options.contact_ratio * distance {
-                return Some(across);
+            let (min_m, aspect) = if contact.room_edge {
+                (options.room_edge_min_m, ROOM_EDGE_ASPECT)
+            } else {
+                (options.contact_min_m, CONTACT_ASPECT)
+            };
+            let split = |k: usize| Some((k, contact.room_edge));
+            if width > 2.0 * min_m && width > options.contact_ratio * distance {
+                return split(across);
             }
             // A strip is kept within `CONTACT_ASPECT` times its far side's distance to the edge
             // along it: what it receives varies along the edge with the light and shadow on the
@@ -707,17 +782,18 @@ impl Splitter<'_> {
             // makes short (docs/DECISIONS.md "Interreflection", "Contact strips short along the
             // edge").
             let length = cell.extent(1 - across);
-            if length > CONTACT_ASPECT * (distance + width) && length > 2.0 * options.contact_min_m {
-                return Some(1 - across);
+            if length > aspect * (distance + width) && length > 2.0 * min_m {
+                return split(1 - across);
             }
             // The shadow rule reaches a few strip widths from the edge: the box's shadow line
             // beside its base, where the nearest receivers still see it at a steep angle.
             if contact.gap == 0.0
+                && !contact.room_edge
                 && distance <= SHADOW_REACH * width
                 && width > 2.0 * options.shadow_min_m
                 && self.shadow_line_crosses(cell, across)
             {
-                return Some(across);
+                return split(across);
             }
         }
         None
@@ -849,9 +925,10 @@ fn split_triangle(
 }
 
 /// The edges where a box rests on (or against) a room surface or the top of another box,
-/// clipped to the support, leaving out edges that lie on the room's own edges; and the room's own
-/// edges within reach of a light close to a room surface.
-fn contact_edges(scene: &Scene, slots: &[Slot]) -> Vec<Contact> {
+/// clipped to the support, leaving out edges that lie on the room's own edges; the room's own
+/// edges within reach of a light close to a room surface; and the pieces `room_edges` of the
+/// room's own edges.
+fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[Aabb]) -> Vec<Contact> {
     let size = scene.room_size;
     let eps = touch_eps(size);
     let mut out = Vec::new();
@@ -881,6 +958,7 @@ fn contact_edges(scene: &Scene, slots: &[Slot]) -> Vec<Contact> {
                     out.push(Contact {
                         segment: Aabb { min, max },
                         gap,
+                        room_edge: false,
                     });
                 }
             }
@@ -940,11 +1018,17 @@ fn contact_edges(scene: &Scene, slots: &[Slot]) -> Vec<Contact> {
                     out.push(Contact {
                         segment: Aabb { min, max },
                         gap: 0.0,
+                        room_edge: false,
                     });
                 }
             }
         }
     }
+    out.extend(room_edges.iter().map(|&segment| Contact {
+        segment,
+        gap: 0.0,
+        room_edge: true,
+    }));
     out
 }
 
@@ -1009,11 +1093,11 @@ impl Builder {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// A coarser grading than the default (ratios 1, 6 cm strips), whose leaves the tests below
-    /// state exactly.
+    /// A coarser grading than the default (ratios 1, 6 cm strips; room edges as by default),
+    /// whose leaves the tests below state exactly.
     fn coarse_grading() -> RefineOptions {
         RefineOptions {
             lamp_ratio: 1.0,
@@ -1022,6 +1106,7 @@ mod tests {
             contact_min_m: 0.06,
             shadow_min_m: 0.01,
             slot_max_m: 0.3,
+            room_edge_min_m: 0.1,
         }
     }
 
@@ -1029,7 +1114,9 @@ mod tests {
         crate::scene::load::test_room(text)
     }
 
-    const EMPTY: &str = r#"
+    /// A 4 × 3 × 2.5 m room (ρ 0.2 / 0.5 / 0.7, 0.5 m solver patches) with one light 1.2 m up
+    /// in its middle, aimed down with a cosine-like curve.
+    pub(crate) const EMPTY: &str = r#"
 version = 1
 [room]
 size = [4.0, 3.0, 2.5]
@@ -1139,8 +1226,8 @@ solver_patch_size = 0.5
         assert!(notes.contains(&said), "{notes}");
     }
 
-    /// A light far from every surface and no boxes: nothing to refine, the coarse mesh is kept
-    /// patch for patch, and there are no notes.
+    /// A light far from every surface, whose light is smooth next to the room's edges, and no
+    /// boxes: nothing to refine, the coarse mesh is kept patch for patch, and there are no notes.
     #[test]
     fn a_scene_that_does_not_call_for_it_gets_no_refinement() {
         let s = scene(EMPTY);
@@ -1184,11 +1271,14 @@ solver_patch_size = 0.5
             "the ceiling above the lamp is refined: {smallest}"
         );
         let notes = solver.notes(&s);
-        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert_eq!(notes.len(), 2, "{notes:?}");
         assert!(
             notes[0].contains("refined near light l: 0.20 m from the ceiling"),
             "{notes:?}"
         );
+        // The lamp's horizon lies 0.2 m under the ceiling: the walls go dark just below their
+        // top edges, which are graded.
+        assert!(notes[1].contains("pieces of the room's edges"), "{notes:?}");
     }
 
     /// A box on the floor: floor strips and the box sides' bottom strips are graded to 6.25 cm
@@ -1496,6 +1586,83 @@ solver_patch_size = 0.5
             }
         }
         assert!(strips > 0);
+    }
+
+    /// A hard spot's pool ending 0.13 m from the wall y = 0 (docs/DECISIONS.md "Room edges are
+    /// graded where the direct light bends"): the floor and the wall next to that edge under
+    /// the pool are graded to strips of 0.125 m (0.5 m halved while wider than twice 0.1 m),
+    /// more coarsely with the distance from those pieces along the edge, the far wall keeps its
+    /// 0.5 m patches, and the plan says so; with the rule off the floor there keeps its coarse
+    /// patches.
+    #[test]
+    fn room_edges_are_graded_where_the_direct_light_bends() {
+        let s = scene(&EMPTY.replace("[2.0, 1.5, 1.2]", "[2.0, 1.0, 2.4]").replace(
+            "[[0, 100], [90, 0]]",
+            "[[0, 5000], [20, 5000], [20, 0], [180, 0]]",
+        ));
+        // The (across, along) extents of the leaves of surface `name` touching y = 0.
+        let at_wall = |solver: &SolverMesh, name: &str| -> Vec<(f64, f64, f64)> {
+            let surface = s.surfaces.iter().position(|x| x.name == name).unwrap() as u32;
+            solver
+                .mesh
+                .patches
+                .iter()
+                .filter(|p| p.surface == surface)
+                .filter_map(|p| {
+                    let corners = p.vertex_ids().iter().map(|&v| solver.mesh.positions[v as usize]);
+                    let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                        (lo.min(c), hi.max(c))
+                    });
+                    let touches = if name == "floor" { lo.y == 0.0 } else { lo.z == 0.0 };
+                    let across = if name == "floor" { hi.y - lo.y } else { hi.z - lo.z };
+                    touches.then_some((p.centroid.x, across, hi.x - lo.x))
+                })
+                .collect()
+        };
+        let options = RefineOptions::default();
+        let solver = refine(&s, &options);
+        for name in ["floor", "wall-y0"] {
+            let leaves = at_wall(&solver, name);
+            assert!(leaves.len() >= 8, "{name}: {leaves:?}");
+            for &(x, across, along) in &leaves {
+                if (1.0..3.0).contains(&x) {
+                    assert!((across - 0.125).abs() < 1e-12, "{name} at x {x}: {across} m wide");
+                    assert!((along - 0.5).abs() < 1e-12, "{name} at x {x}: {along} m long");
+                } else if !(0.5..3.5).contains(&x) {
+                    // 0.5 m from the graded pieces: halved once (0.5 > 0.5 × 0.5 m), no more.
+                    assert!((across - 0.25).abs() < 1e-12, "{name} at x {x}: {across} m wide");
+                }
+            }
+        }
+        assert_eq!(solver.room_edges, 4);
+        let notes = solver.notes(&s).join("\n");
+        assert!(
+            notes.contains("graded along 4 pieces of the room's edges") && notes.contains("0.10 m"),
+            "{notes}"
+        );
+        // The far wall y = 3 keeps its coarse patches along the floor.
+        let far = s.surfaces.iter().position(|x| x.name == "wall-y1").unwrap() as u32;
+        assert!(
+            solver
+                .mesh
+                .patches
+                .iter()
+                .filter(|p| p.surface == far)
+                .all(|p| (p.area - 0.25).abs() < 1e-12)
+        );
+        let off = refine(
+            &s,
+            &RefineOptions {
+                room_edge_min_m: 0.0,
+                ..options
+            },
+        );
+        assert_eq!(off.room_edges, 0);
+        assert!(
+            at_wall(&off, "floor")
+                .iter()
+                .all(|&(_, across, _)| (across - 0.5).abs() < 1e-12)
+        );
     }
 
     /// The refinement can be turned off.

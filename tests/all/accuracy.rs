@@ -178,7 +178,7 @@ fn tables_on_a_small_room() {
     // 7. The hierarchical engine: one row per knob; no refinement is the coarse mesh itself,
     // fewer leaves than the graded default; relaxed or coarser links are no more links; each
     // variant within a few per cent of the finer reference in this smooth room.
-    assert_eq!(report.engine.len(), 9);
+    assert_eq!(report.engine.len(), 10);
     let row = |prefix: &str| {
         report
             .engine
@@ -188,6 +188,7 @@ fn tables_on_a_small_room() {
     };
     let defaults = row("defaults");
     assert_eq!(row("no refinement").leaves, report.coarse_patches);
+    assert!(row("room edges not graded").leaves <= defaults.leaves);
     assert!(defaults.leaves > report.coarse_patches, "{defaults:?}");
     assert!(row("links relaxed").links <= defaults.links);
     assert!(row("links 0.2").links <= defaults.links);

@@ -422,14 +422,16 @@ fn plan_and_bake_commands_report_their_decisions() {
     assert_eq!(v["lights"].as_array().unwrap().len(), 2);
     assert_eq!(v["hierarchical"]["on"], true);
     // Both lamps hang 0.1 m under the ceiling (one sentence each); the accent light, 0.3 m from
-    // two walls, also grades the room's edges next to it (one sentence).
+    // two walls, also grades the room's edges next to it (one sentence); their horizon, 0.1 m
+    // under the ceiling, darkens the walls just under it, so the walls' top edges are graded
+    // where they light the wall (one sentence).
     let notes: Vec<&str> = v["refinement"]
         .as_array()
         .unwrap()
         .iter()
         .map(|n| n.as_str().unwrap())
         .collect();
-    assert_eq!(notes.len(), 3, "{notes:?}");
+    assert_eq!(notes.len(), 4, "{notes:?}");
     for name in ["centre", "accent"] {
         let near = format!("refined near light {name}: 0.10 m from the ceiling");
         assert!(notes.iter().any(|n| n.starts_with(&near)), "{notes:?}");
@@ -440,15 +442,21 @@ fn plan_and_bake_commands_report_their_decisions() {
             .any(|n| n.starts_with("graded along 3 contact edges")),
         "{notes:?}"
     );
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("graded along 11 pieces of the room's edges where the direct light")),
+        "{notes:?}"
+    );
     // The text says the same, and that no SH basis is baked for the hierarchical engine.
     let o = haiko(
         cache.path(),
         &["plan", repo("rooms/paper.toml").to_str().unwrap()],
     );
     let text = stdout(&o);
-    assert!(text.contains("hierarchical     on   1379 leaves"), "{text}");
+    assert!(text.contains("hierarchical     on   1478 leaves"), "{text}");
     assert!(
-        text.contains("1379 solver leaves; no SH basis is baked"),
+        text.contains("1478 solver leaves; no SH basis is baked"),
         "{text}"
     );
     assert!(!text.contains("basis columns in all"), "{text}");
