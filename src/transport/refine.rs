@@ -50,7 +50,7 @@ use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Patch, PatchMesh, Scene, SurfaceKind};
 use crate::transport::mesh_contacts::MeshContacts;
 use crate::transport::occlusion::Occluders;
-use crate::transport::room_edges::bending_edge_pieces;
+use crate::transport::room_edges::{BendingPiece, bending_edge_pieces};
 use crate::transport::visibility::Visibility;
 
 /// How the solver mesh is graded. `Default` is what the bake uses.
@@ -163,7 +163,8 @@ pub struct SolverMesh {
     /// The slot distance it was graded with (for the notes).
     pub slot_max_m: f64,
     /// Pieces of the room's own edges graded towards (about one coarse patch long each, where
-    /// the direct light next to them bends), the narrowest strip they were graded to (m), and
+    /// the direct light next to them bends), the option they were graded with
+    /// ([`RefineOptions::room_edge_min_m`], m), and
     /// the leaves made along them (beyond the coarse patches they replaced; patches a light or a
     /// contact split too are counted there).
     pub room_edges: usize,
@@ -201,9 +202,9 @@ impl SolverMesh {
         }
         if self.room_edges > 0 && self.room_edge_leaves_added > 0 {
             notes.push(format!(
-                "graded along {} pieces of the room's edges where the direct light next to them bends (strips down to {:.2} m): +{} patches",
+                "graded along {} pieces of the room's edges where the direct light next to them bends (strips at most {:.2} m wide at the edge, half that beside narrow pools): +{} patches",
                 self.room_edges,
-                self.room_edge_min_m,
+                2.0 * self.room_edge_min_m,
                 self.room_edge_leaves_added
             ));
         }
@@ -228,6 +229,9 @@ struct Contact {
     /// One of the room's own edges, graded to [`RefineOptions::room_edge_min_m`] (rather than
     /// `contact_min_m`), without the shadow rule.
     room_edge: bool,
+    /// Cells closer to the edge than its length are split along it while longer than this
+    /// (m): a piece of room edge whose direct light bends along it; infinite otherwise.
+    max_length: f64,
 }
 
 /// A slot: a box face standing a little off a parallel room surface, or off the facing face of
@@ -398,6 +402,12 @@ const CONTACT_ASPECT: f64 = 4.0;
 /// edges slowly (over the room's and the lights' spacing), so the strips stay long
 /// (docs/DECISIONS.md "Room edges are graded where the direct light bends").
 const ROOM_EDGE_ASPECT: f64 = 8.0;
+
+/// Where the direct light bends along a piece of room edge too (a pool narrower than the
+/// piece), the cells within the piece's length of it are split along the edge while longer
+/// than this fraction of the piece (docs/DECISIONS.md "Room edges are graded where the direct
+/// light bends").
+const ROOM_EDGE_ALONG_FRACTION: f64 = 0.25;
 
 /// A piece of a room edge is graded where the direct light next to it bends enough to put the
 /// indirect light a few centimetres from the edge off by this fraction of the room's indirect
@@ -767,7 +777,13 @@ impl Splitter<'_> {
             let width = cell.extent(across);
             let distance = box_distance(&bounds, seg) + contact.gap;
             let (min_m, aspect) = if contact.room_edge {
-                (options.room_edge_min_m, ROOM_EDGE_ASPECT)
+                // A pool narrower than the piece changes over less than the piece's strips.
+                let min_m = if contact.max_length.is_finite() {
+                    0.5 * options.room_edge_min_m
+                } else {
+                    options.room_edge_min_m
+                };
+                (min_m, ROOM_EDGE_ASPECT)
             } else {
                 (options.contact_min_m, CONTACT_ASPECT)
             };
@@ -783,6 +799,11 @@ impl Splitter<'_> {
             // edge").
             let length = cell.extent(1 - across);
             if length > aspect * (distance + width) && length > 2.0 * min_m {
+                return split(1 - across);
+            }
+            // A pool narrower than the piece: the cells beside it are short along the edge too.
+            let reach = (seg.max - seg.min).max_element();
+            if length > contact.max_length && distance < reach && length > 2.0 * min_m {
                 return split(1 - across);
             }
             // The shadow rule reaches a few strip widths from the edge: the box's shadow line
@@ -928,7 +949,7 @@ fn split_triangle(
 /// clipped to the support, leaving out edges that lie on the room's own edges; the room's own
 /// edges within reach of a light close to a room surface; and the pieces `room_edges` of the
 /// room's own edges.
-fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[Aabb]) -> Vec<Contact> {
+fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[BendingPiece]) -> Vec<Contact> {
     let size = scene.room_size;
     let eps = touch_eps(size);
     let mut out = Vec::new();
@@ -959,6 +980,7 @@ fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[Aabb]) -> Vec<Cont
                         segment: Aabb { min, max },
                         gap,
                         room_edge: false,
+                        max_length: f64::INFINITY,
                     });
                 }
             }
@@ -1019,15 +1041,24 @@ fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[Aabb]) -> Vec<Cont
                         segment: Aabb { min, max },
                         gap: 0.0,
                         room_edge: false,
+                        max_length: f64::INFINITY,
                     });
                 }
             }
         }
     }
-    out.extend(room_edges.iter().map(|&segment| Contact {
-        segment,
-        gap: 0.0,
-        room_edge: true,
+    out.extend(room_edges.iter().map(|piece| {
+        let length = (piece.segment.max - piece.segment.min).max_element();
+        Contact {
+            segment: piece.segment,
+            gap: 0.0,
+            room_edge: true,
+            max_length: if piece.along {
+                ROOM_EDGE_ALONG_FRACTION * length
+            } else {
+                f64::INFINITY
+            },
+        }
     }));
     out
 }
@@ -1590,7 +1621,9 @@ solver_patch_size = 0.5
 
     /// A hard spot's pool ending 0.13 m from the wall y = 0 (docs/DECISIONS.md "Room edges are
     /// graded where the direct light bends"): the floor and the wall next to that edge under
-    /// the pool are graded to strips of 0.125 m (0.5 m halved while wider than twice 0.1 m),
+    /// the pool, where the light bends across and (the pool being round) along the edge, are
+    /// graded to strips of 0.0625 m (0.5 m halved while wider than twice half of 0.1 m) at most
+    /// 0.125 m long,
     /// more coarsely with the distance from those pieces along the edge, the far wall keeps its
     /// 0.5 m patches, and the plan says so; with the rule off the floor there keeps its coarse
     /// patches.
@@ -1626,8 +1659,10 @@ solver_patch_size = 0.5
             assert!(leaves.len() >= 8, "{name}: {leaves:?}");
             for &(x, across, along) in &leaves {
                 if (1.0..3.0).contains(&x) {
-                    assert!((across - 0.125).abs() < 1e-12, "{name} at x {x}: {across} m wide");
-                    assert!((along - 0.5).abs() < 1e-12, "{name} at x {x}: {along} m long");
+                    // The round pool's end bends along the edge too: strips of at most twice
+                    // half of 0.1 m across, at most a quarter piece along.
+                    assert!(across <= 0.1 + 1e-12, "{name} at x {x}: {across} m wide");
+                    assert!(along <= 0.125 + 1e-12, "{name} at x {x}: {along} m long");
                 } else if !(0.5..3.5).contains(&x) {
                     // 0.5 m from the graded pieces: halved once (0.5 > 0.5 × 0.5 m), no more.
                     assert!((across - 0.25).abs() < 1e-12, "{name} at x {x}: {across} m wide");
@@ -1637,7 +1672,7 @@ solver_patch_size = 0.5
         assert_eq!(solver.room_edges, 4);
         let notes = solver.notes(&s).join("\n");
         assert!(
-            notes.contains("graded along 4 pieces of the room's edges") && notes.contains("0.10 m"),
+            notes.contains("graded along 4 pieces of the room's edges") && notes.contains("0.20 m"),
             "{notes}"
         );
         // The far wall y = 3 keeps its coarse patches along the floor.

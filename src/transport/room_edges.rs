@@ -17,15 +17,22 @@ use glam::DVec3;
 use crate::scene::{Aabb, Receiver, Scene};
 use crate::transport::direct::scene_direct_at;
 
-/// Depths (as fractions of the piece length) at which the direct light is sampled across an
-/// edge, on each side; the first is [`FIRST_DEPTH_M`] instead.
+/// Depths (as fractions of a profile's depth, below) at which the direct light is sampled
+/// across an edge, on each side; the first is [`FIRST_DEPTH_M`] instead.
 const DEPTHS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+/// The two sample profiles across an edge, on each side: (depth in pieces, tolerance factor,
+/// whether the bend along the edge is looked for). One piece deep at the tolerance; two pieces
+/// deep at 5 times it, for a pool ending a little more than one piece from a wall, which
+/// lights that wall's foot unevenly, without grading every gentle fall-off over 1 m
+/// (docs/DECISIONS.md "Room edges are graded where the direct light bends").
+const PROFILES: [(f64, f64, bool); 2] = [(1.0, 1.0, true), (2.0, 5.0, false)];
 /// The first sample's depth (m) from the edge (the edge itself is where the two surfaces meet).
 const FIRST_DEPTH_M: f64 = 0.01;
 /// Positions along a piece (fractions of its length) where the light across the edge is sampled.
-const ALONG: [f64; 3] = [1.0 / 6.0, 0.5, 5.0 / 6.0];
+const ALONG: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
 /// Fraction of a point's view (cosine-weighted) that the other surface's strip of one coarse
-/// leaf covers, a few centimetres from the edge (`(1 − d / √(d² + w²)) / 2` with d ≪ w).
+/// leaf covers near the edge: `(1 − d / √(d² + w²)) / 2` is 0.45 at d = w/10 (5 cm from a
+/// 0.5 m leaf) and 0.4 at d = w/5.
 const EDGE_VIEW: f64 = 0.4;
 
 /// A room plane: the axis it is normal to and whether it lies at the room's far side.
@@ -56,11 +63,21 @@ impl RoomPlane {
     }
 }
 
+/// A piece of a room edge along which the direct light next to it bends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BendingPiece {
+    /// The piece as a degenerate box (zero extent in two axes).
+    pub segment: Aabb,
+    /// Whether the light bends along the edge too (a pool narrower than the piece, centred
+    /// near it), not only across it.
+    pub along: bool,
+}
+
 /// The pieces of the room's twelve edges, about `piece_m` long, along which the direct light on
-/// either surface next to the edge bends enough, across `piece_m`, for the indirect light a few
-/// centimetres from the edge to be off by more than `tolerance` of the room's indirect
-/// irradiance; each piece as a degenerate box (zero extent in two axes).
-pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<Aabb> {
+/// either surface next to the edge bends enough, across or along the edge within `piece_m`, for
+/// the indirect light a few centimetres from the edge to be off by more than `tolerance` of the
+/// room's indirect irradiance.
+pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<BendingPiece> {
     let size = scene.room_size;
     let reflectance = |plane: RoomPlane| {
         let name = plane.surface_name();
@@ -68,13 +85,16 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<A
             .surfaces
             .iter()
             .find(|s| s.name == name)
-            .map_or(0.0, |s| s.reflectance.mean())
+            .map_or(0.0, |s| s.reflectance.max())
     };
-    // Every piece with its two sides: (piece, [(plane, direction into that plane, ρ)]).
+    // Every piece with its axis and two sides: (piece, along, [(plane, direction into that
+    // plane, the room's extent that way)]).
     let mut pieces = Vec::new();
     for along in 0..3 {
         let (a, b) = ((along + 1) % 3, (along + 2) % 3);
-        let n = (size[along] / piece_m).ceil().max(1.0) as usize;
+        // As many pieces as the mesher makes patches along the edge (a ratio a hair above a
+        // whole number counts as that number).
+        let n = (size[along] / piece_m - 1e-9).ceil().max(1.0) as usize;
         let step = size[along] / n as f64;
         for far_a in [false, true] {
             for far_b in [false, true] {
@@ -104,8 +124,9 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<A
     // The direct light at every sample point of every piece, in one parallel call.
     let mut receivers = Vec::new();
     for (piece, along, sides) in &pieces {
-        for &(plane, inward, reach) in sides {
-            let width = piece_m.min(reach);
+        for (s, (pieces_deep, _, _)) in sides_profiles() {
+            let (plane, inward, reach) = sides[s];
+            let width = (pieces_deep * piece_m).min(reach);
             for t in ALONG {
                 let mut p = piece.min;
                 p[*along] += t * (piece.max[*along] - piece.min[*along]);
@@ -119,28 +140,61 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<A
             }
         }
     }
-    let lux = scene_direct_at(scene, &receivers);
+    // A sample inside a box standing against the wall (or on the floor) is no light of the room
+    // surface: its rows and columns are left out (NaN, which `bend` skips).
+    let mut lux = scene_direct_at(scene, &receivers);
+    for (e, rx) in lux.iter_mut().zip(&receivers) {
+        if scene.boxes.iter().any(|b| b.contains_strictly(rx.point)) {
+            *e = f64::NAN;
+        }
+    }
     let indirect = indirect_scale(scene);
     let mut out = Vec::new();
-    let per_side = ALONG.len() * DEPTHS.len();
-    for (k, (piece, _, sides)) in pieces.iter().enumerate() {
-        let bends = sides.iter().enumerate().any(|(s, &(plane, _, reach))| {
-            let width = piece_m.min(reach);
+    let per_profile = ALONG.len() * DEPTHS.len();
+    let profiles = sides_profiles();
+    for (k, (piece, along, sides)) in pieces.iter().enumerate() {
+        let length = piece.max[*along] - piece.min[*along];
+        let positions = ALONG.map(|t| t * length);
+        let (mut across_bends, mut along_bends) = (false, false);
+        for (j, &(s, (pieces_deep, factor, look_along))) in profiles.iter().enumerate() {
+            let (plane, _, reach) = sides[s];
+            let width = (pieces_deep * piece_m).min(reach);
             let depths = DEPTHS.map(|depth| (depth * width).max(FIRST_DEPTH_M));
-            let start = (2 * k + s) * per_side;
-            lux[start..start + per_side]
-                .chunks(DEPTHS.len())
-                .any(|e| reflectance(plane) * EDGE_VIEW * bend(&depths, e) > tolerance * indirect)
-        });
-        if bends {
-            out.push(*piece);
+            let start = (profiles.len() * k + j) * per_profile;
+            // Row `a` holds the depths at along-position `a`.
+            let e = &lux[start..start + per_profile];
+            let off = |bend: f64| reflectance(plane) * EDGE_VIEW * bend > factor * tolerance * indirect;
+            across_bends |= e.chunks(DEPTHS.len()).any(|row| off(bend(&depths, row)));
+            along_bends |= look_along
+                && (0..DEPTHS.len()).any(|d| {
+                    let column: Vec<f64> = (0..ALONG.len()).map(|a| e[a * DEPTHS.len() + d]).collect();
+                    off(bend(&positions, &column))
+                });
+        }
+        if across_bends || along_bends {
+            out.push(BendingPiece {
+                segment: *piece,
+                along: along_bends,
+            });
         }
     }
     out
 }
 
-/// The largest deviation of `values` at `x` from their least-squares line.
+/// The sample profiles of a piece in the order their receivers are made: (side, profile), the
+/// profiles of side 0 first.
+fn sides_profiles() -> Vec<(usize, (f64, f64, bool))> {
+    (0..2)
+        .flat_map(|s| PROFILES.iter().map(move |&p| (s, p)))
+        .collect()
+}
+
+/// The largest deviation of `values` at `x` from their least-squares line; 0 when a value is
+/// NaN (a sample left out).
 fn bend(x: &[f64], values: &[f64]) -> f64 {
+    if values.iter().any(|v| v.is_nan()) {
+        return 0.0;
+    }
     let n = x.len() as f64;
     let (mx, my) = (x.iter().sum::<f64>() / n, values.iter().sum::<f64>() / n);
     let sxx: f64 = x.iter().map(|&xi| (xi - mx) * (xi - mx)).sum();
@@ -169,7 +223,7 @@ fn indirect_scale(scene: &Scene) -> f64 {
     for (p, e) in patches.iter().zip(lux) {
         area += p.area;
         flux += p.area * e;
-        rho += p.area * scene.surfaces[p.surface as usize].reflectance.mean();
+        rho += p.area * scene.surfaces[p.surface as usize].reflectance.max();
     }
     if area <= 0.0 {
         return 0.0;
@@ -211,6 +265,7 @@ mod tests {
         let mut spans: Vec<(f64, f64)> = pieces
             .iter()
             .map(|p| {
+                let p = p.segment;
                 assert_eq!([p.min.y, p.max.y, p.min.z, p.max.z], [0.0; 4], "{p:?}");
                 (p.min.x, p.max.x)
             })
@@ -224,15 +279,62 @@ mod tests {
     /// same light 0.1 m under the ceiling bends the long walls' top edges (its horizon, where
     /// the wall goes dark, lies 0.1 m under them).
     #[test]
-    fn smooth_light_bends_no_edge() {
+    fn a_lamps_horizon_bends_the_walls_tops_and_a_smooth_light_no_edge() {
         let lid = "[[0, 100], [30, 95], [60, 70], [90, 0]]";
         let high = bending_edge_pieces(&room("[2.0, 1.5, 2.4]", lid), 0.5, 0.02);
         assert!(!high.is_empty());
-        assert!(
-            high.iter()
-                .all(|p| p.min.z == 2.5 && p.max.z == 2.5 && p.min.y == p.max.y)
-        );
+        assert!(high.iter().all(|p| {
+            let p = p.segment;
+            p.min.z == 2.5 && p.max.z == 2.5 && p.min.y == p.max.y
+        }));
         let s = room("[2.0, 1.5, 1.5]", lid);
-        assert_eq!(bending_edge_pieces(&s, 0.5, 0.02), Vec::<Aabb>::new());
+        assert_eq!(bending_edge_pieces(&s, 0.5, 0.02), Vec::new());
+        // A box standing against the wall y = 0 under that light (x 1.2–2.2): the samples inside
+        // it are left out, so the piece it covers (x 1.5–2) does not bend, while its shadow on
+        // the floor and the wall beside it does.
+        let boxed = crate::scene::load::test_room(
+            &crate::transport::refine::tests::EMPTY
+                .replace("[2.0, 1.5, 1.2]", "[2.0, 1.5, 1.5]")
+                .replace("[[0, 100], [90, 0]]", lid)
+                .replace(
+                    "[[light]]",
+                    "[[box]]\nmin = [1.2, 0.0, 0.0]\nmax = [2.2, 0.4, 0.9]\nreflectance = 0.5\n[[light]]",
+                ),
+        );
+        let boxed = bending_edge_pieces(&boxed, 0.5, 0.02);
+        assert!(
+            !boxed
+                .iter()
+                .any(|p| p.segment.min.x == 1.5 && p.segment.max.x == 2.0),
+            "{boxed:?}"
+        );
+    }
+
+    /// A hard 10° spot 0.1 m under the ceiling aimed at the wall x = 4 makes a pool 0.5 m wide
+    /// just under the ceiling: the wall/ceiling edge above it bends along the edge as well as
+    /// across it (the cells there are kept short along the edge); a soft light's horizon 0.1 m
+    /// under the ceiling, a straight line along the walls, bends them across only.
+    #[test]
+    fn a_narrow_pool_bends_its_edge_along_it_too() {
+        let mut s = room("[2.5, 1.5, 2.4]", "[[0, 8000], [10, 8000], [10, 0], [180, 0]]");
+        s.lights[0].aim = glam::DVec3::new(1.5, 0.0, -0.4).normalize();
+        let pieces = bending_edge_pieces(&s, 0.5, 0.02);
+        let above = pieces
+            .iter()
+            .find(|p| {
+                let g = p.segment;
+                g.min.x == 4.0 && g.min.z == 2.5 && g.min.y <= 1.5 && g.max.y >= 1.5
+            })
+            .expect("the piece above the pool bends");
+        assert!(above.along, "{above:?}");
+        let horizon = bending_edge_pieces(
+            &room("[2.0, 1.5, 2.4]", "[[0, 100], [30, 95], [60, 70], [90, 0]]"),
+            0.5,
+            0.02,
+        );
+        assert!(
+            !horizon.is_empty() && horizon.iter().all(|p| !p.along),
+            "{horizon:?}"
+        );
     }
 }

@@ -188,7 +188,8 @@ fn tables_on_a_small_room() {
     };
     let defaults = row("defaults");
     assert_eq!(row("no refinement").leaves, report.coarse_patches);
-    assert!(row("room edges not graded").leaves <= defaults.leaves);
+    // No piece of this small room's edges bends under its soft lights: the same mesh.
+    assert_eq!(row("room edges not graded").leaves, defaults.leaves);
     assert!(defaults.leaves > report.coarse_patches, "{defaults:?}");
     assert!(row("links relaxed").links <= defaults.links);
     assert!(row("links 0.2").links <= defaults.links);

@@ -445,7 +445,7 @@ fn plan_and_bake_commands_report_their_decisions() {
     assert!(
         notes
             .iter()
-            .any(|n| n.starts_with("graded along 11 pieces of the room's edges where the direct light")),
+            .any(|n| n.starts_with("graded along 15 pieces of the room's edges where the direct light")),
         "{notes:?}"
     );
     // The text says the same, and that no SH basis is baked for the hierarchical engine.
@@ -454,9 +454,9 @@ fn plan_and_bake_commands_report_their_decisions() {
         &["plan", repo("rooms/paper.toml").to_str().unwrap()],
     );
     let text = stdout(&o);
-    assert!(text.contains("hierarchical     on   1478 leaves"), "{text}");
+    assert!(text.contains("hierarchical     on   1575 leaves"), "{text}");
     assert!(
-        text.contains("1478 solver leaves; no SH basis is baked"),
+        text.contains("1575 solver leaves; no SH basis is baked"),
         "{text}"
     );
     assert!(!text.contains("basis columns in all"), "{text}");

@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 14] = [
+pub const ROOMS: [&str; 15] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -48,6 +48,7 @@ pub const ROOMS: [&str; 14] = [
     "stacked",
     "white-corridor",
     "spot-on-edge",
+    "accents",
 ];
 
 /// The environment variable that regenerates the references.
@@ -298,6 +299,32 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
             for r in [0.0, 0.1, 0.3, 0.6] {
                 pts.add(DVec3::new(p.x + r, p.y, s.z), DVec3::NEG_Z);
             }
+        }
+    }
+    if name == "accents" {
+        // The accent's pool on the wall x = 5 just under the ceiling, and the ceiling beside it.
+        for y in [2.0, 2.3] {
+            for z in [2.78, 2.75, 2.7, 2.6, 2.4] {
+                pts.add(DVec3::new(s.x, y, z), DVec3::NEG_X);
+            }
+        }
+        for d in [0.02, 0.05, 0.15] {
+            pts.add(DVec3::new(s.x - d, 2.3, s.z), DVec3::NEG_Z);
+        }
+        // The floor between the floor spot's pool (ending 0.58 m from the wall y = 0) and the
+        // wall, and the wall above it.
+        for d in [0.3, 0.5, 0.6, 0.7] {
+            pts.add(DVec3::new(2.5, d, 0.0), DVec3::Z);
+        }
+        for z in [0.05, 0.15, 0.3] {
+            pts.add(DVec3::new(2.5, 0.0, z), DVec3::Y);
+        }
+        // The ceiling the up-lighter washes beside the wall y = 4, and that wall's top.
+        for y in [3.9, 3.7, 3.5] {
+            pts.add(DVec3::new(2.5, y, s.z), DVec3::NEG_Z);
+        }
+        for z in [2.75, 2.65, 2.5] {
+            pts.add(DVec3::new(2.5, s.y, z), DVec3::NEG_Y);
         }
     }
     if name == "wall-washers" {
@@ -611,7 +638,7 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 
 /// What the interreflection engine reaches with the plan's options on each reference room
 /// (docs/ACCURACY.md "After"): (room, median bound, worst bound). Every median is within 0.25 %
-/// (bound 0.5 %) and every worst within 3.2 % (bounds a little above each room's, all within
+/// (bound 0.5 %) and every worst within 3.11 % (bounds a little above each room's, all within
 /// the 5 % the engine is meant to hold). The
 /// furniture-gaps room's deepest slot points were 25 % high before shadow rays were weighted by
 /// the kernel and the gather looked again at nodes its first rays found hidden (a ceiling seen
@@ -625,22 +652,26 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// off (spot-on-edge, the floor by a wall beside the spot's pool; 6.6 % stacked, 6.1 % spots)
 /// before the pieces of room edges where the direct light bends were graded (docs/DECISIONS.md
 /// "Room edges are graded where the direct light bends"); the empty room's ceiling edge, lit
-/// only indirectly and left coarse, is the worst left (3.1 %).
-const ENGINE_BOUNDS: [(&str, f64, f64); 14] = [
+/// only indirectly and left coarse, is the worst left (3.1 %). The `accents` room (seventeenth
+/// round: a hard spot's pool on a wall just under the ceiling, a floor pool ending 0.58 m from a
+/// wall) was 25 % and 8.5 % off before the pieces were also graded along the edge beside narrow
+/// pools and the light sampled two pieces deep.
+const ENGINE_BOUNDS: [(&str, f64, f64); 15] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
-    ("spots", 0.005, 0.022),
+    ("spots", 0.005, 0.021),
     ("white-room", 0.005, 0.017),
     ("empty", 0.005, 0.035),
     ("office", 0.005, 0.022),
     ("hall", 0.005, 0.027),
     ("mesh-colour", 0.005, 0.027),
-    ("furniture-gaps", 0.005, 0.029),
-    ("cupboards", 0.005, 0.026),
+    ("furniture-gaps", 0.005, 0.028),
+    ("cupboards", 0.005, 0.028),
     ("stacked", 0.005, 0.020),
-    ("white-corridor", 0.005, 0.032),
-    ("spot-on-edge", 0.005, 0.024),
+    ("white-corridor", 0.005, 0.013),
+    ("spot-on-edge", 0.005, 0.018),
+    ("accents", 0.005, 0.033),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
