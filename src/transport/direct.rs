@@ -332,7 +332,27 @@ pub fn luminance_weight(color: [f64; 3]) -> f64 {
 /// visibility when the scene has occluders. Coloured lights count with [`luminance_weight`].
 pub fn scene_direct_at(scene: &crate::scene::Scene, receivers: &[Receiver]) -> Vec<f64> {
     let occluders = crate::transport::occlusion::Occluders::of_scene(scene);
-    let vis = occluders.as_ref().map(|o| o as &dyn Visibility);
+    lights_direct_at(scene, occluders.as_ref(), receivers, Dimmers::AsSet)
+}
+
+/// How the lights' dimmers count in [`lights_direct_at`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dimmers {
+    /// Each light at its dimmer.
+    AsSet,
+    /// Every light at full output (what the light can do, whatever its dimmer now).
+    Full,
+}
+
+/// [`scene_direct_at`] with the scene's `occluders` already built (`None`: nothing occludes)
+/// and the lights' dimmers counted as `dimmers` says.
+pub fn lights_direct_at(
+    scene: &crate::scene::Scene,
+    occluders: Option<&crate::transport::occlusion::Occluders>,
+    receivers: &[Receiver],
+    dimmers: Dimmers,
+) -> Vec<f64> {
+    let vis = occluders.map(|o| o as &dyn Visibility);
     receivers
         .par_iter()
         .map(|rx| {
@@ -340,8 +360,12 @@ pub fn scene_direct_at(scene: &crate::scene::Scene, receivers: &[Receiver]) -> V
                 .lights
                 .iter()
                 .map(|l| {
+                    let scale = match dimmers {
+                        Dimmers::AsSet => l.dimmer,
+                        Dimmers::Full => 1.0,
+                    };
                     luminance_weight(l.color)
-                        * illuminance_at(l.position, l.radius, &l.curve, l.aim, l.dimmer, rx, vis)
+                        * illuminance_at(l.position, l.radius, &l.curve, l.aim, scale, rx, vis)
                 })
                 .sum()
         })

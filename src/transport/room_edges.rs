@@ -10,12 +10,16 @@
 //! downlight's gentle fall-off towards the walls) the coarse leaves are kept: grading every edge
 //! doubles a small room's links.
 //!
+//! Every light counts at full output, whatever its dimmer: the grading follows what the lights
+//! can do, so a dimmer edit never calls for another mesh.
+//!
 //! World frame: metres, z up; illuminance in lux.
 
 use glam::DVec3;
 
 use crate::scene::{Aabb, Receiver, Scene};
-use crate::transport::direct::scene_direct_at;
+use crate::transport::direct::{Dimmers, lights_direct_at};
+use crate::transport::occlusion::Occluders;
 
 /// Depths (as fractions of a profile's depth, below) at which the direct light is sampled
 /// across an edge, on each side; the first is [`FIRST_DEPTH_M`] instead.
@@ -142,13 +146,14 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
     }
     // A sample inside a box standing against the wall (or on the floor) is no light of the room
     // surface: its rows and columns are left out (NaN, which `bend` skips).
-    let mut lux = scene_direct_at(scene, &receivers);
+    let occluders = Occluders::of_scene(scene);
+    let mut lux = lights_direct_at(scene, occluders.as_ref(), &receivers, Dimmers::Full);
     for (e, rx) in lux.iter_mut().zip(&receivers) {
         if scene.boxes.iter().any(|b| b.contains_strictly(rx.point)) {
             *e = f64::NAN;
         }
     }
-    let indirect = indirect_scale(scene);
+    let indirect = indirect_scale(scene, occluders.as_ref());
     let mut out = Vec::new();
     let per_profile = ALONG.len() * DEPTHS.len();
     let profiles = sides_profiles();
@@ -209,7 +214,7 @@ fn bend(x: &[f64], values: &[f64]) -> f64 {
 /// The room's indirect irradiance (lx) by the integrating-sphere estimate: the area-weighted
 /// mean direct irradiance of the coarse patches times `ρ̄ / (1 − ρ̄)`, `ρ̄` their area-weighted
 /// mean reflectance.
-fn indirect_scale(scene: &Scene) -> f64 {
+fn indirect_scale(scene: &Scene, occluders: Option<&Occluders>) -> f64 {
     let patches = &scene.coarse.patches;
     let receivers: Vec<Receiver> = patches
         .iter()
@@ -218,7 +223,7 @@ fn indirect_scale(scene: &Scene) -> f64 {
             normal: p.normal,
         })
         .collect();
-    let lux = scene_direct_at(scene, &receivers);
+    let lux = lights_direct_at(scene, occluders, &receivers, Dimmers::Full);
     let (mut area, mut flux, mut rho) = (0.0, 0.0, 0.0);
     for (p, e) in patches.iter().zip(lux) {
         area += p.area;
@@ -272,6 +277,10 @@ mod tests {
             .collect();
         spans.sort_by(|a, b| a.0.total_cmp(&b.0));
         assert_eq!(spans, [(1.0, 1.5), (1.5, 2.0), (2.0, 2.5), (2.5, 3.0)]);
+        // The light counts at full output: switched off, it grades the same pieces.
+        let mut off = s.clone();
+        off.lights[0].dimmer = 0.0;
+        assert_eq!(bending_edge_pieces(&off, 0.5, 0.02), pieces);
     }
 
     /// A soft downlight hung 1.5 m up in the middle of the room lights the floor and the walls'
