@@ -244,7 +244,7 @@ fn breakpoints(geometry: &Geometry, rect: &AxisRect) -> [Vec<f64>; 2] {
 
 /// Cells of about `size` in `[a, b]`: `ceil(len / size)`, at least 1 (`size = ∞` gives 1). The
 /// tolerance keeps 2.7 / 0.15 = 18.000000000000004 at 18 cells.
-fn cells_between(a: f64, b: f64, size: f64) -> f64 {
+pub(crate) fn cells_between(a: f64, b: f64, size: f64) -> f64 {
     ((b - a) / size - 1e-9).ceil().max(1.0)
 }
 

@@ -17,6 +17,7 @@
 
 use glam::DVec3;
 
+use crate::scene::mesher::cells_between;
 use crate::scene::{Aabb, Receiver, Scene};
 use crate::transport::direct::{Dimmers, lights_direct_at};
 use crate::transport::occlusion::Occluders;
@@ -91,33 +92,36 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
             .find(|s| s.name == name)
             .map_or(0.0, |s| s.reflectance.max())
     };
-    // Every piece with its axis and two sides: (piece, along, [(plane, direction into that
-    // plane, the room's extent that way)]).
+    // Every piece with its axis and two sides: the plane, the direction into the room along it,
+    // its reflectance and, per profile, the sample depths (m).
     let mut pieces = Vec::new();
     for along in 0..3 {
         let (a, b) = ((along + 1) % 3, (along + 2) % 3);
-        // As many pieces as the mesher makes patches along the edge (a ratio a hair above a
-        // whole number counts as that number).
-        let n = (size[along] / piece_m - 1e-9).ceil().max(1.0) as usize;
+        // As many pieces as the mesher makes patches along the edge.
+        let n = cells_between(0.0, size[along], piece_m) as usize;
         let step = size[along] / n as f64;
         for far_a in [false, true] {
             for far_b in [false, true] {
+                let (plane_a, plane_b) = (
+                    RoomPlane { axis: a, far: far_a },
+                    RoomPlane { axis: b, far: far_b },
+                );
+                // The plane normal to `a` reaches into the room along `b`, and the other way.
+                let sides =
+                    [(plane_a, plane_b, b), (plane_b, plane_a, a)].map(|(plane, other, reach_axis)| Side {
+                        plane,
+                        inward: other.normal(),
+                        rho: reflectance(plane),
+                        depths: PROFILES.map(|(pieces_deep, _, _)| {
+                            let width = (pieces_deep * piece_m).min(size[reach_axis]);
+                            DEPTHS.map(|depth| (depth * width).max(FIRST_DEPTH_M))
+                        }),
+                    });
                 let mut base = DVec3::ZERO;
                 base[a] = if far_a { size[a] } else { 0.0 };
                 base[b] = if far_b { size[b] } else { 0.0 };
-                let into = |axis: usize, far: bool| {
-                    let mut d = DVec3::ZERO;
-                    d[axis] = if far { -1.0 } else { 1.0 };
-                    d
-                };
-                // The plane normal to `a` reaches into the room along `b`, and the other way.
-                let sides = [
-                    (RoomPlane { axis: a, far: far_a }, into(b, far_b), size[b]),
-                    (RoomPlane { axis: b, far: far_b }, into(a, far_a), size[a]),
-                ];
                 for i in 0..n {
-                    let mut min = base;
-                    let mut max = base;
+                    let (mut min, mut max) = (base, base);
                     min[along] = i as f64 * step;
                     max[along] = (i + 1) as f64 * step;
                     pieces.push((Aabb { min, max }, along, sides));
@@ -125,21 +129,20 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
             }
         }
     }
-    // The direct light at every sample point of every piece, in one parallel call.
+    // The direct light at every sample point of every piece, in one parallel call: per piece,
+    // side and profile, `ALONG.len()` rows of `DEPTHS.len()` samples.
     let mut receivers = Vec::new();
     for (piece, along, sides) in &pieces {
-        for (s, (pieces_deep, _, _)) in sides_profiles() {
-            let (plane, inward, reach) = sides[s];
-            let width = (pieces_deep * piece_m).min(reach);
-            for t in ALONG {
-                let mut p = piece.min;
-                p[*along] += t * (piece.max[*along] - piece.min[*along]);
-                for depth in DEPTHS {
-                    let d = (depth * width).max(FIRST_DEPTH_M);
-                    receivers.push(Receiver {
-                        point: p + inward * d + plane.normal() * 1e-6,
-                        normal: plane.normal(),
-                    });
+        for side in sides {
+            let normal = side.plane.normal();
+            for depths in &side.depths {
+                for t in ALONG {
+                    let mut p = piece.min;
+                    p[*along] += t * (piece.max[*along] - piece.min[*along]);
+                    receivers.extend(depths.iter().map(|&d| Receiver {
+                        point: p + side.inward * d + normal * 1e-6,
+                        normal,
+                    }));
                 }
             }
         }
@@ -154,27 +157,25 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
         }
     }
     let indirect = indirect_scale(scene, occluders.as_ref());
-    let mut out = Vec::new();
     let per_profile = ALONG.len() * DEPTHS.len();
-    let profiles = sides_profiles();
-    for (k, (piece, along, sides)) in pieces.iter().enumerate() {
+    let mut rows = lux.chunks(per_profile);
+    let mut out = Vec::new();
+    for (piece, along, sides) in &pieces {
         let length = piece.max[*along] - piece.min[*along];
         let positions = ALONG.map(|t| t * length);
         let (mut across_bends, mut along_bends) = (false, false);
-        for (j, &(s, (pieces_deep, factor, look_along))) in profiles.iter().enumerate() {
-            let (plane, _, reach) = sides[s];
-            let width = (pieces_deep * piece_m).min(reach);
-            let depths = DEPTHS.map(|depth| (depth * width).max(FIRST_DEPTH_M));
-            let start = (profiles.len() * k + j) * per_profile;
-            // Row `a` holds the depths at along-position `a`.
-            let e = &lux[start..start + per_profile];
-            let off = |bend: f64| reflectance(plane) * EDGE_VIEW * bend > factor * tolerance * indirect;
-            across_bends |= e.chunks(DEPTHS.len()).any(|row| off(bend(&depths, row)));
-            along_bends |= look_along
-                && (0..DEPTHS.len()).any(|d| {
-                    let column: Vec<f64> = (0..ALONG.len()).map(|a| e[a * DEPTHS.len() + d]).collect();
-                    off(bend(&positions, &column))
-                });
+        for side in sides {
+            for (depths, &(_, factor, look_along)) in side.depths.iter().zip(&PROFILES) {
+                // Row `a` holds the depths at along-position `a`.
+                let e = rows.next().expect("one block of samples per side and profile");
+                let off = |bend: f64| side.rho * EDGE_VIEW * bend > factor * tolerance * indirect;
+                across_bends |= e.chunks(DEPTHS.len()).any(|row| off(bend(depths, row)));
+                along_bends |= look_along
+                    && (0..DEPTHS.len()).any(|d| {
+                        let column: Vec<f64> = (0..ALONG.len()).map(|a| e[a * DEPTHS.len() + d]).collect();
+                        off(bend(&positions, &column))
+                    });
+            }
         }
         if across_bends || along_bends {
             out.push(BendingPiece {
@@ -186,12 +187,16 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
     out
 }
 
-/// The sample profiles of a piece in the order their receivers are made: (side, profile), the
-/// profiles of side 0 first.
-fn sides_profiles() -> Vec<(usize, (f64, f64, bool))> {
-    (0..2)
-        .flat_map(|s| PROFILES.iter().map(move |&p| (s, p)))
-        .collect()
+/// One surface beside a piece of room edge, as sampled.
+#[derive(Debug, Clone, Copy)]
+struct Side {
+    plane: RoomPlane,
+    /// Unit direction from the edge into the room along the plane.
+    inward: DVec3,
+    /// The surface's reflectance (largest channel).
+    rho: f64,
+    /// Per profile of [`PROFILES`], the sample depths (m) from the edge.
+    depths: [[f64; DEPTHS.len()]; PROFILES.len()],
 }
 
 /// The largest deviation of `values` at `x` from their least-squares line; 0 when a value is
