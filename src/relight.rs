@@ -22,7 +22,7 @@ pub use crate::photometry::emission::{LightState, light_coefficients};
 use crate::photometry::{Curve, ShBasis, Window, ZonalWeights, coefficients_from_weights, sh_count};
 use crate::scene::{DirectMode, Light, Scene};
 use crate::transport::bake::{Bake, BakedLight};
-use crate::transport::direct::{DirectCache, Receiver};
+use crate::transport::direct::{DirectCache, Receiver, fine_receivers};
 use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::occlusion::Occluders;
 use crate::transport::visibility::Visibility;
@@ -32,17 +32,6 @@ pub const RESUM_EVERY: usize = 1024;
 
 /// Fine vertices per rayon task when updating a light's contribution.
 const MIN_VERTICES_PER_TASK: usize = 16384;
-
-/// The receivers of a scene's fine mesh: every vertex with its surface normal.
-pub fn fine_receivers(scene: &Scene) -> Vec<Receiver> {
-    scene
-        .fine
-        .positions
-        .iter()
-        .zip(&scene.fine.normals)
-        .map(|(&point, &normal)| Receiver { point, normal })
-        .collect()
-}
 
 /// A light's baked basis and its SH basis functions.
 #[derive(Debug, Clone)]

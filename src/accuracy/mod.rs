@@ -28,10 +28,11 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::metrics::work_plane::WorkPlane;
 use crate::photometry::{Curve, ZonalWeights, auto_window};
-use crate::relight::{Relighter, fine_receivers};
+use crate::relight::Relighter;
 use crate::scene::remesh::remesh;
 use crate::scene::{DirectMode, Scene, SurfaceKind};
 use crate::transport::bake::{Bake, BakeOptions, bake, patch_reflectance};
+use crate::transport::direct::fine_receivers;
 use crate::transport::direct::{Receiver, illuminance_at, luminance_weight};
 use crate::transport::gather::illuminance_at_receivers;
 use crate::transport::indirect::{HierarchicalIndirect, IndirectStats, measured_curve_edit, measured_reaim};
@@ -273,6 +274,10 @@ pub struct EstimateRow {
     /// (every second control point × 0.7).
     pub reaim: f64,
     pub curve: f64,
+    /// The same differences relative to each vertex's total illuminance after the edit (all
+    /// lights, direct and indirect), largest over the vertices.
+    pub reaim_of_total: f64,
+    pub curve_of_total: f64,
 }
 
 /// A pair of dimensionless errors: on the work plane and on the fine vertices.
@@ -911,8 +916,8 @@ fn estimate_table(base: &Scene) -> Result<Vec<EstimateRow>> {
     let (reaim, curve) = (measured_reaim(light), measured_curve_edit(light));
     let mut rows = Vec::new();
     for order in ESTIMATE_ORDERS {
-        let aimed = engine.measure_estimate(0, light, &reaim, order)?;
-        let edited = engine.measure_estimate(0, light, &curve, order)?;
+        let aimed = engine.measure_estimate(base, 0, &reaim, order)?;
+        let edited = engine.measure_estimate(base, 0, &curve, order)?;
         if rows.is_empty() {
             rows.push(EstimateRow {
                 order: None,
@@ -920,6 +925,8 @@ fn estimate_table(base: &Scene) -> Result<Vec<EstimateRow>> {
                 estimate_ms: 0.0,
                 reaim: aimed.unestimated_error,
                 curve: edited.unestimated_error,
+                reaim_of_total: aimed.unestimated_error_of_total,
+                curve_of_total: edited.unestimated_error_of_total,
             });
         }
         rows.push(EstimateRow {
@@ -928,6 +935,8 @@ fn estimate_table(base: &Scene) -> Result<Vec<EstimateRow>> {
             estimate_ms: 1e3 * aimed.estimate_s,
             reaim: aimed.error,
             curve: edited.error,
+            reaim_of_total: aimed.error_of_total,
+            curve_of_total: edited.error_of_total,
         });
     }
     Ok(rows)

@@ -223,23 +223,25 @@ pub fn format_report(r: &AccuracyReport) -> String {
     if !r.estimate.is_empty() {
         let _ = writeln!(
             s,
-            "\n8. The editor's estimate of an edit while its solve runs (light 0; its indirect light at the fine vertices against the edit's solve, largest difference / largest value)"
+            "\n8. The editor's estimate of an edit while its solve runs (light 0; its indirect light at the fine vertices against the edit's solve: largest difference / largest value, and largest difference / the vertex's total illuminance)"
         );
         let _ = writeln!(
             s,
-            "{:<12} {:>9} {:>12} | {:>9} {:>11}",
-            "SH degree", "build ms", "estimate ms", "re-aim", "curve edit"
+            "{:<12} {:>9} {:>12} | {:>9} {:>11} | {:>14} {:>15}",
+            "SH degree", "build ms", "estimate ms", "re-aim", "curve edit", "re-aim, total", "curve, total"
         );
         for row in &r.estimate {
             let order = row.order.map_or("none".to_string(), |n| n.to_string());
             let _ = writeln!(
                 s,
-                "{:<12} {:>9.1} {:>12.3} | {:>9} {:>11}",
+                "{:<12} {:>9.1} {:>12.3} | {:>9} {:>11} | {:>14} {:>15}",
                 order,
                 row.build_ms,
                 row.estimate_ms,
                 percent(row.reaim),
-                percent(row.curve)
+                percent(row.curve),
+                percent(row.reaim_of_total),
+                percent(row.curve_of_total)
             );
         }
     }

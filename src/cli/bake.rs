@@ -293,12 +293,16 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
             c.move_s * 1e3,
             if c.move_rebuilt { " (the move regrades: engine rebuilt)" } else { "" }
         ));
+        let e = &c.aim_estimate;
         s.push_str(&format!(
-            "editor's estimate of that re-aim: {:.2} ms from the light's SH response (built in {:.1} ms), off the solve by {:.2} % of its peak indirect light (without it {:.2} %)\n",
-            c.aim_estimate_s * 1e3,
-            c.estimate_build_s * 1e3,
-            c.aim_estimate_error * 100.0,
-            c.aim_unestimated_error * 100.0,
+            "editor's estimate of that re-aim: {:.2} ms from the light's SH response (built in {:.1} ms), off the solve by {:.2} % of its peak indirect light (without it {:.2} %), {:.3} % of the total illuminance at worst, {:.4} % at the median vertex (without it {:.3} % at worst)\n",
+            e.estimate_s * 1e3,
+            e.build_s * 1e3,
+            e.error * 100.0,
+            e.unestimated_error * 100.0,
+            e.error_of_total * 100.0,
+            e.median_error_of_total * 100.0,
+            e.unestimated_error_of_total * 100.0,
         ));
     }
     s
@@ -366,12 +370,15 @@ fn bake_json(
             "dimmer": c.dimmer_s,
             "move": c.move_s,
             "move_rebuilt": c.move_rebuilt,
-            "aim_estimate": c.aim_estimate_s,
-            "estimate_build": c.estimate_build_s,
+            "aim_estimate": c.aim_estimate.estimate_s,
+            "estimate_build": c.aim_estimate.build_s,
         });
         doc["aim_estimate_error"] = serde_json::json!({
-            "estimated": c.aim_estimate_error,
-            "unestimated": c.aim_unestimated_error,
+            "estimated": c.aim_estimate.error,
+            "unestimated": c.aim_estimate.unestimated_error,
+            "estimated_of_total": c.aim_estimate.error_of_total,
+            "estimated_of_total_median": c.aim_estimate.median_error_of_total,
+            "unestimated_of_total": c.aim_estimate.unestimated_error_of_total,
         });
     }
     doc

@@ -328,6 +328,17 @@ pub fn luminance_weight(color: [f64; 3]) -> f64 {
     0.2126 * color[0] + 0.7152 * color[1] + 0.0722 * color[2]
 }
 
+/// The receivers of a scene's fine mesh: every vertex with its surface normal.
+pub fn fine_receivers(scene: &crate::scene::Scene) -> Vec<Receiver> {
+    scene
+        .fine
+        .positions
+        .iter()
+        .zip(&scene.fine.normals)
+        .map(|(&point, &normal)| Receiver { point, normal })
+        .collect()
+}
+
 /// Exact direct illuminance (lx) of all of a scene's lights at arbitrary receivers, with
 /// visibility when the scene has occluders. Coloured lights count with [`luminance_weight`].
 pub fn scene_direct_at(scene: &crate::scene::Scene, receivers: &[Receiver]) -> Vec<f64> {

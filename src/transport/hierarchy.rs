@@ -14,6 +14,8 @@
 //! (1 in a closed room: the furnace) and the area-weighted column sums (Sumpner's
 //! `Σ A·H = Φ/(1−ρ)`).
 
+use std::sync::OnceLock;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -411,6 +413,9 @@ pub struct Operator {
     /// to what it sends) of [`Self::balance`]; 1 before balancing.
     row_scale: Vec<f64>,
     col_scale: Vec<f64>,
+    /// `Σ_j F_ij` per leaf with the scalings as they are, formed at the first call (every solve
+    /// bounds its error with them) and forgotten when the scalings change.
+    row_sums: OnceLock<Vec<f64>>,
 }
 
 impl Operator {
@@ -477,6 +482,7 @@ impl Operator {
             n_links,
             row_scale: vec![1.0; n],
             col_scale: vec![1.0; n],
+            row_sums: OnceLock::new(),
         }
     }
 
@@ -498,7 +504,7 @@ impl Operator {
             + self.offsets_to_parent.len() * 16
             + (self.offsets.len() + self.gradient_start.len()) * 8
             + self.tree.nodes.len() * std::mem::size_of::<Node>()
-            + (self.row_scale.len() + self.col_scale.len()) * 8
+            + (self.row_scale.len() + self.col_scale.len() + self.row_sums.get().map_or(0, Vec::len)) * 8
     }
 
     /// `F·X` for a leaf-major block `X` of `width` columns (lx per unit radiosity): pull, gather,
@@ -575,7 +581,9 @@ impl Operator {
 
     /// `Σ_j F_ij` per leaf (after balancing).
     pub fn row_sums(&self) -> Vec<f64> {
-        self.apply_block(&vec![1.0; self.n_leaves()], 1)
+        self.row_sums
+            .get_or_init(|| self.apply_block(&vec![1.0; self.n_leaves()], 1))
+            .clone()
     }
 
     /// Alternating diagonal scalings (Sinkhorn) until, to [`BALANCE_DEFECT`], each leaf's row sums to
@@ -635,6 +643,7 @@ impl Operator {
         }
         self.row_scale = row;
         self.col_scale = col;
+        self.row_sums = OnceLock::new();
         Balance {
             row_defect,
             column_defect,
@@ -783,7 +792,8 @@ mod tests {
 
     /// Rows summing to 1 on two leaves of areas 1 and 2 that see only each other would need
     /// `A_1 · 1 = A_2` for the second's power: no scaling meets both, and balancing stops when
-    /// its defect stalls instead of running its 200 sweeps, with the rows exact.
+    /// its defect stalls instead of running its 200 sweeps, with the rows exact (also as the
+    /// operator reports them after reporting them unbalanced).
     #[test]
     fn balancing_stops_when_rows_and_columns_cannot_both_be_met() {
         let operator = |side: f64| {
@@ -798,6 +808,13 @@ mod tests {
             Operator::new(tree, &[vec![link]])
         };
         let mut operator_unequal = operator(2f64.sqrt());
+        // Before balancing each leaf receives `G/A` (the areas 1 and 2); the sums formed here
+        // are forgotten when balancing changes the scalings.
+        let unbalanced = operator_unequal.row_sums();
+        assert!(
+            (unbalanced[0] - 0.4).abs() < 1e-7 && (unbalanced[1] - 0.2).abs() < 1e-7,
+            "{unbalanced:?}"
+        );
         let balance = operator_unequal.balance(Some(1.0));
         assert!(balance.sweeps <= 2 * BALANCE_STALL_SWEEPS, "{balance:?}");
         assert!(balance.defect > 0.1, "{balance:?}");

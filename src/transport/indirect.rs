@@ -18,7 +18,7 @@ use glam::{DQuat, DVec3};
 use crate::error::Result;
 use crate::photometry::{Curve, LightState};
 use crate::scene::{Light, Scene};
-use crate::transport::direct::Receiver;
+use crate::transport::direct::{Receiver, fine_receivers, luminance_weight, scene_direct_at};
 use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions, InterreflectionStats};
 use crate::transport::patchdirect::PatchDirectCache;
@@ -158,15 +158,9 @@ pub struct EditCosts {
     /// A re-aim by 10°.
     pub aim_s: f64,
     /// The same re-aim estimated at once from the light's SH response of the editor's degree
-    /// ([`ESTIMATE_ORDER`]), no solve; the response's build (its columns' solve, as the
-    /// editor's first solve of the light adds it) in `estimate_build_s`.
-    pub aim_estimate_s: f64,
-    pub estimate_build_s: f64,
-    /// The estimate's error: the largest difference of the light's estimated indirect light
-    /// at the fine vertices from the solve's, relative to the solve's largest value; beside it
-    /// the same for the values before the re-aim (what the light shows without an estimate).
-    pub aim_estimate_error: f64,
-    pub aim_unestimated_error: f64,
+    /// ([`ESTIMATE_ORDER`]), no solve: its time, the response's build (its columns' solve, as
+    /// the editor's first solve of the light adds it) and its error against the solve.
+    pub aim_estimate: Estimate,
     /// A dimmer change to 0.8 of the current value.
     pub dimmer_s: f64,
     /// A 0.1 m move: the grading check, then the new direct cache and solve, or the whole
@@ -187,6 +181,12 @@ pub struct Estimate {
     /// the solve's largest value; `unestimated_error` the same for the values before the edit.
     pub error: f64,
     pub unestimated_error: f64,
+    /// The same differences relative to each vertex's total illuminance after the edit (every
+    /// light's exact direct light and solved indirect light, luminance): the largest, and the
+    /// median over the vertices; `unestimated_*` for the values before the edit.
+    pub error_of_total: f64,
+    pub median_error_of_total: f64,
+    pub unestimated_error_of_total: f64,
 }
 
 /// One light's solve, detached from the engine so that it runs on any thread while the
@@ -198,11 +198,9 @@ pub struct LightSolveJob {
     /// The light's direct sample cache; `None` when the light moved (rebuilt by the job).
     cache: Option<Arc<PatchDirectCache>>,
     light: Light,
-    /// The light's previous radiosity per channel (the warm start; empty before any solve).
-    initial: Vec<PatchColumns>,
-    /// What `initial` was solved for, when the light still has that direct cache: the warm
-    /// start then also takes the change of the first reflection, `ρ (E_new − E_old)`.
-    previous: Option<Box<SolvedState>>,
+    /// The light's previous leaf indirect irradiance `H − E` per channel (lx; the warm start
+    /// [`warm_start`] makes with the new direct light; empty before any solve).
+    indirect: Vec<Vec<f32>>,
     tolerance: f64,
     /// Solve the light's [`CurveResponse`] and take its values from it, instead of one column.
     response: Option<ResponseRequest>,
@@ -218,15 +216,6 @@ struct ResponseRequest {
     carried: Option<Arc<CurveResponse>>,
     /// The control points to add a column for: those the edit changed.
     points: Vec<usize>,
-}
-
-/// The direct sample cache, curve, aim and dimmer a light's radiosity was solved for.
-#[derive(Debug, Clone)]
-struct SolvedState {
-    cache: Arc<PatchDirectCache>,
-    curve: Curve,
-    aim: DVec3,
-    dimmer: f64,
 }
 
 /// A finished [`LightSolveJob`].
@@ -250,7 +239,7 @@ impl LightSolveJob {
             None => Arc::new(self.engine.direct_cache(&self.light)),
         };
         let emission = cache.emission(&LightState::from(&self.light));
-        let initial = warm_start(&self.engine, self.initial, self.previous.as_deref(), &emission);
+        let initial = warm_start(&self.engine, &self.indirect, &emission);
         let (values, response) = match self.response {
             Some(request) => {
                 let response = CurveResponse::solve(
@@ -474,34 +463,19 @@ impl HierarchicalIndirect {
         }
         let response = (!moved).then(|| curve_edit_response(old, light)).flatten();
         let sh_missing = old.sh_response.as_ref().is_none_or(|r| !r.stands_as(light));
-        let job =
-            LightSolveJob {
-                engine: Arc::clone(&self.engine),
-                cache: if moved { None } else { old.cache.clone() },
-                light: light.clone(),
-                initial: old
-                    .radiosity
-                    .iter()
-                    .map(|channel| PatchColumns {
-                        n_patches: channel.len(),
-                        n_columns: 1,
-                        values: channel.iter().map(|&v| f64::from(v)).collect(),
-                    })
-                    .collect(),
-                previous: old.cache.clone().zip(old.solved_for.clone()).map(
-                    |(cache, (curve, aim, dimmer))| {
-                        Box::new(SolvedState {
-                            cache,
-                            curve,
-                            aim,
-                            dimmer,
-                        })
-                    },
-                ),
-                tolerance: self.tolerance,
-                response,
-                sh_response: self.estimate_order.filter(|_| !moved && sh_missing),
-            };
+        let job = LightSolveJob {
+            engine: Arc::clone(&self.engine),
+            cache: if moved { None } else { old.cache.clone() },
+            light: light.clone(),
+            indirect: if old.solved_for.is_some() {
+                old.leaf_indirect.clone()
+            } else {
+                Vec::new()
+            },
+            tolerance: self.tolerance,
+            response,
+            sh_response: self.estimate_order.filter(|_| !moved && sh_missing),
+        };
         self.show_estimate(i, light);
         Some(job)
     }
@@ -774,34 +748,32 @@ impl HierarchicalIndirect {
             let _ = copy.vertex_indirect(i);
         }
         let move_s = t.elapsed().as_secs_f64();
-        let estimate = self.measure_estimate(i, light, &aim, ESTIMATE_ORDER)?;
+        let aim_estimate = self.measure_estimate(scene, i, &aim, ESTIMATE_ORDER)?;
         Ok(EditCosts {
             curve_s,
             point_s,
             point_again_s,
             aim_s,
-            aim_estimate_s: estimate.estimate_s,
-            estimate_build_s: estimate.build_s,
-            aim_estimate_error: estimate.error,
-            aim_unestimated_error: estimate.unestimated_error,
+            aim_estimate,
             dimmer_s,
             move_s,
             move_rebuilt,
         })
     }
 
-    /// Measures, on a copy, light `i`'s SH response of degree `order` where it stands (`light`,
-    /// its state), then `edited`'s estimate from it (with the interpolation to the fine
+    /// Measures, on a copy, light `i`'s SH response of degree `order` where it stands (its
+    /// state in `scene`), then `edited`'s estimate from it (with the interpolation to the fine
     /// vertices), and compares the estimate, and the values before, with `edited`'s solve.
     ///
     /// Errors: a solve failing (internal).
     pub fn measure_estimate(
         &self,
+        scene: &Scene,
         i: usize,
-        light: &Light,
         edited: &Light,
         order: usize,
     ) -> Result<Estimate> {
+        let light = &scene.lights[i];
         let mut copy = self.clone();
         copy.set_estimates(Some(order));
         let t = Instant::now();
@@ -822,21 +794,56 @@ impl HierarchicalIndirect {
             copy.install(i, solved);
         }
         let exact = copy.vertex_indirect(i);
-        let peak = exact.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-        let error = |values: &[[f64; 3]]| {
-            let worst = values
+        let mut edited_scene = scene.clone();
+        edited_scene.lights[i] = edited.clone();
+        let total = copy.vertex_totals(&edited_scene);
+        let luminance = |v: &[f64; 3]| luminance_weight(std::array::from_fn(|c| v[c] * edited.color[c]));
+        let peak = exact.iter().fold(0.0f64, |m, v| m.max(luminance(v).abs()));
+        let differences = |values: &[[f64; 3]]| -> Vec<f64> {
+            values
                 .iter()
-                .flatten()
-                .zip(exact.iter().flatten())
-                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-            worst / peak.max(f64::MIN_POSITIVE)
+                .zip(&exact)
+                .map(|(a, b)| (luminance(a) - luminance(b)).abs())
+                .collect()
         };
+        let of_total = |d: &[f64]| -> Vec<f64> {
+            let mut r: Vec<f64> = d
+                .iter()
+                .zip(&total)
+                .filter(|(_, t)| **t > 0.0)
+                .map(|(d, t)| d / t)
+                .collect();
+            r.sort_by(f64::total_cmp);
+            r
+        };
+        let largest = |d: &[f64]| d.iter().fold(0.0f64, |m, &v| m.max(v));
+        let (estimated, before) = (differences(&estimated), differences(&before));
+        let (estimated_of_total, before_of_total) = (of_total(&estimated), of_total(&before));
         Ok(Estimate {
             build_s,
             estimate_s,
-            error: error(&estimated),
-            unestimated_error: error(&before),
+            error: largest(&estimated) / peak.max(f64::MIN_POSITIVE),
+            unestimated_error: largest(&before) / peak.max(f64::MIN_POSITIVE),
+            error_of_total: largest(&estimated_of_total),
+            median_error_of_total: estimated_of_total
+                .get(estimated_of_total.len() / 2)
+                .copied()
+                .unwrap_or(0.0),
+            unestimated_error_of_total: largest(&before_of_total),
         })
+    }
+
+    /// The total illuminance (lx, luminance) at each fine vertex of `scene` (whose lights are
+    /// this engine's, in their solved states): every light's exact direct light and its indirect
+    /// light as shown.
+    fn vertex_totals(&self, scene: &Scene) -> Vec<f64> {
+        let mut total = scene_direct_at(scene, &fine_receivers(scene));
+        for (j, light) in self.lights.iter().enumerate() {
+            for (t, v) in total.iter_mut().zip(self.vertex_indirect(j)) {
+                *t += luminance_weight(std::array::from_fn(|c| v[c] * light.color[c]));
+            }
+        }
+        total
     }
 
     /// Bytes held by the lights' direct caches and solved values.
@@ -915,31 +922,35 @@ pub fn measured_reaim(light: &Light) -> Light {
     }
 }
 
-/// The start of a light's solve for `emission`: its previous radiosity `initial` (per channel;
-/// `None` when it has none for every channel), plus `ρ (E_new − E_old)` when `previous` (what
-/// `initial` was solved for) still has its direct cache — the old solution with its first
-/// reflection brought up to date, so GMRES starts one bounce closer (docs/DECISIONS.md
-/// "Interreflection", "Warm starts with the first reflection").
+/// The start of a light's solve for its new leaf direct light `emission`: per channel
+/// `ρ (I_old + E_new)`, `I_old` the light's previous leaf indirect irradiance (`None` when it has
+/// none for every channel). That is its previous radiosity `ρ (E_old + I_old)` with the first
+/// reflection brought up to date, so GMRES starts one bounce closer; it needs neither the old
+/// direct light nor the cache it came from (docs/DECISIONS.md "Interreflection", "Warm starts
+/// with the first reflection").
 fn warm_start(
     engine: &Interreflection,
-    initial: Vec<PatchColumns>,
-    previous: Option<&SolvedState>,
+    indirect: &[Vec<f32>],
     emission: &PatchColumns,
 ) -> Option<Vec<PatchColumns>> {
-    let mut initial = Some(initial).filter(|x| x.len() == engine.channels())?;
-    if let Some(previous) = previous {
-        let mut old = vec![0.0; emission.values.len()];
-        let aim = previous.aim.normalize();
-        previous
-            .cache
-            .irradiance_into(&previous.curve, aim, previous.dimmer, &mut old);
-        for (x0, rho) in initial.iter_mut().zip(&engine.reflectance) {
-            for (i, x) in x0.values.iter_mut().enumerate() {
-                *x += rho[i] * (emission.values[i] - old[i]);
-            }
-        }
+    if indirect.len() != engine.channels() {
+        return None;
     }
-    Some(initial)
+    Some(
+        indirect
+            .iter()
+            .zip(&engine.reflectance)
+            .map(|(channel, rho)| PatchColumns {
+                values: channel
+                    .iter()
+                    .zip(&emission.values)
+                    .zip(rho)
+                    .map(|((&i, e), r)| r * (f64::from(i) + e))
+                    .collect(),
+                ..*emission
+            })
+            .collect(),
+    )
 }
 
 /// What a solve of `light` (where `old` stands) adds to its curve response, when it is a curve
@@ -1251,11 +1262,12 @@ solver_patch_size = 0.5
             .update_light(0, &reaimed.lights[0])
             .expect("a re-aim is solved");
         let cache = job.cache.clone().expect("the light kept its direct cache");
-        assert!(job.previous.is_some(), "the previous state comes along");
         let e = cache.emission(&LightState::from(&reaimed.lights[0]));
-        let old = job.initial.clone();
-        let start =
-            warm_start(&job.engine, job.initial.clone(), job.previous.as_deref(), &e).expect("a start");
+        let old = [PatchColumns {
+            values: radiosity(&engine, 0).iter().map(|b| b[0]).collect(),
+            ..e
+        }];
+        let start = warm_start(&job.engine, &job.indirect, &e).expect("a start");
         let fresh = build(&reaimed);
         let new: Vec<f64> = radiosity(&fresh, 0).iter().map(|b| b[0]).collect();
         let distance = |x: &PatchColumns| {

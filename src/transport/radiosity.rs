@@ -237,7 +237,7 @@ pub fn solve_from<T: Transfer + ?Sized>(
             }
             reports.push(column.report);
         }
-        add_indirect(form_factors, &columns, first, &mut irradiance);
+        add_indirect(&columns, first, &mut irradiance);
     }
     Ok(Solution {
         irradiance,
@@ -317,28 +317,20 @@ fn check_inputs(n: usize, reflectance: &[f64], emission: &PatchColumns) -> Resul
 }
 
 /// Adds `F·B` of the solved `columns` (columns `first..` of `irradiance`, which holds `E`) to
-/// `irradiance`: `H = E + F·B`. A column whose radiosity is zero keeps `H = E` bitwise.
-fn add_indirect<T: Transfer + ?Sized>(
-    form_factors: &T,
-    columns: &[ColumnGmres],
-    first: usize,
-    irradiance: &mut PatchColumns,
-) {
-    let (n, k, width) = (irradiance.n_patches, irradiance.n_columns, columns.len());
-    let nonzero: Vec<bool> = columns.iter().map(|c| c.x.iter().any(|&b| b != 0.0)).collect();
-    if !nonzero.contains(&true) {
-        return;
-    }
-    let mut block = vec![0.0; n * width];
+/// `irradiance`: `H = E + F·B`, from the product each column's last check already formed for its
+/// final radiosity (no product of its own). A column whose radiosity is zero keeps `H = E`
+/// bitwise.
+fn add_indirect(columns: &[ColumnGmres], first: usize, irradiance: &mut PatchColumns) {
+    let k = irradiance.n_columns;
     for (a, column) in columns.iter().enumerate() {
-        for (i, &b) in column.x.iter().enumerate() {
-            block[i * width + a] = b;
-        }
-    }
-    let indirect = form_factors.apply_block(&block, width);
-    for (a, _) in nonzero.iter().enumerate().filter(|(_, nonzero)| **nonzero) {
-        for i in 0..n {
-            irradiance.values[i * k + first + a] += indirect[i * width + a];
+        if let Some(indirect) = column
+            .f_times_x
+            .as_deref()
+            .filter(|_| column.x.iter().any(|&b| b != 0.0))
+        {
+            for (i, v) in indirect.iter().enumerate() {
+                irradiance.values[i * k + first + a] += v;
+            }
         }
     }
 }
@@ -418,6 +410,9 @@ struct ColumnGmres {
     g: Vec<f64>,
     stage: Stage,
     report: ColumnReport,
+    /// Once done: `F·x` of the final radiosity, formed by the check that certified it (`None`
+    /// for a zero right-hand side, done without a product).
+    f_times_x: Option<Vec<f64>>,
 }
 
 impl ColumnGmres {
@@ -445,6 +440,7 @@ impl ColumnGmres {
                 error_bound: 0.0,
                 converged: true,
             },
+            f_times_x: None,
         }
     }
 
@@ -490,6 +486,8 @@ impl ColumnGmres {
             self.report.error_bound = residual_inf / (1.0 - params.contraction);
             self.report.converged = converged;
             self.stage = Stage::Done;
+            self.f_times_x = Some(f_times_x.to_vec());
+            self.basis = Vec::new();
             return;
         }
         let beta = norm_2(&residual);

@@ -574,6 +574,17 @@ fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
         v["aim_estimate_error"]["unestimated"].as_f64().unwrap(),
     );
     assert!(estimated < 0.5 * unestimated, "{estimated} vs {unestimated}");
+    // Against each vertex's total illuminance too, the largest and the median difference.
+    let of_total = |key: &str| v["aim_estimate_error"][key].as_f64().unwrap();
+    let (worst, median, before) = (
+        of_total("estimated_of_total"),
+        of_total("estimated_of_total_median"),
+        of_total("unestimated_of_total"),
+    );
+    assert!(
+        0.0 < median && median <= worst && worst < before,
+        "{median} {worst} {before}"
+    );
     let dir = tempfile::tempdir().unwrap();
     let room = dir.path().join("plain.toml");
     std::fs::write(

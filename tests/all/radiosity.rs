@@ -12,7 +12,7 @@ use haiko::transport::formfactor::{
     FormFactorBuilder, FormFactorOptions, FormFactors, TargetPatch, differential, point_to_polygon,
 };
 use haiko::transport::interpolate::{InterpolationWeights, interpolate};
-use haiko::transport::radiosity::{PatchColumns, SolveOptions, solve, solve_from};
+use haiko::transport::radiosity::{PatchColumns, SolveOptions, Transfer, solve, solve_from};
 use haiko::transport::visibility::{Unoccluded, Visibility};
 
 // ---------------------------------------------------------------- helpers
@@ -678,6 +678,54 @@ fn warm_start_reaches_the_cold_solution_in_fewer_iterations() {
     let wrong = PatchColumns::from_columns(n - 1, &[vec![0.0; n - 1]]);
     let err = solve_from(&ff, &rho, &emission, Some(&wrong), &options).unwrap_err();
     assert_eq!(err.exit_code(), 1, "{err}");
+}
+
+/// The irradiance a solve returns is `E + F·B` of the radiosity it returns — taken from the
+/// product of its last check, not formed again — for two columns solved together, and for a
+/// warm start already within the tolerance (certified without a step).
+#[test]
+fn the_irradiance_is_the_emission_plus_the_gathered_radiosity() {
+    let mesh = small_room();
+    let n = mesh.patches.len();
+    let ff = FormFactors::build(&mesh, &Unoccluded, FormFactorOptions::default());
+    let mut rng = Rng(7);
+    let rho: Vec<f64> = (0..n).map(|_| rng.between(0.3, 0.8)).collect();
+    let columns: Vec<Vec<f64>> = (0..2)
+        .map(|_| (0..n).map(|_| rng.between(0.0, 50.0)).collect())
+        .collect();
+    let emission = PatchColumns::from_columns(n, &columns);
+    let options = SolveOptions {
+        tolerance: 1e-6,
+        ..SolveOptions::default()
+    };
+    let check = |solution: &haiko::transport::radiosity::Solution| {
+        let gathered = Transfer::apply_block(&ff, &solution.radiosity.values, 2);
+        for (i, h) in solution.irradiance.values.iter().enumerate() {
+            let expected = emission.values[i] + gathered[i];
+            assert!(
+                (h - expected).abs() <= 1e-12 * expected.abs(),
+                "entry {i}: {h} vs {expected}"
+            );
+        }
+    };
+    let cold = solve(&ff, &rho, &emission, &options).unwrap();
+    assert!(
+        cold.columns.iter().all(|c| c.iterations > 0),
+        "{:?}",
+        cold.columns
+    );
+    check(&cold);
+    let warm = solve_from(&ff, &rho, &emission, Some(&cold.radiosity), &options).unwrap();
+    assert!(
+        warm.columns.iter().all(|c| c.iterations == 0),
+        "{:?}",
+        warm.columns
+    );
+    assert_eq!(
+        warm.radiosity, cold.radiosity,
+        "a start within the tolerance is kept"
+    );
+    check(&warm);
 }
 
 // ---------------------------------------------------------------- interpolation

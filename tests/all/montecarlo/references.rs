@@ -969,26 +969,32 @@ fn print_open_plan_estimates() {
     .expect("solves");
     let orders = std::env::var("HAIKO_ESTIMATE_ORDERS").unwrap_or_else(|_| "2,4,6".into());
     let light = &scene.lights[0];
-    println!("degree | build s | re-aim: estimate ms, error, without | curve: estimate ms, error, without");
+    println!(
+        "degree | build s | re-aim: estimate ms, error, without, of total worst/median | curve: estimate ms, error, without, of total worst/median"
+    );
     for order in orders
         .split(',')
         .map(|o| o.trim().parse::<usize>().expect("a degree"))
     {
         let aimed = engine
-            .measure_estimate(0, light, &measured_reaim(light), order)
+            .measure_estimate(&scene, 0, &measured_reaim(light), order)
             .expect("solves");
         let edited = engine
-            .measure_estimate(0, light, &measured_curve_edit(light), order)
+            .measure_estimate(&scene, 0, &measured_curve_edit(light), order)
             .expect("solves");
         println!(
-            "{order} | {:.2} | {:.2} {:.2} % {:.2} % | {:.2} {:.2} % {:.2} %",
+            "{order} | {:.2} | {:.2} {:.2} % {:.2} % {:.3} % / {:.4} % | {:.2} {:.2} % {:.2} % {:.3} % / {:.4} %",
             aimed.build_s,
             1e3 * aimed.estimate_s,
             100.0 * aimed.error,
             100.0 * aimed.unestimated_error,
+            100.0 * aimed.error_of_total,
+            100.0 * aimed.median_error_of_total,
             1e3 * edited.estimate_s,
             100.0 * edited.error,
             100.0 * edited.unestimated_error,
+            100.0 * edited.error_of_total,
+            100.0 * edited.median_error_of_total,
         );
     }
 }
@@ -1055,7 +1061,7 @@ fn print_engine_edit_costs() {
         let _ = engine.operator.apply_block(&e, 1);
         let apply_s = t.elapsed().as_secs_f64();
         let b = engine.scene_radiosity(&scene, tolerance).expect("solves");
-        let receivers = haiko::relight::fine_receivers(&scene);
+        let receivers = haiko::transport::direct::fine_receivers(&scene);
         let t = Instant::now();
         let _ = engine.gather(&b, &receivers);
         let gather_s = t.elapsed().as_secs_f64();
