@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 15] = [
+pub const ROOMS: [&str; 16] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -49,6 +49,7 @@ pub const ROOMS: [&str; 15] = [
     "white-corridor",
     "spot-on-edge",
     "accents",
+    "niche",
 ];
 
 /// The environment variable that regenerates the references.
@@ -200,7 +201,9 @@ impl Points<'_> {
 /// upper box's faces around their contact and the wall beside them; for the white corridor, the
 /// washed end wall, the ceiling by it and the corner the spot's pool fills; for the spot on the
 /// edge, the desk's top, front face and the floor across the spot's cut-off, and the side table
-/// and ceiling around the table lamp.
+/// and ceiling around the table lamp; for the niche, the corner cupboard's grazed front face,
+/// its side, the wall beside it and the ceiling above it, the step light's pool and the wall
+/// below it, and the corner by the pendant.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
@@ -325,6 +328,40 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
         }
         for z in [2.75, 2.65, 2.5] {
             pts.add(DVec3::new(2.5, s.y, z), DVec3::NEG_Y);
+        }
+    }
+    if name == "niche" {
+        // The corner cupboard's front face (y = 0.6) under the grazing spot, its side face
+        // (x = 3.3), the wall y = 0 beside it, and the ceiling above it.
+        for x in [3.9, 3.4] {
+            for z in [0.05, 0.5, 1.0, 1.5, 1.9, 1.98] {
+                pts.add(DVec3::new(x, 0.6, z), DVec3::Y);
+            }
+        }
+        for z in [0.05, 1.0, 1.95] {
+            pts.add(DVec3::new(3.3, 0.3, z), DVec3::NEG_X);
+        }
+        for x in [3.28, 3.2, 3.05] {
+            for z in [1.0, 2.02, 2.2] {
+                pts.add(DVec3::new(x, 0.0, z), DVec3::Y);
+            }
+        }
+        pts.add(DVec3::new(3.9, 0.3, s.z), DVec3::NEG_Z);
+        // The step light's pool on the dark floor and the wall x = 0 below and beside it.
+        for x in [0.03, 0.1, 0.2, 0.4, 0.7, 1.0, 1.5] {
+            pts.add(DVec3::new(x, 2.0, 0.0), DVec3::Z);
+        }
+        pts.add(DVec3::new(0.5, 2.4, 0.0), DVec3::Z);
+        for (y, z) in [(2.0, 0.05), (2.0, 0.15), (2.3, 0.3), (2.0, 0.6)] {
+            pts.add(DVec3::new(0.0, y, z), DVec3::X);
+        }
+        // The corner by the pendant: the ceiling and both walls.
+        for (x, y) in [(0.15, 3.35), (0.05, 3.45), (0.4, 3.1)] {
+            pts.add(DVec3::new(x, y, s.z), DVec3::NEG_Z);
+        }
+        for z in [1.8, 2.2, 2.38] {
+            pts.add(DVec3::new(0.0, 3.35, z), DVec3::X);
+            pts.add(DVec3::new(0.15, s.y, z), DVec3::NEG_Y);
         }
     }
     if name == "wall-washers" {
@@ -655,8 +692,9 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// only indirectly and left coarse, is the worst left (3.1 %). The `accents` room (seventeenth
 /// round: a hard spot's pool on a wall just under the ceiling, a floor pool ending 0.58 m from a
 /// wall) was 25 % and 8.5 % off before the pieces were also graded along the edge beside narrow
-/// pools and the light sampled two pieces deep.
-const ENGINE_BOUNDS: [(&str, f64, f64); 15] = [
+/// pools and the light sampled two pieces deep. The `niche` room (eighteenth round, added as
+/// it came, no option changed for it) is 2.7 % off at worst.
+const ENGINE_BOUNDS: [(&str, f64, f64); 16] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
@@ -672,6 +710,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 15] = [
     ("white-corridor", 0.005, 0.013),
     ("spot-on-edge", 0.005, 0.018),
     ("accents", 0.005, 0.033),
+    ("niche", 0.005, 0.031),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
