@@ -813,19 +813,30 @@ impl Session {
         };
         if let Some(h) = self.hierarchical.as_mut() {
             let mut solves = Vec::new();
-            for (i, (slot, light)) in self.slots.iter().zip(&self.lights).enumerate() {
-                if slot.solved != slot.version
-                    && let Some(solve) = h.update_light(i, &light.to_light())
-                {
-                    solves.push(BakeJob {
+            let mut settled = Vec::new();
+            for (i, (slot, light)) in self.slots.iter_mut().zip(&self.lights).enumerate() {
+                if slot.solved == slot.version {
+                    continue;
+                }
+                match h.update_light(i, &light.to_light()) {
+                    Some(solve) => solves.push(BakeJob {
                         light: Some(slot.id),
                         name: light.name.clone(),
                         generation: slot.generation,
                         work: Work::Solve(solve),
-                    });
+                    }),
+                    None => {
+                        // Brought up to date at once (back to its solved state, a scaling), as
+                        // in `solve_indirect`: work queued or running for an older state must
+                        // not land.
+                        slot.generation += 1;
+                        slot.installed = slot.generation;
+                        settled.push(Some(slot.id));
+                    }
                 }
             }
-            self.jobs.retain(|j| !solves.iter().any(|s| s.light == j.light));
+            self.jobs
+                .retain(|j| !solves.iter().any(|s| s.light == j.light) && !settled.contains(&j.light));
             self.jobs.splice(0..0, solves);
         }
         self.queue_regrade(job);

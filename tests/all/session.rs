@@ -366,6 +366,49 @@ fn background_solves_leave_the_key_path_and_end_where_synchronous_ones_do() {
     );
 }
 
+/// A light brought back to its solved state in the same relight as another light's move (the
+/// placement path, which queues the moved light's solve and the grading check) is settled at
+/// once: the solve of the state it left, still running, is dropped when it lands instead of
+/// leaving the light lit as aimed then; the field ends a synchronous session's.
+#[test]
+fn a_light_settled_beside_a_move_drops_the_solve_it_left() {
+    let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
+    let mut sync = planned_session(paper());
+    let aim_back = s.lights()[0].aim;
+    let aim = |d: DVec3| Command::Aim {
+        light: 0,
+        spec: AimSpec::Direction(d),
+    };
+    apply_both(&mut s, &mut sync, aim(DVec3::new(1.0, 0.0, -0.3)));
+    s.relight();
+    let at_wall = s.take_bake_jobs();
+    assert_eq!(at_wall.len(), 1, "the wall's solve");
+    apply_both(&mut s, &mut sync, aim(aim_back));
+    let position = s.lights()[1].position + DVec3::new(0.01, 0.0, 0.0);
+    apply_both(&mut s, &mut sync, Command::Move { light: 1, position });
+    s.relight();
+    let placement = s.take_bake_jobs();
+    assert_eq!(placement.len(), 2, "the moved light's solve and the check");
+    assert!(
+        placement.iter().all(|j| j.light() != s.light_id(0)),
+        "the light back where it was solved needs no solve"
+    );
+    let late = at_wall.into_iter().next().unwrap().run(&mut |_| {});
+    assert_eq!(
+        s.finish_bake(late).unwrap(),
+        None,
+        "the left state's solve is dropped"
+    );
+    for job in placement {
+        s.finish_bake(job.run(&mut |_| {})).unwrap();
+    }
+    s.relight();
+    assert!(s.take_bake_jobs().is_empty());
+    assert_eq!(s.light_status(0), LightStatus::Ready);
+    sync.relight();
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+}
+
 /// In the editor a light's first solve also builds its SH response; from then on a re-aim
 /// shows an estimate of its indirect light at once, much closer to the new light than the old
 /// values, while its solve runs; the solve then lands as a synchronous session's result.
