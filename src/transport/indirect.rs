@@ -6,7 +6,7 @@
 //! numbers).
 //!
 //! A light's state change (curve, aim, dimmer, colour) costs its patch direct light (one curve
-//! evaluation per cached sample) and a solve warm-started from its previous radiosity; all lights
+//! evaluation per cached sample) and a solve warm-started from its previous indirect light; all lights
 //! of a new scene are solved as one block.
 
 use std::sync::Arc;
@@ -431,7 +431,7 @@ impl HierarchicalIndirect {
     /// linear in the emission: a dimmer or colour change only scales the light's solution) and
     /// returns `None`; otherwise returns the solve to run, on any thread, then to
     /// [`Self::install`]. The job rebuilds the light's direct sample cache first when its
-    /// position or radius changed, and starts from its previous radiosity.
+    /// position or radius changed, and starts from its previous indirect light.
     pub fn update_light(&mut self, i: usize, light: &Light) -> Option<LightSolveJob> {
         let old = &self.lights[i];
         let moved = old.position != light.position || old.radius_m != light.radius;
@@ -1339,7 +1339,7 @@ solver_patch_size = 0.5
 
     /// The block solve at build equals solving each light alone; a dimmer change scales the
     /// light's radiosity exactly (no solve: the solve is linear); a curve edit re-solved from the
-    /// previous radiosity equals a fresh engine of the edited room within the tolerance.
+    /// previous values equals a fresh engine of the edited room within the tolerance.
     #[test]
     fn edits_match_fresh_engines() {
         let scene = room();

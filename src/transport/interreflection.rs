@@ -6,8 +6,9 @@
 //! A light's interreflection is one solve of `(I − diag(ρ)F) B = ρE` on the leaves, where `E` is
 //! its patch-averaged direct irradiance — exact in its current curve from a
 //! [`PatchDirectCache`] in hybrid mode, or its SH basis emitters in paper mode (one column each).
-//! A warm start from the light's previous radiosity makes the solve after an edit cheap; the
-//! certified stop is the same either way.
+//! A warm start from the light's previous values makes the solve after an edit cheap (on a large
+//! floor already within the tolerance: one product with `F`); the certified stop is the same
+//! either way.
 
 use std::collections::BinaryHeap;
 use std::time::Instant;
