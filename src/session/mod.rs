@@ -162,6 +162,15 @@ struct LightSlot {
     given: u64,
 }
 
+impl LightSlot {
+    /// The light was brought up to date at once (a scaling, its response, back to its solved
+    /// state): work queued or running for an older state of it must not land.
+    fn settle(&mut self) {
+        self.generation += 1;
+        self.installed = self.generation;
+    }
+}
+
 /// The headless engine under the CLI and the editor.
 #[derive(Debug)]
 pub struct Session {
@@ -763,10 +772,7 @@ impl Session {
                 self.jobs.retain(|j| j.light != job.light);
                 self.jobs.push(job);
             } else {
-                // Brought up to date at once (a scaling, or the light's response): work still
-                // queued or running for it is for an older state and must not land.
-                slot.generation += 1;
-                slot.installed = slot.generation;
+                slot.settle();
                 self.jobs.retain(|j| j.light != Some(slot.id));
             }
             slot.solved = slot.version;
@@ -813,11 +819,13 @@ impl Session {
         };
         if let Some(h) = self.hierarchical.as_mut() {
             let mut solves = Vec::new();
-            let mut settled = Vec::new();
+            // The changed lights: any job still queued for them is for an older state.
+            let mut changed = Vec::new();
             for (i, (slot, light)) in self.slots.iter_mut().zip(&self.lights).enumerate() {
                 if slot.solved == slot.version {
                     continue;
                 }
+                changed.push(Some(slot.id));
                 match h.update_light(i, &light.to_light()) {
                     Some(solve) => solves.push(BakeJob {
                         light: Some(slot.id),
@@ -825,18 +833,10 @@ impl Session {
                         generation: slot.generation,
                         work: Work::Solve(solve),
                     }),
-                    None => {
-                        // Brought up to date at once (back to its solved state, a scaling), as
-                        // in `solve_indirect`: work queued or running for an older state must
-                        // not land.
-                        slot.generation += 1;
-                        slot.installed = slot.generation;
-                        settled.push(Some(slot.id));
-                    }
+                    None => slot.settle(),
                 }
             }
-            self.jobs
-                .retain(|j| !solves.iter().any(|s| s.light == j.light) && !settled.contains(&j.light));
+            self.jobs.retain(|j| !changed.contains(&j.light));
             self.jobs.splice(0..0, solves);
         }
         self.queue_regrade(job);

@@ -798,7 +798,9 @@ impl HierarchicalIndirect {
         edited_scene.lights[i] = edited.clone();
         let total = copy.vertex_totals(&edited_scene);
         let luminance = |v: &[f64; 3]| luminance_weight(std::array::from_fn(|c| v[c] * edited.color[c]));
-        let peak = exact.iter().fold(0.0f64, |m, v| m.max(luminance(v).abs()));
+        let peak = exact
+            .iter()
+            .fold(f64::MIN_POSITIVE, |m, v| m.max(luminance(v).abs()));
         let differences = |values: &[[f64; 3]]| -> Vec<f64> {
             values
                 .iter()
@@ -822,8 +824,8 @@ impl HierarchicalIndirect {
         Ok(Estimate {
             build_s,
             estimate_s,
-            error: largest(&estimated) / peak.max(f64::MIN_POSITIVE),
-            unestimated_error: largest(&before) / peak.max(f64::MIN_POSITIVE),
+            error: largest(&estimated) / peak,
+            unestimated_error: largest(&before) / peak,
             error_of_total: largest(&estimated_of_total),
             median_error_of_total: estimated_of_total
                 .get(estimated_of_total.len() / 2)

@@ -284,7 +284,7 @@ fn solve_group<T: Transfer + ?Sized>(
         let product = form_factors.apply_block(&block, width);
         active.par_iter_mut().enumerate().for_each(|(a, column)| {
             let f_times_v: Vec<f64> = (0..n).map(|i| product[i * width + a]).collect();
-            column.absorb(&f_times_v, params);
+            column.absorb(f_times_v, params);
         });
     }
     columns
@@ -318,19 +318,13 @@ fn check_inputs(n: usize, reflectance: &[f64], emission: &PatchColumns) -> Resul
 
 /// Adds `F·B` of the solved `columns` (columns `first..` of `irradiance`, which holds `E`) to
 /// `irradiance`: `H = E + F·B`, from the product each column's last check already formed for its
-/// final radiosity (no product of its own). A column whose radiosity is zero keeps `H = E`
-/// bitwise.
+/// final radiosity (no product of its own). A column with a zero right-hand side (done at once,
+/// no product) keeps `H = E` bitwise.
 fn add_indirect(columns: &[ColumnGmres], first: usize, irradiance: &mut PatchColumns) {
     let k = irradiance.n_columns;
     for (a, column) in columns.iter().enumerate() {
-        if let Some(indirect) = column
-            .f_times_x
-            .as_deref()
-            .filter(|_| column.x.iter().any(|&b| b != 0.0))
-        {
-            for (i, v) in indirect.iter().enumerate() {
-                irradiance.values[i * k + first + a] += v;
-            }
+        for (i, v) in column.f_times_x.iter().flatten().enumerate() {
+            irradiance.values[i * k + first + a] += v;
         }
     }
 }
@@ -457,10 +451,10 @@ impl ColumnGmres {
     }
 
     /// Takes `F·pending()` and advances.
-    fn absorb(&mut self, f_times_v: &[f64], params: &Params) {
+    fn absorb(&mut self, f_times_v: Vec<f64>, params: &Params) {
         match self.stage {
             Stage::Residual => self.check_and_restart(f_times_v, params),
-            Stage::Arnoldi => self.arnoldi_step(f_times_v, params),
+            Stage::Arnoldi => self.arnoldi_step(&f_times_v, params),
             Stage::Done => {}
         }
     }
@@ -474,8 +468,8 @@ impl ColumnGmres {
             .collect()
     }
 
-    fn check_and_restart(&mut self, f_times_x: &[f64], params: &Params) {
-        let ax = Self::apply(&self.x, f_times_x, params.reflectance);
+    fn check_and_restart(&mut self, f_times_x: Vec<f64>, params: &Params) {
+        let ax = Self::apply(&self.x, &f_times_x, params.reflectance);
         let residual: Vec<f64> = self.b.iter().zip(&ax).map(|(b, a)| b - a).collect();
         let residual_inf = norm_inf(&residual);
         let x_inf = norm_inf(&self.x);
@@ -486,7 +480,7 @@ impl ColumnGmres {
             self.report.error_bound = residual_inf / (1.0 - params.contraction);
             self.report.converged = converged;
             self.stage = Stage::Done;
-            self.f_times_x = Some(f_times_x.to_vec());
+            self.f_times_x = Some(f_times_x);
             self.basis = Vec::new();
             return;
         }

@@ -83,6 +83,10 @@ impl Rng {
     fn between(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.uniform()
     }
+    /// `n` numbers drawn uniformly from [lo, hi).
+    fn values(&mut self, n: usize, lo: f64, hi: f64) -> Vec<f64> {
+        (0..n).map(|_| self.between(lo, hi)).collect()
+    }
 }
 
 /// Solves `a·x = b` for each right-hand side (Gaussian elimination with partial pivoting).
@@ -502,7 +506,7 @@ fn certified_bound_holds_against_a_dense_direct_solve() {
     let n = mesh.patches.len();
     let ff = FormFactors::build(&mesh, &Unoccluded, FormFactorOptions::default());
     let mut rng = Rng(7);
-    let mut rho: Vec<f64> = (0..n).map(|_| rng.between(0.05, 0.95)).collect();
+    let mut rho = rng.values(n, 0.05, 0.95);
     rho[17] = 0.95;
     rho[90] = 0.0;
     let columns: Vec<Vec<f64>> = (0..6)
@@ -566,9 +570,7 @@ fn zero_reflectance_returns_the_emission_bitwise() {
     let n = mesh.patches.len();
     let ff = FormFactors::build(&mesh, &Unoccluded, FormFactorOptions::default());
     let mut rng = Rng(3);
-    let columns: Vec<Vec<f64>> = (0..3)
-        .map(|_| (0..n).map(|_| rng.between(-10.0, 10.0)).collect())
-        .collect();
+    let columns: Vec<Vec<f64>> = (0..3).map(|_| rng.values(n, -10.0, 10.0)).collect();
     let emission = PatchColumns::from_columns(n, &columns);
     let solution = solve(&ff, &vec![0.0; n], &emission, &SolveOptions::default()).unwrap();
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -616,9 +618,9 @@ fn solve_is_linear_in_the_emission() {
     let n = mesh.patches.len();
     let ff = FormFactors::build(&mesh, &Unoccluded, FormFactorOptions::default());
     let mut rng = Rng(11);
-    let rho: Vec<f64> = (0..n).map(|_| rng.between(0.1, 0.9)).collect();
-    let e1: Vec<f64> = (0..n).map(|_| rng.between(-50.0, 50.0)).collect();
-    let e2: Vec<f64> = (0..n).map(|_| rng.between(0.0, 80.0)).collect();
+    let rho = rng.values(n, 0.1, 0.9);
+    let e1 = rng.values(n, -50.0, 50.0);
+    let e2 = rng.values(n, 0.0, 80.0);
     let (a, b) = (2.5, -0.75);
     let combined: Vec<f64> = e1.iter().zip(&e2).map(|(x, y)| a * x + b * y).collect();
     let emission = PatchColumns::from_columns(n, &[e1, e2, combined]);
@@ -652,8 +654,8 @@ fn warm_start_reaches_the_cold_solution_in_fewer_iterations() {
     let n = mesh.patches.len();
     let ff = FormFactors::build(&mesh, &Unoccluded, FormFactorOptions::default());
     let mut rng = Rng(23);
-    let rho: Vec<f64> = (0..n).map(|_| rng.between(0.5, 0.9)).collect();
-    let e: Vec<f64> = (0..n).map(|_| rng.between(0.0, 100.0)).collect();
+    let rho = rng.values(n, 0.5, 0.9);
+    let e = rng.values(n, 0.0, 100.0);
     // The edit: one patch 10 % brighter.
     let mut edited = e.clone();
     edited[0] *= 1.1;
@@ -689,10 +691,8 @@ fn the_irradiance_is_the_emission_plus_the_gathered_radiosity() {
     let n = mesh.patches.len();
     let ff = FormFactors::build(&mesh, &Unoccluded, FormFactorOptions::default());
     let mut rng = Rng(7);
-    let rho: Vec<f64> = (0..n).map(|_| rng.between(0.3, 0.8)).collect();
-    let columns: Vec<Vec<f64>> = (0..2)
-        .map(|_| (0..n).map(|_| rng.between(0.0, 50.0)).collect())
-        .collect();
+    let rho = rng.values(n, 0.3, 0.8);
+    let columns: Vec<Vec<f64>> = (0..2).map(|_| rng.values(n, 0.0, 50.0)).collect();
     let emission = PatchColumns::from_columns(n, &columns);
     let options = SolveOptions {
         tolerance: 1e-6,
@@ -827,9 +827,7 @@ fn column_blend_equals_one_column_at_a_time() {
     let weights = InterpolationWeights::new(&coarse, &fine);
     let mut rng = Rng(5);
     let n = coarse.patches.len();
-    let columns: Vec<Vec<f64>> = (0..3)
-        .map(|_| (0..n).map(|_| rng.between(-1.0, 1.0)).collect())
-        .collect();
+    let columns: Vec<Vec<f64>> = (0..3).map(|_| rng.values(n, -1.0, 1.0)).collect();
     let block = PatchColumns::from_columns(n, &columns);
     let together = weights.apply_columns(&block.values, 3);
     assert_eq!(together.len(), fine.n_vertices() * 3);
