@@ -149,10 +149,10 @@ fn not_regular(file_type: fs::FileType) -> Option<&'static str> {
     Some("not a file")
 }
 
-/// Reads a regular file of `kind` (following symlinks), refusing anything else and anything
-/// above the kind's size limit. The typed error lets callers (the bake cache) tell a missing
-/// file from a bad one.
-pub fn read_bytes(path: &Path, kind: FileKind) -> Result<Vec<u8>, ReadError> {
+/// Opens a regular file of `kind` (following symlinks) for reading, refusing anything else and
+/// anything above the kind's size limit; with its size in bytes. The typed error lets callers
+/// (the bake cache) tell a missing file from a bad one.
+pub fn open_regular(path: &Path, kind: FileKind) -> Result<(File, u64), ReadError> {
     if let Some(what) = not_regular(fs::metadata(path)?.file_type()) {
         return Err(ReadError::NotRegular(what));
     }
@@ -176,7 +176,15 @@ pub fn read_bytes(path: &Path, kind: FileKind) -> Result<Vec<u8>, ReadError> {
             limit,
         });
     }
-    let mut data = Vec::with_capacity(metadata.len() as usize);
+    Ok((file, metadata.len()))
+}
+
+/// Reads a regular file of `kind` ([`open_regular`]); a file that grows past the kind's limit
+/// while it is read is refused too.
+pub fn read_bytes(path: &Path, kind: FileKind) -> Result<Vec<u8>, ReadError> {
+    let (file, len) = open_regular(path, kind)?;
+    let limit = kind.max_bytes();
+    let mut data = Vec::with_capacity(len as usize);
     file.take(limit + 1).read_to_end(&mut data)?;
     if data.len() as u64 > limit {
         return Err(ReadError::TooLarge {

@@ -273,14 +273,17 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
         mb(stats.total_bytes())
     ));
     s.push_str(&format!(
-        "time: refinement {:.1} ms, links {:.1} ms, balancing {:.1} ms ({} sweeps, power conserved to {:.1e}), direct caches {:.1} ms, solve {:.1} ms\n",
+        "time: refinement {:.1} ms, links {:.1} ms, balancing {:.1} ms ({} sweeps, power conserved to {:.1e}), operator {} ({:.1} ms in the cache), direct caches {:.1} ms, solve {:.1} ms ({} lights from the cache)\n",
         e.refine_s * 1e3,
         e.links_s * 1e3,
         e.balance_s * 1e3,
         e.balance.sweeps,
         e.balance.defect,
+        e.operator_origin.describe(),
+        e.cache_s * 1e3,
         stats.direct_caches_s * 1e3,
-        stats.solve_s * 1e3
+        stats.solve_s * 1e3,
+        stats.lights_from_cache
     ));
     if let Some(c) = costs {
         s.push_str(&format!(
@@ -345,6 +348,8 @@ fn bake_json(
         "near_links": e.near_links,
         "rays": e.rays,
         "balancing": {"sweeps": e.balance.sweeps, "defect": e.balance.defect},
+        "operator": e.operator_origin.describe(),
+        "lights_from_cache": stats.lights_from_cache,
         "memory_bytes": {
             "operator": e.operator_bytes,
             "node_geometry": e.geometry_bytes,
@@ -357,6 +362,7 @@ fn bake_json(
             "refine": e.refine_s,
             "links": e.links_s,
             "balance": e.balance_s,
+            "operator_cache": e.cache_s,
             "direct_caches": stats.direct_caches_s,
             "solve": stats.solve_s,
         },

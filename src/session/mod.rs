@@ -58,6 +58,7 @@ use crate::transport::indirect::{DIRECT_CACHE_BUDGET_BYTES, HierarchicalIndirect
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions};
 use crate::transport::occlusion::Occluders;
 use crate::transport::plan::{Plan, plan_light};
+use crate::transport::refine::refine;
 use crate::transport::sh_response::ESTIMATE_ORDER;
 use frame::{FrameBuffers, PlaneIndirect};
 use jobs::{Done, LightSnapshot, Placed, RegradeJob, Work};
@@ -275,7 +276,7 @@ impl Session {
         let plan_s = t.elapsed().as_secs_f64();
         let mut hierarchical = None;
         let (bake, plan) = if options.indirect && planned.hierarchical.on {
-            let bake = plan_without_basis(&scene, planned.clone(), plan_s, &options.bake);
+            let mut bake = plan_without_basis(&scene, planned.clone(), plan_s, &options.bake);
             progress(Progress {
                 stage: "interreflection engine",
                 done: 0,
@@ -284,25 +285,25 @@ impl Session {
             // The engine is built on the plan's graded mesh (the default refinement, which the
             // engine's options keep) instead of refining the room again.
             let engine_options = InterreflectionOptions::for_leaves(planned.leaves);
-            let engine = match graded {
-                Some(solver) => Interreflection::build_graded(
-                    &scene,
-                    solver,
-                    planned.channels,
-                    planned.visibility.on,
-                    &engine_options,
-                ),
-                None => {
-                    Interreflection::build(&scene, planned.channels, planned.visibility.on, &engine_options)
-                }
-            };
-            let mut engine = HierarchicalIndirect::on_engine(
+            let solver = graded.unwrap_or_else(|| refine(&scene, &engine_options.refine));
+            let (engine, notices) = Interreflection::build_cached(
+                &scene,
+                solver,
+                planned.channels,
+                planned.visibility.on,
+                &engine_options,
+                options.bake.cache.as_ref(),
+            );
+            bake.notices.extend(notices);
+            let (mut engine, notices) = HierarchicalIndirect::on_engine_cached(
                 Arc::new(engine),
                 &scene,
                 &scene.lights,
                 options.bake.tolerance.unwrap_or(scene.settings.tolerance),
                 DIRECT_CACHE_BUDGET_BYTES,
+                options.bake.cache.as_ref(),
             )?;
+            bake.notices.extend(notices);
             engine.set_estimates(options.estimate_order());
             hierarchical = Some(engine);
             progress(Progress {

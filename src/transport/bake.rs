@@ -19,11 +19,11 @@ use std::time::Instant;
 use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::scene::{Light, PatchMesh, Scene, SurfaceKind};
+use crate::scene::{Light, PatchMesh, Scene};
 use crate::transport::basis::{Emitter, basis_direct};
-use crate::transport::cache::{self, BakeCache, CacheLoad, Fnv64, PayloadReader, PayloadWriter};
+use crate::transport::cache::{self, BakeCache, CacheLoad, Fnv64, ValueSink, ValueSource};
 use crate::transport::formfactor::{FormFactorOptions, FormFactors};
-use crate::transport::occlusion::Occluders;
+use crate::transport::occlusion::{Occluders, hash_occluders};
 use crate::transport::plan::{LightPlan, Plan, PlanOptions, plan};
 use crate::transport::radiosity::{PatchColumns, SolveOptions, solve};
 use crate::transport::visibility::{Unoccluded, Visibility};
@@ -301,14 +301,8 @@ impl Transport {
         let mut baked: Vec<Option<BakedLight>> = vec![None; lights.len()];
         if let Some(cache) = cache {
             for (i, &key) in keys.iter().enumerate() {
-                match cache.read(key) {
-                    CacheLoad::Hit(payload) => match decode(&payload, &lights[i].plan, n) {
-                        Some(light) => baked[i] = Some(light),
-                        None => report.notices.push(format!(
-                            "{}: unreadable bake payload, rebuilding",
-                            cache::file_for(&cache.dir, key).display()
-                        )),
-                    },
+                match cache.read_with(key, |r| decode(r, &lights[i].plan, n)) {
+                    CacheLoad::Hit(light) => baked[i] = Some(light),
                     CacheLoad::Missing => {}
                     CacheLoad::Invalid(why) => report.notices.push(format!("cache {why}; rebuilding")),
                 }
@@ -333,7 +327,7 @@ impl Transport {
         if let Some(cache) = cache {
             for &i in &todo {
                 let light = baked[i].as_ref().expect("every light to bake was baked");
-                if let Err(e) = cache.write(keys[i], &encode(light)) {
+                if let Err(e) = cache.write_with(keys[i], |w| encode(w, light)) {
                     report.notices.push(format!(
                         "could not write the bake cache in {}: {e}",
                         cache.dir.display()
@@ -495,24 +489,7 @@ fn room_key(scene: &Scene, transport: &Transport) -> u64 {
             h.f64(c);
         }
     }
-    for b in &scene.boxes {
-        h.f64(b.min.x)
-            .f64(b.min.y)
-            .f64(b.min.z)
-            .f64(b.max.x)
-            .f64(b.max.y)
-            .f64(b.max.z);
-    }
-    // OBJ occluders are the fine triangles of mesh surfaces.
-    for ([a, b, c], pid) in scene.fine.triangles() {
-        let surface = scene.fine.patches[pid as usize].surface as usize;
-        if matches!(scene.surfaces[surface].kind, SurfaceKind::Mesh { .. }) {
-            for v in [a, b, c] {
-                let p = scene.fine.positions[v as usize];
-                h.f64(p.x).f64(p.y).f64(p.z);
-            }
-        }
-    }
+    hash_occluders(scene, &mut h);
     h.u64(u64::from(transport.visibility))
         .u64(u64::from(transport.interreflection))
         .u64(transport.channels as u64);
@@ -523,8 +500,7 @@ fn room_key(scene: &Scene, transport: &Transport) -> u64 {
     h.finish()
 }
 
-fn encode(light: &BakedLight) -> Vec<u8> {
-    let mut w = PayloadWriter::default();
+fn encode(w: &mut impl ValueSink, light: &BakedLight) {
     w.u64(light.n_columns as u64);
     w.u64(light.iterations as u64);
     w.f64s(&[light.certified_error]);
@@ -533,11 +509,9 @@ fn encode(light: &BakedLight) -> Vec<u8> {
     for channel in &light.indirect {
         w.f32s(channel);
     }
-    w.0
 }
 
-fn decode(payload: &[u8], plan: &LightPlan, n_patches: usize) -> Option<BakedLight> {
-    let mut r = PayloadReader::new(payload);
+fn decode(r: &mut impl ValueSource, plan: &LightPlan, n_patches: usize) -> Option<BakedLight> {
     let n_columns = usize::try_from(r.u64()?).ok()?;
     let iterations = usize::try_from(r.u64()?).ok()?;
     let certified_error = *r.f64s()?.first()?;
@@ -545,16 +519,14 @@ fn decode(payload: &[u8], plan: &LightPlan, n_patches: usize) -> Option<BakedLig
     let channels = usize::try_from(r.u64()?).ok()?;
     let indirect: Vec<Vec<f32>> = (0..channels.min(3)).map(|_| r.f32s()).collect::<Option<_>>()?;
     let sized = |v: &Vec<f32>| v.is_empty() || v.len() == n_patches * n_columns;
-    (r.is_done() && n_columns == plan.columns && sized(&direct) && indirect.iter().all(sized)).then(|| {
-        BakedLight {
-            plan: plan.clone(),
-            n_columns,
-            direct,
-            indirect,
-            iterations,
-            certified_error,
-            from_cache: true,
-        }
+    (n_columns == plan.columns && sized(&direct) && indirect.iter().all(sized)).then(|| BakedLight {
+        plan: plan.clone(),
+        n_columns,
+        direct,
+        indirect,
+        iterations,
+        certified_error,
+        from_cache: true,
     })
 }
 

@@ -1,4 +1,5 @@
-//! The bake cache on disk: one file per baked light, keyed by a hash of everything that affects
+//! The bake cache on disk: one file per baked light (and one per hierarchical engine's
+//! operator, docs/DECISIONS.md "Bake cache"), keyed by a hash of everything that affects
 //! the bake, with a header and a checksum. Stale or corrupt files are detected and rebuilt, never
 //! trusted; writes are atomic (temporary file in the same directory, fsync, rename).
 //!
@@ -11,7 +12,7 @@
 //! editor removes the entry of its previous position (docs/DECISIONS.md "Bake cache").
 
 use std::fs;
-use std::io::Write;
+use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
@@ -95,23 +96,44 @@ impl BakeCache {
         }
     }
 
-    /// Reads the entry for `key`; a hit refreshes its use time (for the LRU order).
-    pub fn read(&self, key: u64) -> CacheLoad {
+    /// Reads the entry for `key` with `decode`, which reads its values in the order they were
+    /// written and returns `None` when they do not make sense. The entry is a hit only if its
+    /// checksum holds and `decode` read it to the end; a hit refreshes its use time (for the LRU
+    /// order).
+    pub fn read_with<T>(&self, key: u64, decode: impl FnOnce(&mut EntryReader) -> Option<T>) -> CacheLoad<T> {
         let path = file_for(&self.dir, key);
-        let load = read(&path, key);
-        if matches!(load, CacheLoad::Hit(_))
-            && let Ok(file) = fs::File::options().append(true).open(&path)
-        {
-            let _ = file.set_modified(SystemTime::now());
+        let mut reader = match EntryReader::open(&path, key) {
+            Ok(r) => r,
+            Err(None) => return CacheLoad::Missing,
+            Err(Some(why)) => return CacheLoad::Invalid(why),
+        };
+        let value = decode(&mut reader);
+        let fully_read = reader.remaining == 0;
+        if let Err(defect) = reader.finish() {
+            return CacheLoad::Invalid(format!("{}: {defect}", path.display()));
         }
-        load
+        match value.filter(|_| fully_read) {
+            Some(value) => {
+                if let Ok(file) = fs::File::options().append(true).open(&path) {
+                    let _ = file.set_modified(SystemTime::now());
+                }
+                CacheLoad::Hit(value)
+            }
+            None => CacheLoad::Invalid(format!(
+                "{}: its payload does not fit what it is for",
+                path.display()
+            )),
+        }
     }
 
-    /// Writes the entry for `key` atomically, then evicts the least recently used entries
-    /// (never this one) until the directory holds at most `max_bytes`.
-    pub fn write(&self, key: u64, payload: &[u8]) -> std::io::Result<()> {
+    /// Writes the entry for `key` atomically with `encode`, then evicts the least recently used
+    /// entries (never this one) until the directory holds at most `max_bytes`. The values are
+    /// streamed to the file as they come (an entry may be hundreds of MB).
+    pub fn write_with(&self, key: u64, encode: impl FnOnce(&mut EntryWriter)) -> std::io::Result<()> {
         let path = file_for(&self.dir, key);
-        write_atomic(&path, key, payload)?;
+        let mut writer = EntryWriter::create(&path, key)?;
+        encode(&mut writer);
+        writer.finish()?;
         self.evict(&path);
         Ok(())
     }
@@ -164,35 +186,20 @@ impl BakeCache {
     }
 }
 
-/// What reading a cache file found.
+/// What reading a cache entry found.
 #[derive(Debug, Clone, PartialEq)]
-pub enum CacheLoad {
-    /// A valid file for this key: the payload.
-    Hit(Vec<u8>),
+pub enum CacheLoad<T> {
+    /// A valid entry for this key: what was decoded from it.
+    Hit(T),
     /// No file.
     Missing,
     /// A file that is not valid for this key; the reason is a one-line notice.
     Invalid(String),
 }
 
-/// Reads and checks a cache file against `key`. The file is read through
-/// [`crate::fsio::read_bytes`]: a FIFO or a device with a cache file's name is never opened
-/// (docs/DECISIONS.md "Bad input") and is reported invalid, so the bake is redone.
-pub fn read(path: &Path, key: u64) -> CacheLoad {
-    let data = match fsio::read_bytes(path, FileKind::BakeCache) {
-        Ok(d) => d,
-        Err(ReadError::NotFound) => return CacheLoad::Missing,
-        Err(e) => return CacheLoad::Invalid(e.into_error(path, FileKind::BakeCache).to_string()),
-    };
-    match check(&data, key) {
-        Ok(()) => CacheLoad::Hit(data[HEADER_LEN..].to_vec()),
-        Err(why) => CacheLoad::Invalid(format!("{}: {why}", path.display())),
-    }
-}
-
 /// Why a cache file is not valid for a key.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-enum Defect {
+pub enum Defect {
     #[error("not a Haiko bake file (truncated header or wrong magic)")]
     NotABakeFile,
     #[error("format version {0}, this Haiko writes {FORMAT_VERSION}")]
@@ -205,132 +212,283 @@ enum Defect {
     Checksum,
 }
 
-fn check(data: &[u8], key: u64) -> Result<(), Defect> {
-    if data.len() < HEADER_LEN || &data[..8] != MAGIC {
-        return Err(Defect::NotABakeFile);
-    }
-    let u32_at = |o: usize| u32::from_le_bytes(data[o..o + 4].try_into().expect("4 bytes"));
-    let u64_at = |o: usize| u64::from_le_bytes(data[o..o + 8].try_into().expect("8 bytes"));
-    let version = u32_at(8);
-    if version != FORMAT_VERSION {
-        return Err(Defect::Version(version));
-    }
-    if u64_at(16) != key {
-        return Err(Defect::Key);
-    }
-    let (stated, actual) = (u64_at(24), (data.len() - HEADER_LEN) as u64);
-    if stated != actual {
-        return Err(Defect::Length { actual, stated });
-    }
-    if Fnv64::default().bytes(&data[HEADER_LEN..]).finish() != u64_at(32) {
-        return Err(Defect::Checksum);
-    }
-    Ok(())
-}
-
-/// Writes a cache file atomically: a temporary file in the same directory, fsync, rename.
-pub fn write_atomic(path: &Path, key: u64, payload: &[u8]) -> std::io::Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    fs::create_dir_all(dir)?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        path.file_name().and_then(|n| n.to_str()).unwrap_or("bake"),
-        std::process::id()
-    ));
-    let result = (|| {
-        // A fresh file, never an existing one (a FIFO under this name would block the open).
-        let _ = fs::remove_file(&tmp);
-        let mut f = fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-        f.write_all(MAGIC)?;
-        f.write_all(&FORMAT_VERSION.to_le_bytes())?;
-        f.write_all(&0u32.to_le_bytes())?;
-        f.write_all(&key.to_le_bytes())?;
-        f.write_all(&(payload.len() as u64).to_le_bytes())?;
-        f.write_all(&Fnv64::default().bytes(payload).finish().to_le_bytes())?;
-        f.write_all(payload)?;
-        f.sync_all()?;
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// Appends little-endian values to a payload.
-#[derive(Debug, Default)]
-pub struct PayloadWriter(pub Vec<u8>);
-
-impl PayloadWriter {
+/// Little-endian values written into a cache entry. A slice is its length (u64), then its
+/// elements.
+pub trait ValueSink {
+    /// Appends raw bytes.
+    fn put(&mut self, bytes: &[u8]);
     /// Appends a u64.
-    pub fn u64(&mut self, v: u64) {
-        self.0.extend_from_slice(&v.to_le_bytes());
+    fn u64(&mut self, v: u64) {
+        self.put(&v.to_le_bytes());
+    }
+    /// Appends a length-prefixed u32 slice.
+    fn u32s(&mut self, v: &[u32]) {
+        put_slice(self, v, u32::to_le_bytes);
     }
     /// Appends a length-prefixed f32 slice.
-    pub fn f32s(&mut self, v: &[f32]) {
-        self.u64(v.len() as u64);
-        for x in v {
-            self.0.extend_from_slice(&x.to_le_bytes());
-        }
+    fn f32s(&mut self, v: &[f32]) {
+        put_slice(self, v, f32::to_le_bytes);
     }
     /// Appends a length-prefixed f64 slice.
-    pub fn f64s(&mut self, v: &[f64]) {
-        self.u64(v.len() as u64);
-        for x in v {
-            self.0.extend_from_slice(&x.to_le_bytes());
+    fn f64s(&mut self, v: &[f64]) {
+        put_slice(self, v, f64::to_le_bytes);
+    }
+}
+
+/// Bytes converted per [`ValueSink::put`] / [`ValueSource::fill`] call.
+const CHUNK_BYTES: usize = 1 << 16;
+
+fn put_slice<S: ValueSink + ?Sized, T: Copy, const N: usize>(sink: &mut S, v: &[T], bytes: fn(T) -> [u8; N]) {
+    sink.u64(v.len() as u64);
+    let mut buf = vec![0u8; CHUNK_BYTES];
+    for chunk in v.chunks(CHUNK_BYTES / N) {
+        for (out, &x) in buf.chunks_exact_mut(N).zip(chunk) {
+            out.copy_from_slice(&bytes(x));
+        }
+        sink.put(&buf[..chunk.len() * N]);
+    }
+}
+
+/// Reads what a [`ValueSink`] wrote. Every read checks that the entry holds that many bytes
+/// before it allocates (a checked entry can still be from a buggy writer).
+pub trait ValueSource {
+    /// Fills `buf` with the next bytes; `None` when fewer are left or the read fails.
+    fn fill(&mut self, buf: &mut [u8]) -> Option<()>;
+    /// Bytes left to read.
+    fn remaining(&self) -> u64;
+    /// Reads a u64.
+    fn u64(&mut self) -> Option<u64> {
+        let mut b = [0u8; 8];
+        self.fill(&mut b)?;
+        Some(u64::from_le_bytes(b))
+    }
+    /// Reads a length-prefixed u32 slice.
+    fn u32s(&mut self) -> Option<Vec<u32>> {
+        take_slice(self, u32::from_le_bytes)
+    }
+    /// Reads a length-prefixed f32 slice.
+    fn f32s(&mut self) -> Option<Vec<f32>> {
+        take_slice(self, f32::from_le_bytes)
+    }
+    /// Reads a length-prefixed f64 slice.
+    fn f64s(&mut self) -> Option<Vec<f64>> {
+        take_slice(self, f64::from_le_bytes)
+    }
+}
+
+fn take_slice<S: ValueSource + ?Sized, T, const N: usize>(
+    source: &mut S,
+    from: fn([u8; N]) -> T,
+) -> Option<Vec<T>> {
+    let n = source.u64()?;
+    if n.checked_mul(N as u64)? > source.remaining() {
+        return None;
+    }
+    let n = usize::try_from(n).ok()?;
+    let mut out = Vec::with_capacity(n);
+    let mut buf = vec![0u8; CHUNK_BYTES];
+    while out.len() < n {
+        let m = (n - out.len()).min(CHUNK_BYTES / N);
+        source.fill(&mut buf[..m * N])?;
+        out.extend(
+            buf[..m * N]
+                .chunks_exact(N)
+                .map(|c| from(c.try_into().expect("N bytes"))),
+        );
+    }
+    Some(out)
+}
+
+/// An entry's values in memory, for tests of what encoders write.
+#[cfg(test)]
+impl ValueSink for Vec<u8> {
+    fn put(&mut self, bytes: &[u8]) {
+        self.extend_from_slice(bytes);
+    }
+}
+
+#[cfg(test)]
+impl ValueSource for &[u8] {
+    fn fill(&mut self, buf: &mut [u8]) -> Option<()> {
+        let (head, rest) = self.split_at_checked(buf.len())?;
+        buf.copy_from_slice(head);
+        *self = rest;
+        Some(())
+    }
+
+    fn remaining(&self) -> u64 {
+        self.len() as u64
+    }
+}
+
+/// A cache entry being written: the values go to a temporary file in the same directory as
+/// they come, with their checksum; [`Self::finish`] writes the header's length and checksum,
+/// syncs and renames the file into place. Dropped unfinished, it removes the temporary file.
+#[derive(Debug)]
+pub struct EntryWriter {
+    file: Option<BufWriter<fs::File>>,
+    tmp: PathBuf,
+    path: PathBuf,
+    hash: Fnv64,
+    len: u64,
+    /// The first write error; later writes are skipped and [`Self::finish`] returns it.
+    error: Option<std::io::Error>,
+}
+
+impl EntryWriter {
+    /// Starts the entry for `key` at `path` (creating its directory).
+    pub fn create(path: &Path, key: u64) -> std::io::Result<Self> {
+        let dir = path.parent().unwrap_or(Path::new("."));
+        fs::create_dir_all(dir)?;
+        let tmp = dir.join(format!(
+            ".{}.tmp{}",
+            path.file_name().and_then(|n| n.to_str()).unwrap_or("bake"),
+            std::process::id()
+        ));
+        // A fresh file, never an existing one (a FIFO under this name would block the open).
+        let _ = fs::remove_file(&tmp);
+        let file = fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        let mut writer = EntryWriter {
+            file: Some(BufWriter::with_capacity(CHUNK_BYTES, file)),
+            tmp,
+            path: path.to_path_buf(),
+            hash: Fnv64::default(),
+            len: 0,
+            error: None,
+        };
+        let mut header = Vec::with_capacity(HEADER_LEN);
+        header.extend_from_slice(MAGIC);
+        header.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        header.extend_from_slice(&0u32.to_le_bytes());
+        header.extend_from_slice(&key.to_le_bytes());
+        // Length and checksum, written by `finish`.
+        header.extend_from_slice(&[0u8; 16]);
+        writer.raw(&header);
+        match writer.error.take() {
+            Some(e) => Err(e),
+            None => Ok(writer),
+        }
+    }
+
+    fn raw(&mut self, bytes: &[u8]) {
+        if self.error.is_none()
+            && let Some(file) = self.file.as_mut()
+            && let Err(e) = file.write_all(bytes)
+        {
+            self.error = Some(e);
+        }
+    }
+
+    /// Puts the entry in place: length and checksum into the header, fsync, rename.
+    pub fn finish(mut self) -> std::io::Result<()> {
+        if let Some(e) = self.error.take() {
+            return Err(e);
+        }
+        let file = self.file.take().expect("an unfinished entry has its file");
+        let mut file = file.into_inner().map_err(|e| e.into_error())?;
+        file.seek(SeekFrom::Start((HEADER_LEN - 16) as u64))?;
+        file.write_all(&self.len.to_le_bytes())?;
+        file.write_all(&self.hash.finish().to_le_bytes())?;
+        file.sync_all()?;
+        fs::rename(&self.tmp, &self.path)?;
+        // Renamed: nothing left for `drop` to remove.
+        self.tmp = PathBuf::new();
+        Ok(())
+    }
+}
+
+impl ValueSink for EntryWriter {
+    fn put(&mut self, bytes: &[u8]) {
+        self.hash.bytes(bytes);
+        self.len += bytes.len() as u64;
+        self.raw(bytes);
+    }
+}
+
+impl Drop for EntryWriter {
+    fn drop(&mut self) {
+        if !self.tmp.as_os_str().is_empty() {
+            self.file = None;
+            let _ = fs::remove_file(&self.tmp);
         }
     }
 }
 
-/// Reads what [`PayloadWriter`] wrote; every read checks bounds (a checked file can still be from
-/// a buggy writer).
+/// A cache entry being read: its header checked against the key and the file's length, its
+/// values read as they are asked for, and its checksum checked at [`Self::finish`].
 #[derive(Debug)]
-pub struct PayloadReader<'a> {
-    data: &'a [u8],
-    at: usize,
+pub struct EntryReader {
+    file: BufReader<fs::File>,
+    hash: Fnv64,
+    checksum: u64,
+    remaining: u64,
 }
 
-impl<'a> PayloadReader<'a> {
-    /// Starts reading `data`.
-    pub fn new(data: &'a [u8]) -> Self {
-        PayloadReader { data, at: 0 }
+impl EntryReader {
+    /// Opens the entry at `path` for `key`. The file is opened through
+    /// [`crate::fsio::open_regular`]: a FIFO or a device with a cache file's name is never
+    /// opened (docs/DECISIONS.md "Bad input"). `Err(None)`: no file; `Err(Some(why))`: a file
+    /// that is not valid for this key, with a one-line notice.
+    pub fn open(path: &Path, key: u64) -> Result<Self, Option<String>> {
+        let (file, len) = match fsio::open_regular(path, FileKind::BakeCache) {
+            Ok(f) => f,
+            Err(ReadError::NotFound) => return Err(None),
+            Err(e) => return Err(Some(e.into_error(path, FileKind::BakeCache).to_string())),
+        };
+        let invalid = |d: Defect| Some(format!("{}: {d}", path.display()));
+        let mut file = BufReader::with_capacity(CHUNK_BYTES, file);
+        let mut header = [0u8; HEADER_LEN];
+        if file.read_exact(&mut header).is_err() || &header[..8] != MAGIC {
+            return Err(invalid(Defect::NotABakeFile));
+        }
+        let u32_at = |o: usize| u32::from_le_bytes(header[o..o + 4].try_into().expect("4 bytes"));
+        let u64_at = |o: usize| u64::from_le_bytes(header[o..o + 8].try_into().expect("8 bytes"));
+        let version = u32_at(8);
+        if version != FORMAT_VERSION {
+            return Err(invalid(Defect::Version(version)));
+        }
+        if u64_at(16) != key {
+            return Err(invalid(Defect::Key));
+        }
+        let (stated, actual) = (u64_at(24), len - HEADER_LEN as u64);
+        if stated != actual {
+            return Err(invalid(Defect::Length { actual, stated }));
+        }
+        Ok(EntryReader {
+            file,
+            hash: Fnv64::default(),
+            checksum: u64_at(32),
+            remaining: stated,
+        })
     }
-    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
-        let end = self.at.checked_add(n)?;
-        let s = self.data.get(self.at..end)?;
-        self.at = end;
-        Some(s)
+
+    /// Reads what is left (into the checksum) and checks the checksum.
+    pub fn finish(mut self) -> Result<(), Defect> {
+        let mut buf = vec![0u8; CHUNK_BYTES];
+        while self.remaining > 0 {
+            let n = (self.remaining as usize).min(buf.len());
+            self.fill(&mut buf[..n]).ok_or(Defect::Checksum)?;
+        }
+        if self.hash.finish() == self.checksum {
+            Ok(())
+        } else {
+            Err(Defect::Checksum)
+        }
     }
-    /// Reads a u64.
-    pub fn u64(&mut self) -> Option<u64> {
-        self.take(8)
-            .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")))
+}
+
+impl ValueSource for EntryReader {
+    fn fill(&mut self, buf: &mut [u8]) -> Option<()> {
+        if buf.len() as u64 > self.remaining || self.file.read_exact(buf).is_err() {
+            return None;
+        }
+        self.remaining -= buf.len() as u64;
+        self.hash.bytes(buf);
+        Some(())
     }
-    /// Reads a length-prefixed f32 slice.
-    pub fn f32s(&mut self) -> Option<Vec<f32>> {
-        let n = usize::try_from(self.u64()?).ok()?;
-        let bytes = self.take(n.checked_mul(4)?)?;
-        Some(
-            bytes
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
-                .collect(),
-        )
-    }
-    /// Reads a length-prefixed f64 slice.
-    pub fn f64s(&mut self) -> Option<Vec<f64>> {
-        let n = usize::try_from(self.u64()?).ok()?;
-        let bytes = self.take(n.checked_mul(8)?)?;
-        Some(
-            bytes
-                .chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-                .collect(),
-        )
-    }
-    /// True when everything was read.
-    pub fn is_done(&self) -> bool {
-        self.at == self.data.len()
+
+    fn remaining(&self) -> u64 {
+        self.remaining
     }
 }
 
@@ -338,34 +496,75 @@ impl<'a> PayloadReader<'a> {
 mod tests {
     use super::*;
 
+    /// Reads three slices back.
+    fn decode(r: &mut EntryReader) -> Option<(Vec<f32>, Vec<f64>, Vec<u32>)> {
+        Some((r.f32s()?, r.f64s()?, r.u32s()?))
+    }
+
     #[test]
     fn round_trip_and_every_kind_of_damage_is_caught() {
         let dir = std::env::temp_dir().join(format!("haiko-cache-test-{}", std::process::id()));
+        let cache = BakeCache::in_dir(&dir);
         let path = file_for(&dir, 42);
-        let mut w = PayloadWriter::default();
-        w.f32s(&[1.0, -2.5, 3.25]);
-        w.f64s(&[std::f64::consts::PI]);
-        write_atomic(&path, 42, &w.0).unwrap();
-        let CacheLoad::Hit(payload) = read(&path, 42) else {
+        // More than one chunk of u32s, so the chunked copies are exercised.
+        let ints: Vec<u32> = (0..40_000u32).map(|i| i.wrapping_mul(2_654_435_761)).collect();
+        let write = |cache: &BakeCache| {
+            cache
+                .write_with(42, |w| {
+                    w.f32s(&[1.0, -2.5, 3.25]);
+                    w.f64s(&[std::f64::consts::PI]);
+                    w.u32s(&ints);
+                })
+                .unwrap()
+        };
+        write(&cache);
+        let CacheLoad::Hit((f, d, u)) = cache.read_with(42, decode) else {
             panic!("expected a hit")
         };
-        let mut r = PayloadReader::new(&payload);
-        assert_eq!(r.f32s().unwrap(), vec![1.0, -2.5, 3.25]);
-        assert_eq!(r.f64s().unwrap(), vec![std::f64::consts::PI]);
-        assert!(r.is_done());
-        assert!(matches!(read(&path, 43), CacheLoad::Invalid(m) if m.contains("key")));
+        assert_eq!((f, d), (vec![1.0, -2.5, 3.25], vec![std::f64::consts::PI]));
+        assert_eq!(u, ints);
+        fn invalid<T>(load: CacheLoad<T>, what: &str) -> bool {
+            matches!(load, CacheLoad::Invalid(m) if m.contains(what))
+        }
+        // Read with a wrong key, or not to its end, or past its end.
+        let keyed = fs::read(&path).unwrap();
+        fs::copy(&path, file_for(&dir, 43)).unwrap();
+        assert!(invalid(cache.read_with(43, decode), "key"));
+        fs::remove_file(file_for(&dir, 43)).unwrap();
+        assert!(invalid(cache.read_with(42, |r| r.f32s()), "does not fit"));
+        assert!(invalid(
+            cache.read_with(42, |r| {
+                decode(r)?;
+                r.u64()
+            }),
+            "does not fit"
+        ));
         let good = fs::read(&path).unwrap();
+        assert_eq!(good, keyed, "a failed read leaves the entry as it was");
         let mut flipped = good.clone();
         *flipped.last_mut().unwrap() ^= 0x10;
         fs::write(&path, &flipped).unwrap();
-        assert!(matches!(read(&path, 42), CacheLoad::Invalid(m) if m.contains("checksum")));
+        assert!(invalid(cache.read_with(42, decode), "checksum"));
+        // A flipped length prefix must not allocate what the file cannot hold.
+        let mut huge = good.clone();
+        huge[HEADER_LEN + 7] = 0x7f;
+        fs::write(&path, &huge).unwrap();
+        assert!(invalid(cache.read_with(42, decode), "checksum"));
         fs::write(&path, &good[..good.len() - 3]).unwrap();
-        assert!(matches!(read(&path, 42), CacheLoad::Invalid(m) if m.contains("truncated")));
+        assert!(invalid(cache.read_with(42, decode), "truncated"));
         let mut old = good.clone();
         old[8] = 0;
         fs::write(&path, &old).unwrap();
-        assert!(matches!(read(&path, 42), CacheLoad::Invalid(m) if m.contains("version")));
-        assert_eq!(read(&file_for(&dir, 7), 7), CacheLoad::Missing);
+        assert!(invalid(cache.read_with(42, decode), "version"));
+        fs::write(&path, b"HAIKO").unwrap();
+        assert!(invalid(cache.read_with(42, decode), "not a Haiko bake file"));
+        assert_eq!(cache.read_with(7, decode), CacheLoad::Missing);
+        // An entry whose writing stops (an error in its encoder's caller) leaves nothing behind.
+        let path_9 = file_for(&dir, 9);
+        let unfinished = EntryWriter::create(&path_9, 9).unwrap();
+        drop(unfinished);
+        assert!(!path_9.exists());
+        write(&cache);
         assert_eq!(
             fs::read_dir(&dir).unwrap().count(),
             1,
@@ -393,13 +592,20 @@ mod tests {
             file.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(secs))
                 .unwrap();
         };
-        cache.write(1, &payload).unwrap();
+        let write = |key: u64| cache.write_with(key, |w| w.put(&payload)).unwrap();
+        let read = |key: u64| {
+            cache.read_with(key, |r| {
+                let mut back = vec![0u8; payload.len()];
+                r.fill(&mut back)
+            })
+        };
+        write(1);
         set_used(1, 1000);
-        cache.write(2, &payload).unwrap();
+        write(2);
         set_used(2, 2000);
         // Reading 1 makes 2 the least recently used.
-        assert!(matches!(cache.read(1), CacheLoad::Hit(_)));
-        cache.write(3, &payload).unwrap();
+        assert!(matches!(read(1), CacheLoad::Hit(_)));
+        write(3);
         let left: Vec<PathBuf> = cache.entries().into_iter().map(|e| e.path).collect();
         assert_eq!(left.len(), 2, "{left:?}");
         assert!(

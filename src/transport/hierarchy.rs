@@ -20,6 +20,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::scene::PatchMesh;
+use crate::transport::cache::{ValueSink, ValueSource};
 
 /// Runs the transposed links of [`Operator::balance`] are split into (summed in order).
 const TRANSPOSE_RUNS: usize = 16;
@@ -288,6 +289,21 @@ pub fn plane_axes(normal: DVec3) -> [usize; 2] {
     [(axis + 1) % 3, (axis + 2) % 3]
 }
 
+/// Per node, where its entries' gradients start (a leaf's entries keep none), given the entries'
+/// `offsets` by receiving node; one more element than nodes.
+fn gradient_starts(tree: &Tree, offsets: &[usize]) -> Vec<usize> {
+    let mut start = vec![0usize; tree.nodes.len() + 1];
+    for (r, node) in tree.nodes.iter().enumerate() {
+        let entries = if node.is_leaf() {
+            0
+        } else {
+            offsets[r + 1] - offsets[r]
+        };
+        start[r + 1] = start[r] + entries;
+    }
+    start
+}
+
 /// Relative defect (of each leaf's area-weighted column sum) at which [`Operator::balance`]
 /// stops: about the precision of the f32 coefficients it scales (6·10⁻⁸), so that balancing
 /// further changes nothing they can hold. The rows are exact after every sweep. On the
@@ -433,15 +449,7 @@ impl Operator {
             counts[i + 1] += counts[i];
         }
         let offsets = counts.clone();
-        let mut gradient_start = vec![0usize; n_nodes + 1];
-        for (r, node) in tree.nodes.iter().enumerate() {
-            let entries = if node.is_leaf() {
-                0
-            } else {
-                offsets[r + 1] - offsets[r]
-            };
-            gradient_start[r + 1] = gradient_start[r] + entries;
-        }
+        let gradient_start = gradient_starts(&tree, &offsets);
         let mut fill = counts;
         let mut sources = vec![0u32; 2 * n_links];
         let mut coefficients = vec![0f32; 2 * n_links];
@@ -458,6 +466,28 @@ impl Operator {
                 }
             }
         }
+        let n = tree.n_leaves();
+        Self::from_entries(
+            tree,
+            offsets,
+            sources,
+            coefficients,
+            gradients,
+            [vec![1.0; n], vec![1.0; n]],
+        )
+    }
+
+    /// The operator of `tree` from its entries by receiving node and its balancing's scalings
+    /// `[row, col]`.
+    fn from_entries(
+        tree: Tree,
+        offsets: Vec<usize>,
+        sources: Vec<u32>,
+        coefficients: Vec<f32>,
+        gradients: Vec<[f32; 2]>,
+        [row_scale, col_scale]: [Vec<f64>; 2],
+    ) -> Self {
+        let gradient_start = gradient_starts(&tree, &offsets);
         let offsets_to_parent = tree
             .nodes
             .iter()
@@ -470,20 +500,61 @@ impl Operator {
                 [d[u], d[v]]
             })
             .collect();
-        let n = tree.n_leaves();
         Operator {
             tree,
             offsets,
+            n_links: sources.len() / 2,
             sources,
             coefficients,
             gradient_start,
             gradients,
             offsets_to_parent,
-            n_links,
-            row_scale: vec![1.0; n],
-            col_scale: vec![1.0; n],
+            row_scale,
+            col_scale,
             row_sums: OnceLock::new(),
         }
+    }
+
+    /// Writes its entries and balancing scalings (not the tree, which is built again from the
+    /// leaves) into a cache entry (docs/DECISIONS.md "Bake cache").
+    pub fn write_to(&self, w: &mut impl ValueSink) {
+        let counts: Vec<u32> = self.offsets.windows(2).map(|o| (o[1] - o[0]) as u32).collect();
+        w.u32s(&counts);
+        w.u32s(&self.sources);
+        w.f32s(&self.coefficients);
+        w.f32s(self.gradients.as_flattened());
+        w.f64s(&self.row_scale);
+        w.f64s(&self.col_scale);
+    }
+
+    /// The operator [`Self::write_to`] wrote for this `tree`, or `None` when what is read does
+    /// not fit the tree (its node and leaf counts, source nodes that exist, finite values):
+    /// a damaged or foreign entry is never applied.
+    pub fn read_from(tree: Tree, r: &mut impl ValueSource) -> Option<Self> {
+        let n_nodes = tree.nodes.len();
+        let counts = r.u32s()?;
+        let sources = r.u32s()?;
+        let coefficients = r.f32s()?;
+        let gradients = r.f32s()?;
+        let scales = [r.f64s()?, r.f64s()?];
+        let mut offsets = Vec::with_capacity(n_nodes + 1);
+        offsets.push(0usize);
+        for &c in &counts {
+            offsets.push(offsets.last().expect("starts with 0") + c as usize);
+        }
+        let fits = counts.len() == n_nodes
+            && offsets[n_nodes] == sources.len()
+            && sources.len() == coefficients.len()
+            && sources.len() % 2 == 0
+            && sources.iter().all(|&s| (s as usize) < n_nodes)
+            && gradients.len() == 2 * gradient_starts(&tree, &offsets)[n_nodes]
+            && scales.iter().all(|s| s.len() == tree.n_leaves())
+            && coefficients.iter().chain(&gradients).all(|x| x.is_finite())
+            && scales.iter().flatten().all(|x| x.is_finite());
+        fits.then(|| {
+            let gradients = gradients.chunks_exact(2).map(|g| [g[0], g[1]]).collect();
+            Self::from_entries(tree, offsets, sources, coefficients, gradients, scales)
+        })
     }
 
     /// Number of leaves.

@@ -16,8 +16,10 @@ use std::time::Instant;
 use glam::{DQuat, DVec3};
 
 use crate::error::Result;
+use crate::fsio::Fnv64;
 use crate::photometry::{Curve, LightState};
 use crate::scene::{Light, Scene};
+use crate::transport::cache::{BakeCache, CacheLoad, ValueSink, ValueSource};
 use crate::transport::direct::{Receiver, fine_receivers, luminance_weight, scene_direct_at};
 use crate::transport::interpolate::InterpolationWeights;
 use crate::transport::interreflection::{Interreflection, InterreflectionOptions, InterreflectionStats};
@@ -99,6 +101,8 @@ pub struct HierarchicalIndirect {
     /// Wall time (s) of the lights' direct caches and of their block solve at build.
     direct_caches_s: f64,
     solve_s: f64,
+    /// How many lights' values were read from the disk cache at build.
+    lights_from_cache: usize,
     /// Changes whenever any light's solved values do; unique across engines of a process.
     revision: u64,
 }
@@ -129,6 +133,9 @@ pub struct IndirectStats {
     /// Wall time (s) of every light's direct sample cache, and of the first block solve.
     pub direct_caches_s: f64,
     pub solve_s: f64,
+    /// How many lights' solved values were read from the disk cache at build (the others were
+    /// solved).
+    pub lights_from_cache: usize,
     /// Bytes of the lights' direct caches and solved values.
     pub light_bytes: usize,
     /// Bytes of the leaves → fine vertices interpolation.
@@ -337,37 +344,84 @@ impl HierarchicalIndirect {
         tolerance: f64,
         cache_budget: usize,
     ) -> Result<Self> {
+        Self::on_engine_cached(engine, scene, lights, tolerance, cache_budget, None)
+            .map(|(indirect, _)| indirect)
+    }
+
+    /// [`Self::on_engine`], with each light's solved values read from `cache` when it holds
+    /// them for this engine, its reflectances and the light's state, else solved (the lights
+    /// it does not hold, in one block) and written there (docs/DECISIONS.md "Bake cache"). The
+    /// direct caches are made as without it, so that edits cost the same. With the notices to
+    /// show (an invalid entry solved again, a write that failed).
+    ///
+    /// Errors: the solve failing (internal).
+    pub fn on_engine_cached(
+        engine: Arc<Interreflection>,
+        scene: &Scene,
+        lights: &[Light],
+        tolerance: f64,
+        cache_budget: usize,
+        cache: Option<&BakeCache>,
+    ) -> Result<(Self, Vec<String>)> {
         let interp = Arc::new(InterpolationWeights::new(&engine.solver.mesh, &scene.fine));
         let t = Instant::now();
         let n = engine.n_leaves();
         let k = lights.len();
-        let mut emission = PatchColumns::zeros(n, k);
+        let mut notices = Vec::new();
+        let keys: Vec<u64> = lights
+            .iter()
+            .map(|light| solution_key(&engine, light, tolerance))
+            .collect();
+        let mut cached: Vec<Option<SolvedValues>> = keys
+            .iter()
+            .map(
+                |&key| match cache?.read_with(key, |r| read_values(r, engine.channels(), n)) {
+                    CacheLoad::Hit(values) => Some(values),
+                    CacheLoad::Missing => None,
+                    CacheLoad::Invalid(why) => {
+                        notices.push(format!("cache {why}; solving the light again"));
+                        None
+                    }
+                },
+            )
+            .collect();
+        // The lights to solve, and each one's column.
+        let todo: Vec<usize> = (0..k).filter(|&c| cached[c].is_none()).collect();
+        let mut emission = PatchColumns::zeros(n, todo.len());
         let mut e = vec![0.0; n];
         // One cache at a time: each gives its light's patch direct light and is kept while the
         // caches kept so far stay within the budget; once one does not, the later lights' direct
-        // light is summed without keeping their samples (the same values).
+        // light is summed without keeping their samples (the same values). A light read from
+        // the disk cache needs no direct light, but keeps its direct cache as it would have.
         let mut kept_bytes = 0;
         let mut caches = Vec::with_capacity(k);
         for (c, light) in lights.iter().enumerate() {
+            let column = todo.binary_search(&c).ok();
             if kept_bytes <= cache_budget {
                 let cache = engine.direct_cache(light);
-                cache.irradiance_into(&light.curve, light.aim.normalize(), light.dimmer, &mut e);
+                if column.is_some() {
+                    cache.irradiance_into(&light.curve, light.aim.normalize(), light.dimmer, &mut e);
+                }
                 kept_bytes += cache.bytes();
                 caches.push((kept_bytes <= cache_budget).then(|| Arc::new(cache)));
             } else {
-                e = engine.stream_direct(light);
+                if column.is_some() {
+                    e = engine.stream_direct(light);
+                }
                 caches.push(None);
             }
-            for (p, v) in e.iter().enumerate() {
-                emission.values[p * k + c] = *v;
+            if let Some(column) = column {
+                for (p, v) in e.iter().enumerate() {
+                    emission.values[p * todo.len() + column] = *v;
+                }
             }
         }
         let direct_caches_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let solutions = if k > 0 {
-            engine.solve(&emission, None, tolerance)?
-        } else {
+        let solutions = if todo.is_empty() {
             Vec::new()
+        } else {
+            engine.solve(&emission, None, tolerance)?
         };
         let mut indirect = HierarchicalIndirect {
             engine,
@@ -378,14 +432,14 @@ impl HierarchicalIndirect {
             estimate_order: None,
             direct_caches_s,
             solve_s: t.elapsed().as_secs_f64(),
+            lights_from_cache: k - todo.len(),
             revision: next_revision(),
         };
-        for (c, (light, cache)) in lights.iter().zip(caches).enumerate() {
-            let direct = emission.column(c);
+        for (c, (light, direct_cache)) in lights.iter().zip(caches).enumerate() {
             let mut solved = SolvedLight {
                 position: light.position,
                 radius_m: light.radius,
-                cache,
+                cache: direct_cache,
                 radiosity: Vec::new(),
                 color: light.color,
                 leaf_indirect: Vec::new(),
@@ -395,12 +449,31 @@ impl HierarchicalIndirect {
                 estimate: None,
                 revision: 0,
             };
-            store(&mut solved, LightValues::of_column(&solutions, c, &direct), light);
+            match cached[c].take() {
+                Some(values) => store_values(&mut solved, values, light),
+                None => {
+                    let column = todo.binary_search(&c).expect("a light not read is solved");
+                    let direct = emission.column(column);
+                    store(
+                        &mut solved,
+                        LightValues::of_column(&solutions, column, &direct),
+                        light,
+                    );
+                    if let Some(cache) = cache
+                        && let Err(e) = cache.write_with(keys[c], |w| write_values(w, &solved))
+                    {
+                        notices.push(format!(
+                            "could not write the bake cache in {}: {e}",
+                            cache.dir.display()
+                        ));
+                    }
+                }
+            }
             indirect.lights.push(solved);
         }
         drop((emission, solutions));
         crate::heap::release_free_memory();
-        Ok(indirect)
+        Ok((indirect, notices))
     }
 
     /// The shared engine (leaves, operator, stats).
@@ -670,6 +743,7 @@ impl HierarchicalIndirect {
             engine: self.engine.stats,
             direct_caches_s: self.direct_caches_s,
             solve_s: self.solve_s,
+            lights_from_cache: self.lights_from_cache,
             light_bytes: self.light_bytes(),
             interpolation_bytes: self.interp.bytes(),
         }
@@ -993,10 +1067,69 @@ fn same_state(a: &Light, b: &Light) -> bool {
         && a.dimmer == b.dimmer
 }
 
+/// Bumped whenever a light's solve makes something else of the same engine and state: the
+/// lights' solved values are cached under keys made with it.
+const SOLUTION_FORMAT: u64 = 1;
+
+/// The key of a light's solved values on `engine`: the engine's operator key, its options and
+/// reflectances, the light where it stands (position, radius) and its state (curve, aim,
+/// dimmer), and the tolerance. Its colour is not in it (the values are kept without it).
+fn solution_key(engine: &Interreflection, light: &Light, tolerance: f64) -> u64 {
+    let mut h = Fnv64::default();
+    h.u64(SOLUTION_FORMAT)
+        .str("haiko-light-solution")
+        .u64(engine.operator_key())
+        .str(&format!("{:?}", engine.options()));
+    for channel in &engine.reflectance {
+        for &r in channel {
+            h.f64(r);
+        }
+    }
+    let (p, a) = (light.position, light.aim);
+    h.f64(p.x).f64(p.y).f64(p.z).f64(light.radius);
+    h.str(&format!("{:?}", light.curve));
+    h.f64(a.x).f64(a.y).f64(a.z).f64(light.dimmer).f64(tolerance);
+    h.finish()
+}
+
+/// Writes a light's solved values into its cache entry.
+fn write_values(w: &mut impl ValueSink, solved: &SolvedLight) {
+    w.u64(solved.radiosity.len() as u64);
+    for channel in solved.radiosity.iter().chain(&solved.leaf_indirect) {
+        w.f32s(channel);
+    }
+}
+
+/// The values [`write_values`] wrote, if they are `channels` channels of `n` finite values.
+fn read_values(r: &mut impl ValueSource, channels: usize, n: usize) -> Option<SolvedValues> {
+    if r.u64()? != channels as u64 {
+        return None;
+    }
+    let mut read = || {
+        (0..channels)
+            .map(|_| {
+                r.f32s()
+                    .filter(|v| v.len() == n && v.iter().all(|x| x.is_finite()))
+            })
+            .collect::<Option<Vec<_>>>()
+    };
+    let radiosity = read()?;
+    Some((radiosity, read()?))
+}
+
 /// Keeps what a light's solve for `light` gives: the radiosity per channel (also the next warm
 /// start), the light's colour, the leaf indirect irradiance `H − E` per channel.
 fn store(solved: &mut SolvedLight, values: LightValues, light: &Light) {
-    (solved.radiosity, solved.leaf_indirect) = values.into_single();
+    store_values(solved, values.into_single(), light);
+}
+
+/// Per solved channel a light's leaf radiosity, then per channel its leaf indirect irradiance
+/// (colour not applied), as the engine keeps them.
+type SolvedValues = (Vec<Vec<f32>>, Vec<Vec<f32>>);
+
+/// [`store`] for values already in the engine's f32.
+fn store_values(solved: &mut SolvedLight, (radiosity, leaf_indirect): SolvedValues, light: &Light) {
+    (solved.radiosity, solved.leaf_indirect) = (radiosity, leaf_indirect);
     solved.color = light.color;
     solved.solved_for = Some((light.curve.clone(), light.aim, light.dimmer));
     solved.estimate = None;
@@ -1421,5 +1554,66 @@ solver_patch_size = 0.5
         let fresh = build(&changed);
         let peak = radiosity(&fresh, 0).iter().map(|b| b[0]).fold(0.0, f64::max);
         assert!(peak_difference(&radiosity(&tight, 0), &radiosity(&fresh, 0)) < 1e-5 * peak);
+    }
+
+    /// A light whose state was solved before on the same engine is read from the disk cache,
+    /// to the same values, and keeps its direct cache as a solved light does (so edits cost
+    /// the same); a light with another dimmer (as saved after an edit) is solved and agrees with
+    /// a fresh engine, while another colour keeps the entry (values are kept without it). A
+    /// damaged entry is solved again with a notice naming it.
+    #[test]
+    fn lights_solved_before_are_read_from_the_cache() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = BakeCache::in_dir(dir.path());
+        let scene = room();
+        let engine = Arc::clone(&build(&scene).engine);
+        let open = |scene: &Scene| {
+            HierarchicalIndirect::on_engine_cached(
+                Arc::clone(&engine),
+                scene,
+                &scene.lights,
+                1e-6,
+                DIRECT_CACHE_BUDGET_BYTES,
+                Some(&cache),
+            )
+            .expect("solves")
+        };
+        let (first, notices) = open(&scene);
+        assert!(notices.is_empty(), "{notices:?}");
+        assert_eq!(first.stats().lights_from_cache, 0);
+        assert_eq!(cache.entries().len(), 2);
+        let (second, notices) = open(&scene);
+        assert!(notices.is_empty(), "{notices:?}");
+        assert_eq!(second.stats().lights_from_cache, 2);
+        for i in 0..2 {
+            assert_eq!(radiosity(&second, i), radiosity(&first, i), "light {i}");
+            assert_eq!(second.vertex_indirect(i), first.vertex_indirect(i), "light {i}");
+            assert!(second.holds_direct_cache(i), "light {i}");
+        }
+        let mut edited = scene.clone();
+        edited.lights[0].dimmer = 0.5;
+        edited.lights[1].color = [1.0, 0.8, 0.6];
+        let (third, _) = open(&edited);
+        assert_eq!(third.stats().lights_from_cache, 1);
+        let fresh = build(&edited);
+        for i in 0..2 {
+            let peak = radiosity(&fresh, i).iter().map(|b| b[0]).fold(0.0, f64::max);
+            assert!(peak > 0.0);
+            let difference = peak_difference(&radiosity(&third, i), &radiosity(&fresh, i));
+            assert!(difference < 1e-5 * peak, "light {i}: {difference} of {peak}");
+        }
+        for entry in cache.entries() {
+            let mut bytes = std::fs::read(&entry.path).unwrap();
+            let last = bytes.len() - 1;
+            bytes[last] ^= 4;
+            std::fs::write(&entry.path, bytes).unwrap();
+        }
+        let (again, notices) = open(&scene);
+        assert_eq!(again.stats().lights_from_cache, 0);
+        assert_eq!(notices.len(), 2, "{notices:?}");
+        assert!(notices.iter().all(|n| n.contains("checksum")), "{notices:?}");
+        for i in 0..2 {
+            assert_eq!(radiosity(&again, i), radiosity(&first, i), "light {i}");
+        }
     }
 }

@@ -17,13 +17,15 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::error::Result;
+use crate::fsio::Fnv64;
 use crate::photometry::LightState;
 use crate::scene::{Light, Scene, SurfaceKind};
+use crate::transport::cache::{BakeCache, CacheLoad, ValueSink, ValueSource};
 use crate::transport::direct::{Receiver, SHADOW_SPLIT_DEPTH};
 use crate::transport::formfactor::{kernel, kernel_gradient};
 use crate::transport::hierarchy::{Balance, Node, Operator, Tree};
 use crate::transport::links::{self, LinkOptions, MAX_SPREAD_POINTS, NodeGeometry};
-use crate::transport::occlusion::{LocalOccluders, Occluders};
+use crate::transport::occlusion::{LocalOccluders, Occluders, hash_occluders};
 use crate::transport::patchdirect::{DEFAULT_SPLIT, PatchDirectCache, Split};
 use crate::transport::radiosity::{PatchColumns, Solution, SolveOptions, solve_from};
 use crate::transport::refine::{RefineOptions, SolverMesh, refine};
@@ -147,10 +149,120 @@ pub struct InterreflectionStats {
     /// What balancing found (the unbalanced rows' and columns' defects, against 1 for the rows
     /// in a closed scene) and reached.
     pub balance: Balance,
-    /// Wall time (s) of the refinement, the links (with their rays) and the balancing.
+    /// Wall time (s) of the refinement, the links (with their rays; only the tree and the node
+    /// geometry when the operator comes from the cache) and the balancing.
     pub refine_s: f64,
     pub links_s: f64,
     pub balance_s: f64,
+    /// Where the operator came from, and the wall time (s) of reading or writing its cache entry.
+    pub operator_origin: OperatorOrigin,
+    pub cache_s: f64,
+}
+
+/// Where an engine's operator came from.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum OperatorOrigin {
+    /// Built, with no cache to write it to (or the write failed).
+    #[default]
+    Built,
+    /// Built and written to the cache.
+    BuiltAndCached,
+    /// Read from the cache.
+    Cached,
+}
+
+impl OperatorOrigin {
+    /// In words, for reports.
+    pub fn describe(self) -> &'static str {
+        match self {
+            OperatorOrigin::Built => "built",
+            OperatorOrigin::BuiltAndCached => "built and cached",
+            OperatorOrigin::Cached => "from the cache",
+        }
+    }
+}
+
+/// Bumped whenever the links or the balancing make something else of the same leaves, occluders
+/// and options: the operator's cache entries are keyed by it.
+const OPERATOR_FORMAT: u64 = 1;
+
+/// The key of the operator's cache entry: everything the links and the balancing are made of —
+/// the leaves (corners, polygons, surfaces, which stand alone or in a slot), the occluders when
+/// rays are cast, whether the rows are balanced to 1 (a closed room) and the link options.
+fn operator_key(
+    scene: &Scene,
+    solver: &SolverMesh,
+    visibility: bool,
+    closed: bool,
+    links: &LinkOptions,
+) -> u64 {
+    let mut h = Fnv64::default();
+    h.u64(OPERATOR_FORMAT).str("haiko-operator");
+    let mesh = &solver.mesh;
+    h.u64(mesh.positions.len() as u64);
+    for p in &mesh.positions {
+        h.f64(p.x).f64(p.y).f64(p.z);
+    }
+    h.u64(mesh.patches.len() as u64);
+    for patch in &mesh.patches {
+        h.u64(patch.vertex_ids().len() as u64);
+        for &v in patch.vertex_ids() {
+            h.u64(u64::from(v));
+        }
+        h.u64(u64::from(patch.surface));
+    }
+    for flags in [&solver.alone, &solver.in_slot] {
+        h.u64(flags.len() as u64);
+        for &f in flags {
+            h.u64(u64::from(f));
+        }
+    }
+    h.u64(u64::from(visibility));
+    if visibility {
+        hash_occluders(scene, &mut h);
+    }
+    h.u64(u64::from(closed));
+    // Every field, each f64 in its shortest exact decimal form.
+    h.str(&format!("{links:?}"));
+    h.finish()
+}
+
+/// What an operator's cache entry holds: the operator and what building it found.
+struct OperatorEntry {
+    operator: Operator,
+    rays: u64,
+    near: usize,
+    balance: Balance,
+}
+
+impl OperatorEntry {
+    fn write(&self, w: &mut impl ValueSink) {
+        w.u64(self.rays);
+        w.u64(self.near as u64);
+        w.u64(self.balance.sweeps as u64);
+        let b = &self.balance;
+        w.f64s(&[b.row_defect, b.column_defect, b.defect]);
+        self.operator.write_to(w);
+    }
+
+    /// The entry for the operator on `tree` ([`Operator::read_from`]).
+    fn read(r: &mut impl ValueSource, tree: Tree) -> Option<Self> {
+        let rays = r.u64()?;
+        let near = usize::try_from(r.u64()?).ok()?;
+        let sweeps = usize::try_from(r.u64()?).ok()?;
+        let [row_defect, column_defect, defect] = r.f64s()?.try_into().ok()?;
+        Some(OperatorEntry {
+            operator: Operator::read_from(tree, r)?,
+            rays,
+            near,
+            balance: Balance {
+                row_defect,
+                column_defect,
+                sweeps,
+                defect,
+            },
+        })
+    }
 }
 
 /// The shared interreflection engine of one scene.
@@ -168,6 +280,8 @@ pub struct Interreflection {
     /// The occluders (None in an empty convex room, unless forced).
     pub occluders: Option<Occluders>,
     options: InterreflectionOptions,
+    /// The key of its operator's cache entry (what the links and balancing were made of).
+    operator_key: u64,
     /// Sizes and times.
     pub stats: InterreflectionStats,
 }
@@ -216,33 +330,99 @@ impl Interreflection {
         visibility: bool,
         options: &InterreflectionOptions,
     ) -> Self {
+        Self::build_cached(scene, solver, channels, visibility, options, None).0
+    }
+
+    /// [`Self::build_graded`], with the operator (links and balancing, the bulk of the build)
+    /// read from `cache` when it holds the one these leaves, occluders and link options make,
+    /// else built and written there (docs/DECISIONS.md "Bake cache"). With the notices to show
+    /// (an invalid entry rebuilt, a write that failed).
+    pub fn build_cached(
+        scene: &Scene,
+        solver: SolverMesh,
+        channels: usize,
+        visibility: bool,
+        options: &InterreflectionOptions,
+        cache: Option<&BakeCache>,
+    ) -> (Self, Vec<String>) {
         let occluders =
             visibility.then(|| Occluders::of_scene(scene).unwrap_or_else(|| Occluders::from_parts(&[], &[])));
-        let t = Instant::now();
-        let tree = Tree::build(&solver.mesh, &solver.alone);
-        let geometry = NodeGeometry::new(&solver.mesh, &tree);
-        let neighbours = LeafNeighbours::new(&tree);
-        let links::Links { links, rays, near } = links::build(
-            &tree,
-            &solver.in_slot,
-            &geometry,
-            occluders.as_ref(),
-            options.links,
-        );
-        let links_s = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let mut operator = Operator::new(tree, &links);
-        drop(links); // the operator holds them by receiver now
-        crate::heap::release_free_memory();
-
         // Every point of a closed room sees surfaces in every direction: rows sum to 1. Open
         // OBJ surfaces may let a point see nothing (their back), so there the rows keep their sums.
         let closed = !scene
             .surfaces
             .iter()
             .any(|s| matches!(s.kind, SurfaceKind::Mesh { .. }));
-        let balance = operator.balance(closed.then_some(1.0));
-        let balance_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let tree = Tree::build(&solver.mesh, &solver.alone);
+        let geometry = NodeGeometry::new(&solver.mesh, &tree);
+        let neighbours = LeafNeighbours::new(&tree);
+        let mut notices = Vec::new();
+        let key = operator_key(scene, &solver, visibility, closed, &options.links);
+        let mut tree = Some(tree);
+        let structure_s = t.elapsed().as_secs_f64();
+        let read = Instant::now();
+        let cached = cache.and_then(
+            |c| match c.read_with(key, |r| OperatorEntry::read(r, tree.take()?)) {
+                CacheLoad::Hit(entry) => Some(entry),
+                CacheLoad::Missing => None,
+                CacheLoad::Invalid(why) => {
+                    notices.push(format!("cache {why}; rebuilding the interreflection engine"));
+                    None
+                }
+            },
+        );
+        let (entry, origin, links_s, balance_s, cache_s) = match cached {
+            Some(entry) => (
+                entry,
+                OperatorOrigin::Cached,
+                structure_s,
+                0.0,
+                read.elapsed().as_secs_f64(),
+            ),
+            None => {
+                let tree = tree.unwrap_or_else(|| Tree::build(&solver.mesh, &solver.alone));
+                let links::Links { links, rays, near } = links::build(
+                    &tree,
+                    &solver.in_slot,
+                    &geometry,
+                    occluders.as_ref(),
+                    options.links,
+                );
+                let links_s = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                let mut operator = Operator::new(tree, &links);
+                drop(links); // the operator holds them by receiver now
+                crate::heap::release_free_memory();
+                let balance = operator.balance(closed.then_some(1.0));
+                let balance_s = t.elapsed().as_secs_f64();
+                let entry = OperatorEntry {
+                    operator,
+                    rays,
+                    near,
+                    balance,
+                };
+                let t = Instant::now();
+                let origin = match cache.map(|c| (c, c.write_with(key, |w| entry.write(w)))) {
+                    None => OperatorOrigin::Built,
+                    Some((_, Ok(()))) => OperatorOrigin::BuiltAndCached,
+                    Some((c, Err(e))) => {
+                        notices.push(format!(
+                            "could not write the bake cache in {}: {e}",
+                            c.dir.display()
+                        ));
+                        OperatorOrigin::Built
+                    }
+                };
+                (entry, origin, links_s, balance_s, t.elapsed().as_secs_f64())
+            }
+        };
+        let OperatorEntry {
+            operator,
+            rays,
+            near,
+            balance,
+        } = entry;
         let reflectance = (0..channels.clamp(1, 3))
             .map(|ch| {
                 solver
@@ -266,8 +446,10 @@ impl Interreflection {
             refine_s: 0.0,
             links_s,
             balance_s,
+            operator_origin: origin,
+            cache_s,
         };
-        Interreflection {
+        let engine = Interreflection {
             solver,
             operator,
             geometry,
@@ -275,13 +457,20 @@ impl Interreflection {
             reflectance,
             occluders,
             options: *options,
+            operator_key: key,
             stats,
-        }
+        };
+        (engine, notices)
     }
 
     /// The knobs it was built with.
     pub fn options(&self) -> &InterreflectionOptions {
         &self.options
+    }
+
+    /// The key of its operator's cache entry: a hash of its leaves, occluders and link options.
+    pub fn operator_key(&self) -> u64 {
+        self.operator_key
     }
 
     /// Number of leaves (solver patches).
@@ -822,6 +1011,99 @@ solver_patch_size = {solver}
             half_links < quarter_links && quarter_links < all_links / 2,
             "{half_links} {quarter_links} {all_links}"
         );
+    }
+
+    /// The operator read back from the cache is the one built — the same links and scalings,
+    /// so the same products to the bit (a room with a box: refinement, gradients, occluders). An
+    /// entry damaged on disk is rebuilt with a notice naming it and written again. Other
+    /// reflectances keep the key (the operator does not hold them); a moved box or another
+    /// link option is another key, built and cached beside it.
+    #[test]
+    fn the_operator_read_from_the_cache_is_the_one_built() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = BakeCache::in_dir(dir.path());
+        let boxed = |floor: f64, x: f64| {
+            let s = room(
+                &format!("[[box]]\nmin = [{x}, 0.5, 0.0]\nmax = [1.5, 1.2, 0.8]\nreflectance = 0.5\n"),
+                0.5,
+            );
+            let mut s = s;
+            s.surfaces[0].reflectance.0 = [floor; 3];
+            s
+        };
+        let build = |s: &Scene, options: &InterreflectionOptions| {
+            Interreflection::build_cached(s, refine(s, &options.refine), 1, true, options, Some(&cache))
+        };
+        let options = InterreflectionOptions::default();
+        let s = boxed(0.3, 0.5);
+        let (built, notices) = build(&s, &options);
+        assert!(notices.is_empty(), "{notices:?}");
+        assert_eq!(built.stats.operator_origin, OperatorOrigin::BuiltAndCached);
+        assert!(built.stats.links > 100 && built.n_leaves() > s.coarse.patches.len());
+        let x = values(built.n_leaves());
+        let product = built.operator.apply_block(&x, 1);
+        let (read, notices) = build(&boxed(0.6, 0.5), &options);
+        assert!(notices.is_empty(), "{notices:?}");
+        assert_eq!(read.stats.operator_origin, OperatorOrigin::Cached);
+        assert_eq!(read.operator.apply_block(&x, 1), product);
+        assert_eq!(read.operator.row_sums(), built.operator.row_sums());
+        assert_eq!(
+            (read.stats.links, read.stats.rays, read.stats.balance),
+            (built.stats.links, built.stats.rays, built.stats.balance)
+        );
+        assert_eq!(read.reflectance[0][0], 0.6, "the reflectances are the scene's");
+        let entries = cache.entries();
+        assert_eq!(entries.len(), 1);
+        let mut bytes = std::fs::read(&entries[0].path).unwrap();
+        let middle = bytes.len() / 2;
+        bytes[middle] ^= 1;
+        std::fs::write(&entries[0].path, &bytes).unwrap();
+        let (rebuilt, notices) = build(&s, &options);
+        assert_eq!(rebuilt.stats.operator_origin, OperatorOrigin::BuiltAndCached);
+        assert_eq!(notices.len(), 1, "{notices:?}");
+        assert!(
+            notices[0].contains("checksum") && notices[0].contains(&*entries[0].path.to_string_lossy()),
+            "{notices:?}"
+        );
+        assert_eq!(rebuilt.operator.apply_block(&x, 1), product);
+        assert_eq!(
+            build(&s, &options).0.stats.operator_origin,
+            OperatorOrigin::Cached
+        );
+        let moved = boxed(0.3, 0.6);
+        assert_eq!(
+            build(&moved, &options).0.stats.operator_origin,
+            OperatorOrigin::BuiltAndCached
+        );
+        let mut coarser = options;
+        coarser.links.eta = 0.2;
+        assert_eq!(
+            build(&s, &coarser).0.stats.operator_origin,
+            OperatorOrigin::BuiltAndCached
+        );
+        assert_eq!(cache.entries().len(), 3);
+    }
+
+    /// An operator's entry read for other leaves, or with a source node that does not exist, is
+    /// refused instead of applied; read for its own leaves it is the operator written.
+    #[test]
+    fn an_operator_entry_that_does_not_fit_the_tree_is_refused() {
+        let s = room("", 0.5);
+        let engine = Interreflection::build(&s, 1, false, &InterreflectionOptions::default());
+        let mut bytes: Vec<u8> = Vec::new();
+        engine.operator.write_to(&mut bytes);
+        let tree = || Tree::build(&engine.solver.mesh, &engine.solver.alone);
+        let x = values(engine.n_leaves());
+        let back = Operator::read_from(tree(), &mut &bytes[..]).expect("its own leaves");
+        assert_eq!(back.apply_block(&x, 1), engine.operator.apply_block(&x, 1));
+        let other = Interreflection::build(&room("", 0.25), 1, false, &InterreflectionOptions::default());
+        let other_tree = Tree::build(&other.solver.mesh, &other.solver.alone);
+        assert!(Operator::read_from(other_tree, &mut &bytes[..]).is_none());
+        // The first source (after the node counts' length and values, then the sources' length).
+        let first_source = 8 + 4 * tree().nodes.len() + 8;
+        let mut wrong = bytes.clone();
+        wrong[first_source..first_source + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(Operator::read_from(tree(), &mut &wrong[..]).is_none());
     }
 
     /// The transposed application is the transpose: `yᵀ(F x) = (Fᵀ y)ᵀ x` for random vectors,

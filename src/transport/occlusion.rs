@@ -13,6 +13,7 @@ use std::time::Duration;
 use glam::{DVec3, Vec3A};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris, ray::Ray, triangle::Triangle};
 
+use crate::fsio::Fnv64;
 use crate::scene::{Aabb, PatchMesh, Scene, SurfaceKind};
 use crate::transport::box_bvh::{BoxBvh, slab};
 use crate::transport::visibility::Visibility;
@@ -258,6 +259,21 @@ impl Visibility for Occluders {
 }
 
 /// The triangles of the fine patches that belong to OBJ meshes (world, m).
+/// Adds what [`Occluders::of_scene`] is made of — the boxes' corners, then the OBJ surfaces'
+/// fine triangles — to a cache key (world, m; by bit pattern).
+pub fn hash_occluders(scene: &Scene, h: &mut Fnv64) {
+    for b in &scene.boxes {
+        for v in [b.min, b.max] {
+            h.f64(v.x).f64(v.y).f64(v.z);
+        }
+    }
+    for triangle in mesh_triangles(&scene.fine, scene) {
+        for p in triangle {
+            h.f64(p.x).f64(p.y).f64(p.z);
+        }
+    }
+}
+
 fn mesh_triangles<'a>(mesh: &'a PatchMesh, scene: &'a Scene) -> impl Iterator<Item = [DVec3; 3]> + 'a {
     mesh.triangles().filter_map(move |([a, b, c], pid)| {
         let surface = mesh.patches[pid as usize].surface as usize;

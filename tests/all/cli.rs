@@ -522,7 +522,8 @@ fn bad_room_files_fail_before_anything_else() {
 /// `haiko bake --json` on the paper room (the hierarchical engine): leaf, node and link counts
 /// above zero, more leaves than coarse patches (the lamps 0.1 m under the ceiling refine it),
 /// balancing that met its rows and columns, memory parts that sum to the total, stage times and
-/// the four per-edit costs measured (finite, positive). A room whose light hangs far from every surface, with nothing on the floor, gets no
+/// the four per-edit costs measured (finite, positive); a second bake reads the operator from
+/// the cache with the same counts. A room whose light hangs far from every surface, with nothing on the floor, gets no
 /// refinement: `haiko plan` prints no refinement line and its JSON lists none.
 #[test]
 fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
@@ -585,6 +586,19 @@ fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
         0.0 < median && median <= worst && worst < before,
         "{median} {worst} {before}"
     );
+    // The operator was built and cached; the second bake reads it, with the same counts.
+    assert_eq!(v["operator"], "built and cached", "{v}");
+    let o = haiko(
+        cache.path(),
+        &["bake", repo("rooms/paper.toml").to_str().unwrap(), "--json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let again: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(again["operator"], "from the cache", "{again}");
+    for k in ["leaves", "nodes", "links", "rays", "balancing"] {
+        assert_eq!(again[k], v[k], "{k}");
+    }
+    assert_eq!(again["time_s"]["balance"], 0.0);
     let dir = tempfile::tempdir().unwrap();
     let room = dir.path().join("plain.toml");
     std::fs::write(
