@@ -38,8 +38,12 @@ pub enum Msg {
         /// Units in the stage.
         total: usize,
     },
-    /// The start-up bake finished; the engine is ready.
-    BakeDone,
+    /// The start-up bake finished; the engine is ready. With the bake's notices (a damaged
+    /// cache entry rebuilt, a cache that could not be written), shown in the status line.
+    BakeDone {
+        /// One line each.
+        notices: Vec<String>,
+    },
     /// Every light's status (a moved light is `Updating` until its new bake is installed).
     LightStatus(Vec<LightStatus>),
     /// A new preview frame is on screen; its stage timings in milliseconds.

@@ -51,8 +51,16 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.bake = Some((done, total));
             Vec::new()
         }
-        Msg::BakeDone => {
+        Msg::BakeDone { notices } => {
             model.bake = None;
+            // A message already shown (the recovery file restored) matters more.
+            if let Some(first) = notices.first().filter(|_| model.message.is_none()) {
+                let more = match notices.len() {
+                    1 => String::new(),
+                    n => format!(" (and {} more)", n - 1),
+                };
+                model.message = Some(format!("{first}{more}"));
+            }
             vec![Effect::Render]
         }
         Msg::LightStatus(status) => {

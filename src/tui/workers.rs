@@ -197,7 +197,8 @@ impl Engine {
             })?;
         }
         self.send(Msg::LightStatus(self.statuses()))?;
-        self.send(Msg::BakeDone)?;
+        let notices = self.session.bake().map_or_else(Vec::new, |b| b.notices.clone());
+        self.send(Msg::BakeDone { notices })?;
         self.send_numbers()
     }
 

@@ -908,8 +908,27 @@ fn worker_messages_fill_the_status() {
     let mut m = model();
     assert_eq!(update(&mut m, Msg::BakeProgress { done: 3, total: 10 }), vec![]);
     assert_eq!(m.bake, Some((3, 10)));
-    assert_eq!(update(&mut m, Msg::BakeDone), vec![Effect::Render]);
+    assert_eq!(
+        update(&mut m, Msg::BakeDone { notices: Vec::new() }),
+        vec![Effect::Render]
+    );
     assert_eq!(m.bake, None);
+    assert_eq!(m.message, None, "no notice, no message");
+    let notices = vec!["cache /c/1.bake: checksum mismatch (corrupted); rebuilding".to_string(); 2];
+    update(&mut m, Msg::BakeDone { notices });
+    assert_eq!(
+        m.message.as_deref(),
+        Some("cache /c/1.bake: checksum mismatch (corrupted); rebuilding (and 1 more)")
+    );
+    m.message = Some("restored the unsaved edits from the recovery file (s saves them)".into());
+    update(
+        &mut m,
+        Msg::BakeDone {
+            notices: vec!["could not write the bake cache in /c: disk full".into()],
+        },
+    );
+    assert!(m.message.as_deref().unwrap().starts_with("restored"));
+    m.message = None;
     update(
         &mut m,
         Msg::Frame {
