@@ -407,7 +407,7 @@ const ROOM_EDGE_ASPECT: f64 = 8.0;
 /// piece), the cells within the piece's length of it are split along the edge while longer
 /// than this fraction of the piece (docs/DECISIONS.md "Room edges are graded where the direct
 /// light bends").
-const ROOM_EDGE_ALONG_FRACTION: f64 = 0.25;
+const ROOM_EDGE_ALONG_FRACTION: f64 = 0.125;
 
 /// A piece of a room edge is graded where the direct light next to it bends enough to put the
 /// indirect light a few centimetres from the edge off by this fraction of the room's indirect
@@ -1660,9 +1660,9 @@ solver_patch_size = 0.5
             for &(x, across, along) in &leaves {
                 if (1.0..3.0).contains(&x) {
                     // The round pool's end bends along the edge too: strips of at most twice
-                    // half of 0.1 m across, at most a quarter piece along.
+                    // half of 0.1 m across, at most an eighth of a piece along.
                     assert!(across <= 0.1 + 1e-12, "{name} at x {x}: {across} m wide");
-                    assert!(along <= 0.125 + 1e-12, "{name} at x {x}: {along} m long");
+                    assert!(along <= 0.0625 + 1e-12, "{name} at x {x}: {along} m long");
                 } else if !(0.5..3.5).contains(&x) {
                     // 0.5 m from the graded pieces: halved once (0.5 > 0.5 × 0.5 m), no more.
                     assert!((across - 0.25).abs() < 1e-12, "{name} at x {x}: {across} m wide");

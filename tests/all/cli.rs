@@ -454,9 +454,9 @@ fn plan_and_bake_commands_report_their_decisions() {
         &["plan", repo("rooms/paper.toml").to_str().unwrap()],
     );
     let text = stdout(&o);
-    assert!(text.contains("hierarchical     on   1575 leaves"), "{text}");
+    assert!(text.contains("hierarchical     on   1791 leaves"), "{text}");
     assert!(
-        text.contains("1575 solver leaves; no SH basis is baked"),
+        text.contains("1791 solver leaves; no SH basis is baked"),
         "{text}"
     );
     assert!(!text.contains("basis columns in all"), "{text}");

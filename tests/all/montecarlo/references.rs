@@ -4,7 +4,8 @@
 //! OBJ furniture — a plinth turned 30° and a sideboard — in a coloured room under a warm spot,
 //! furniture standing 5 and 10 cm off the walls, two cupboards 5 cm apart, boxes stacked against a
 //! wall, a white corridor, a narrow spot across a desk's edge, a corner niche, a partition from
-//! floor to ceiling with a doorway and a wall cabinet), 148–268 points each on floors, box
+//! floor to ceiling with a doorway and a wall cabinet, wall sconces grazing a wall up and down),
+//! 148–268 points each on floors, box
 //! and mesh tops and faces, walls and ceilings, including points 1–20 cm from box and mesh faces
 //! and 2–15 cm from the room's floor and ceiling edges. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
 //! estimate, its standard error (lx, < 0.3 % of the value), the exact direct part and the number of
@@ -34,7 +35,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 17] = [
+pub const ROOMS: [&str; 18] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -52,6 +53,7 @@ pub const ROOMS: [&str; 17] = [
     "accents",
     "niche",
     "partition",
+    "sconces",
 ];
 
 /// The environment variable that regenerates the references.
@@ -207,7 +209,10 @@ impl Points<'_> {
 /// its side, the wall beside it and the ceiling above it, the step light's pool and the wall
 /// below it, and the corner by the pendant; for the partition, its dark face up to the ceiling
 /// and the ceiling beyond it, its washed face and the ceiling beside it, the doorway, the dark
-/// corner behind it, and the wall cabinet's underside, the wall and the floor below it.
+/// corner behind it, and the wall cabinet's underside, the wall and the floor below it; for the
+/// sconces, the wall along and beside one sconce's beams up to the ceiling, the ceiling's edge
+/// above it, the sideboard's top under the sconces from its contact with the wall out, and the
+/// wall just above it.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
@@ -409,6 +414,28 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
         }
         for x in [5.8, 5.5, 5.0] {
             pts.add(DVec3::new(x, 1.2, 0.0), DVec3::Z);
+        }
+    }
+    if name == "sconces" {
+        // The wall x = 0 along and beside the left sconce's beams, up to the ceiling, and the
+        // ceiling's edge above it.
+        for y in [1.3, 1.4, 1.6] {
+            for z in [1.2, 1.5, 1.7, 1.9, 2.1, 2.4, 2.6, 2.68] {
+                pts.add(DVec3::new(0.0, y, z), DVec3::X);
+            }
+        }
+        for x in [0.02, 0.05, 0.15, 0.3, 0.6] {
+            pts.add(DVec3::new(x, 1.3, s.z), DVec3::NEG_Z);
+        }
+        // The sideboard's top under the sconces, from its contact with the wall out, and the
+        // wall just above it.
+        for x in [0.02, 0.05, 0.1, 0.2, 0.4] {
+            pts.add(DVec3::new(x, 1.3, 0.9), DVec3::Z);
+            pts.add(DVec3::new(x, 2.0, 0.9), DVec3::Z);
+        }
+        for z in [0.92, 1.0, 1.1] {
+            pts.add(DVec3::new(0.0, 1.3, z), DVec3::X);
+            pts.add(DVec3::new(0.0, 2.0, z), DVec3::X);
         }
     }
     if name == "wall-washers" {
@@ -741,8 +768,10 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// wall) was 25 % and 8.5 % off before the pieces were also graded along the edge beside narrow
 /// pools and the light sampled two pieces deep. The `niche` room (eighteenth round) and the
 /// `partition` room (nineteenth), each added as it came with no option changed for it, are
-/// 2.7 % and 2.1 % off at worst.
-const ENGINE_BOUNDS: [(&str, f64, f64); 17] = [
+/// 2.7 % and 2.1 % off at worst. The `sconces` room (nineteenth) was 5.2 % low on the wall
+/// under the ceiling between two up-lit pools until cells beside pieces that bend along the
+/// edge were split to an eighth of a piece along it (2.1 % since; accents 3.0 → 1.6 %).
+const ENGINE_BOUNDS: [(&str, f64, f64); 18] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
@@ -757,9 +786,10 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 17] = [
     ("stacked", 0.005, 0.020),
     ("white-corridor", 0.005, 0.013),
     ("spot-on-edge", 0.005, 0.018),
-    ("accents", 0.005, 0.033),
+    ("accents", 0.005, 0.02),
     ("niche", 0.005, 0.031),
     ("partition", 0.005, 0.025),
+    ("sconces", 0.005, 0.025),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
