@@ -48,6 +48,9 @@ const LEAF_RAYS_PER_EDGE: [usize; 4] = [2, 8, 16, 32];
 pub const GATHER_DOUBT: f64 = 0.0005;
 /// Rays to a cluster when gathering.
 const GATHER_CLUSTER_RAYS: usize = 16;
+/// The share of a cluster its rays cannot resolve: they are spread a quarter of it apart, and
+/// a visibility edge may lie up to a spacing on either side of what they found.
+const CLUSTER_RAY_SHARE: f64 = 0.5;
 const _: () = assert!(GATHER_CLUSTER_RAYS <= MAX_SPREAD_POINTS);
 
 /// The knobs of the engine; `Default` is what the bake uses.
@@ -655,6 +658,9 @@ impl Interreflection {
             if node.is_leaf() {
                 self.look_at_leaf(&mut walk, d.node, d.f, d.per_edge, d.added);
             } else {
+                for (e, taken) in walk.e.iter_mut().zip(d.taken) {
+                    *e -= taken;
+                }
                 walk.stack.extend(node.children);
                 self.walk(&mut walk);
             }
@@ -706,14 +712,15 @@ impl Interreflection {
                 GATHER_CLUSTER_RAYS,
                 &mut walk.points,
             );
+            let potential = f * b.iter().map(|b| b.max(0.0)).sum::<f64>();
             if v == 0.0 && f <= HIDDEN_REFINE {
-                let potential = f * b.iter().map(|b| b.max(0.0)).sum::<f64>();
                 walk.doubts.push(Doubt {
                     doubt: potential,
                     node: i,
                     f,
                     per_edge: 0,
                     added: 0.0,
+                    taken: [0.0; 3],
                 });
             } else if v < 1.0 {
                 walk.stack.extend(node.children);
@@ -722,8 +729,21 @@ impl Interreflection {
                     Some(l) => self.far_moment(l, i, node, p, n),
                     None => [0.0; 3],
                 };
+                let taken = std::array::from_fn(|ch| (b[ch] * f + moment[ch]).max(0.0));
                 for ch in 0..3 {
-                    walk.e[ch] += (b[ch] * f + moment[ch]).max(0.0);
+                    walk.e[ch] += taken[ch];
+                }
+                if shaft.is_some() {
+                    // Every ray reached it past an occluder that stands between: a sliver of
+                    // it, up to a ray spacing wide, may still hide behind that occluder.
+                    walk.doubts.push(Doubt {
+                        doubt: potential * CLUSTER_RAY_SHARE,
+                        node: i,
+                        f,
+                        per_edge: 0,
+                        added: 0.0,
+                        taken,
+                    });
                 }
             }
         }
@@ -771,6 +791,7 @@ impl Interreflection {
                 f,
                 per_edge,
                 added: v,
+                taken: [0.0; 3],
             });
         }
     }
@@ -870,6 +891,9 @@ struct Doubt {
     per_edge: usize,
     /// The visible fraction added so far.
     added: f64,
+    /// What it added (lx, linear RGB): a cluster gathered whole, taken off again when it is
+    /// split at its next look.
+    taken: [f64; 3],
 }
 
 impl PartialEq for Doubt {
@@ -1296,6 +1320,94 @@ solver_patch_size = 0.5
     /// gather's second looks bring it within 1 % of every leaf gathered with 32 × 32 rays
     /// (linear radiosity off, no clusters, so only the visibility differs); without them the
     /// first rays miss slivers and take unanimity for the truth, off by more than 4 %.
+    /// The largest relative difference of `engine`'s gather of the leaf radiosity `b` (grey) at
+    /// `receivers` from every leaf gathered one by one with 32 × 32 visibility rays and its
+    /// constant radiosity.
+    fn worst_against_dense(engine: &Interreflection, b: &[[f64; 3]], receivers: &[Receiver]) -> f64 {
+        let got = engine.gather(b, receivers);
+        let dense: Vec<f64> = receivers
+            .iter()
+            .map(|rx| {
+                let (p, n) = (rx.point + rx.normal * RECEIVER_LIFT_M, rx.normal);
+                let tree = &engine.operator.tree;
+                let (mut scratch, mut points) = (Vec::new(), Vec::new());
+                let occluders = engine.occluders.as_ref().expect("boxes occlude");
+                tree.leaf_node
+                    .iter()
+                    .enumerate()
+                    .map(|(leaf, &i)| {
+                        let node = &tree.nodes[i as usize];
+                        if node.normal.dot(p - node.centroid) <= 0.0 {
+                            return 0.0;
+                        }
+                        let f = engine.geometry.node_factor(tree, i, p, n, &mut scratch);
+                        points.clear();
+                        engine.geometry.targets[leaf].sample_points_into(32, &mut points);
+                        let v = weighted_fraction(
+                            points
+                                .iter()
+                                .map(|&q| (kernel(n, node.normal, q - p), !occluders.blocked(p, q))),
+                        );
+                        v * f * b[leaf][0]
+                    })
+                    .sum()
+            })
+            .collect();
+        got.iter()
+            .zip(&dense)
+            .map(|(g, d)| (g[0] / d - 1.0).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// Cove lighting: a ledge along a wall under the ceiling, lamps on it lighting the ceiling
+    /// beside the wall. From the floor beyond the ledge the brightest strip of ceiling hides
+    /// behind the ledge's edge; a ceiling cluster whose 16 rays all pass the edge may still have
+    /// a sliver behind it, and the gather looks again at such a cluster (split into its
+    /// children), so the floor points agree with every leaf gathered with 32 × 32 rays within
+    /// 1 % (5.4 % off when a cluster that all its rays reached was taken whole).
+    #[test]
+    fn a_cluster_behind_an_occluder_is_looked_at_again() {
+        let s = scene(
+            r#"version = 1
+[room]
+size = [5.0, 4.0, 2.7]
+[room.reflectance]
+floor = 0.3
+walls = 0.6
+ceiling = 0.85
+[[box]]
+min = [0.0, 0.0, 2.3]
+max = [0.3, 4.0, 2.4]
+reflectance = 0.6
+[[light]]
+name = "cove"
+position = [0.18, 2.0, 2.43]
+aim_dir = [0.0, 0.0, 1.0]
+lid = [[0, 500], [30, 480], [60, 380], [80, 200], [90, 0], [180, 0]]
+radius = 0.02
+[settings]
+patch_size = 0.1
+solver_patch_size = 0.5
+"#,
+        );
+        let options = InterreflectionOptions {
+            linear_gather: false,
+            ..InterreflectionOptions::default()
+        };
+        let engine = Interreflection::build(&s, 1, true, &options);
+        let b = engine.scene_radiosity(&s, 1e-6).expect("solves");
+        let receivers: Vec<Receiver> = [0.4, 0.45, 0.5, 0.55, 0.6, 0.7]
+            .into_iter()
+            .flat_map(|x| [1.5, 2.0, 3.0].map(|y| DVec3::new(x, y, 0.0)))
+            .map(|point| Receiver {
+                point,
+                normal: DVec3::Z,
+            })
+            .collect();
+        let worst = worst_against_dense(&engine, &b, &receivers);
+        assert!(worst < 0.01, "{worst}");
+    }
+
     #[test]
     fn gather_through_a_slot_matches_dense_visibility() {
         let s = scene(
@@ -1344,39 +1456,7 @@ solver_patch_size = 0.5
                 })
                 .map(|(point, normal)| Receiver { point, normal })
                 .collect();
-            let got = engine.gather(&b, &receivers);
-            let dense: Vec<f64> = receivers
-                .iter()
-                .map(|rx| {
-                    let (p, n) = (rx.point + rx.normal * RECEIVER_LIFT_M, rx.normal);
-                    let tree = &engine.operator.tree;
-                    let (mut scratch, mut points) = (Vec::new(), Vec::new());
-                    let occluders = engine.occluders.as_ref().expect("boxes occlude");
-                    tree.leaf_node
-                        .iter()
-                        .enumerate()
-                        .map(|(leaf, &i)| {
-                            let node = &tree.nodes[i as usize];
-                            if node.normal.dot(p - node.centroid) <= 0.0 {
-                                return 0.0;
-                            }
-                            let f = engine.geometry.node_factor(tree, i, p, n, &mut scratch);
-                            points.clear();
-                            engine.geometry.targets[leaf].sample_points_into(32, &mut points);
-                            let v = weighted_fraction(
-                                points
-                                    .iter()
-                                    .map(|&q| (kernel(n, node.normal, q - p), !occluders.blocked(p, q))),
-                            );
-                            v * f * b[leaf][0]
-                        })
-                        .sum()
-                })
-                .collect();
-            got.iter()
-                .zip(&dense)
-                .map(|(g, d)| (g[0] / d - 1.0).abs())
-                .fold(0.0, f64::max)
+            worst_against_dense(&engine, &b, &receivers)
         };
         let with_looks = gathered(GATHER_DOUBT);
         assert!(with_looks < 0.01, "{with_looks}");
