@@ -1,7 +1,8 @@
-//! The bake cache on disk: one file per baked light (and one per hierarchical engine's
-//! operator, docs/DECISIONS.md "Bake cache"), keyed by a hash of everything that affects
-//! the bake, with a header and a checksum. Stale or corrupt files are detected and rebuilt, never
-//! trusted; writes are atomic (temporary file in the same directory, fsync, rename).
+//! The bake cache on disk: one file per baked light, per hierarchical engine's operator and per
+//! light solved on such an engine (docs/DECISIONS.md "Bake cache"), keyed by a hash of
+//! everything that affects what it holds, with a header and a checksum. Stale or corrupt files
+//! are detected and rebuilt, never trusted; writes are atomic (temporary file in the same
+//! directory, fsync, rename).
 //!
 //! Layout (little-endian): `b"HAIKOBAK"`, format version (u32), reserved (u32), key (u64),
 //! payload length (u64), payload checksum (FNV-1a 64, u64), payload.
