@@ -200,7 +200,7 @@ pub enum CacheLoad<T> {
 
 /// Why a cache file is not valid for a key.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum Defect {
+enum Defect {
     #[error("not a Haiko bake file (truncated header or wrong magic)")]
     NotABakeFile,
     #[error("format version {0}, this Haiko writes {FORMAT_VERSION}")]
@@ -338,7 +338,7 @@ pub struct EntryWriter {
 
 impl EntryWriter {
     /// Starts the entry for `key` at `path` (creating its directory).
-    pub fn create(path: &Path, key: u64) -> std::io::Result<Self> {
+    fn create(path: &Path, key: u64) -> std::io::Result<Self> {
         let dir = path.parent().unwrap_or(Path::new("."));
         fs::create_dir_all(dir)?;
         let tmp = dir.join(format!(
@@ -381,7 +381,7 @@ impl EntryWriter {
     }
 
     /// Puts the entry in place: length and checksum into the header, fsync, rename.
-    pub fn finish(mut self) -> std::io::Result<()> {
+    fn finish(mut self) -> std::io::Result<()> {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
@@ -430,7 +430,7 @@ impl EntryReader {
     /// [`crate::fsio::open_regular`]: a FIFO or a device with a cache file's name is never
     /// opened (docs/DECISIONS.md "Bad input"). `Err(None)`: no file; `Err(Some(why))`: a file
     /// that is not valid for this key, with a one-line notice.
-    pub fn open(path: &Path, key: u64) -> Result<Self, Option<String>> {
+    fn open(path: &Path, key: u64) -> Result<Self, Option<String>> {
         let (file, len) = match fsio::open_regular(path, FileKind::BakeCache) {
             Ok(f) => f,
             Err(ReadError::NotFound) => return Err(None),
@@ -464,7 +464,7 @@ impl EntryReader {
     }
 
     /// Reads what is left (into the checksum) and checks the checksum.
-    pub fn finish(mut self) -> Result<(), Defect> {
+    fn finish(mut self) -> Result<(), Defect> {
         let mut buf = vec![0u8; CHUNK_BYTES];
         while self.remaining > 0 {
             let n = (self.remaining as usize).min(buf.len());

@@ -350,9 +350,10 @@ impl HierarchicalIndirect {
 
     /// [`Self::on_engine`], with each light's solved values read from `cache` when it holds
     /// them for this engine, its reflectances and the light's state, else solved (the lights
-    /// it does not hold, in one block) and written there (docs/DECISIONS.md "Bake cache"). The
-    /// direct caches are made as without it, so that edits cost the same. With the notices to
-    /// show (an invalid entry solved again, a write that failed).
+    /// it does not hold, in one block) and written there (docs/DECISIONS.md "Bake cache"); an
+    /// engine built without a cache has no key to file them under, and is solved as without
+    /// one. The direct caches are made as without it, so that edits cost the same. With the
+    /// notices to show (an invalid entry solved again, a write that failed).
     ///
     /// Errors: the solve failing (internal).
     pub fn on_engine_cached(
@@ -368,22 +369,27 @@ impl HierarchicalIndirect {
         let n = engine.n_leaves();
         let k = lights.len();
         let mut notices = Vec::new();
-        let keys: Vec<u64> = lights
-            .iter()
-            .map(|light| solution_key(&engine, light, tolerance))
-            .collect();
-        let mut cached: Vec<Option<SolvedValues>> = keys
-            .iter()
-            .map(
-                |&key| match cache?.read_with(key, |r| read_values(r, engine.channels(), n)) {
+        // Only a cache, and an engine built with one, give the lights keys.
+        let keyed = cache.zip(engine.operator_key()).map(|(cache, operator_key)| {
+            let engine_key = solutions_engine_key(&engine, operator_key, tolerance);
+            let keys: Vec<u64> = lights
+                .iter()
+                .map(|light| solution_key(engine_key, light))
+                .collect();
+            (cache, keys)
+        });
+        let mut cached: Vec<Option<SolvedValues>> = (0..k)
+            .map(|c| {
+                let (cache, keys) = keyed.as_ref()?;
+                match cache.read_with(keys[c], |r| read_values(r, engine.channels(), n)) {
                     CacheLoad::Hit(values) => Some(values),
                     CacheLoad::Missing => None,
                     CacheLoad::Invalid(why) => {
                         notices.push(format!("cache {why}; solving the light again"));
                         None
                     }
-                },
-            )
+                }
+            })
             .collect();
         // The lights to solve, and each one's column.
         let todo: Vec<usize> = (0..k).filter(|&c| cached[c].is_none()).collect();
@@ -459,7 +465,7 @@ impl HierarchicalIndirect {
                         LightValues::of_column(&solutions, column, &direct),
                         light,
                     );
-                    if let Some(cache) = cache
+                    if let Some((cache, keys)) = &keyed
                         && let Err(e) = cache.write_with(keys[c], |w| write_values(w, &solved))
                     {
                         notices.push(format!(
@@ -1071,24 +1077,32 @@ fn same_state(a: &Light, b: &Light) -> bool {
 /// lights' solved values are cached under keys made with it.
 const SOLUTION_FORMAT: u64 = 1;
 
-/// The key of a light's solved values on `engine`: the engine's operator key, its options and
-/// reflectances, the light where it stands (position, radius) and its state (curve, aim,
-/// dimmer), and the tolerance. Its colour is not in it (the values are kept without it).
-fn solution_key(engine: &Interreflection, light: &Light, tolerance: f64) -> u64 {
+/// The part of every light's solution key that is the engine's: its operator key, its options
+/// and leaf reflectances, and the tolerance (hashed once for all lights).
+fn solutions_engine_key(engine: &Interreflection, operator_key: u64, tolerance: f64) -> u64 {
     let mut h = Fnv64::default();
     h.u64(SOLUTION_FORMAT)
         .str("haiko-light-solution")
-        .u64(engine.operator_key())
-        .str(&format!("{:?}", engine.options()));
+        .u64(operator_key)
+        .str(&format!("{:?}", engine.options()))
+        .f64(tolerance);
     for channel in &engine.reflectance {
         for &r in channel {
             h.f64(r);
         }
     }
+    h.finish()
+}
+
+/// The key of a light's solved values on the engine of `engine_key`
+/// ([`solutions_engine_key`]): the light where it stands (position, radius) and its state
+/// (curve, aim, dimmer). Its colour is not in it (the values are kept without it).
+fn solution_key(engine_key: u64, light: &Light) -> u64 {
+    let mut h = Fnv64::default();
     let (p, a) = (light.position, light.aim);
-    h.f64(p.x).f64(p.y).f64(p.z).f64(light.radius);
+    h.u64(engine_key).f64(p.x).f64(p.y).f64(p.z).f64(light.radius);
     h.str(&format!("{:?}", light.curve));
-    h.f64(a.x).f64(a.y).f64(a.z).f64(light.dimmer).f64(tolerance);
+    h.f64(a.x).f64(a.y).f64(a.z).f64(light.dimmer);
     h.finish()
 }
 
@@ -1560,13 +1574,18 @@ solver_patch_size = 0.5
     /// to the same values, and keeps its direct cache as a solved light does (so edits cost
     /// the same); a light with another dimmer (as saved after an edit) is solved and agrees with
     /// a fresh engine, while another colour keeps the entry (values are kept without it). A
-    /// damaged entry is solved again with a notice naming it.
+    /// damaged entry is solved again with a notice naming it. An engine built without a cache
+    /// has no key for them and solves every light.
     #[test]
     fn lights_solved_before_are_read_from_the_cache() {
         let dir = tempfile::tempdir().unwrap();
         let cache = BakeCache::in_dir(dir.path());
         let scene = room();
-        let engine = Arc::clone(&build(&scene).engine);
+        // Built with the cache, so that it has a key to file its lights under.
+        let options = InterreflectionOptions::default();
+        let solver = crate::transport::refine::refine(&scene, &options.refine);
+        let (engine, _) = Interreflection::build_cached(&scene, solver, 1, false, &options, Some(&cache));
+        let engine = Arc::new(engine);
         let open = |scene: &Scene| {
             HierarchicalIndirect::on_engine_cached(
                 Arc::clone(&engine),
@@ -1581,7 +1600,11 @@ solver_patch_size = 0.5
         let (first, notices) = open(&scene);
         assert!(notices.is_empty(), "{notices:?}");
         assert_eq!(first.stats().lights_from_cache, 0);
-        assert_eq!(cache.entries().len(), 2);
+        assert_eq!(
+            cache.entries().len(),
+            1 + 2,
+            "the operator's entry and one per light"
+        );
         let (second, notices) = open(&scene);
         assert!(notices.is_empty(), "{notices:?}");
         assert_eq!(second.stats().lights_from_cache, 2);
@@ -1608,6 +1631,17 @@ solver_patch_size = 0.5
             bytes[last] ^= 4;
             std::fs::write(&entry.path, bytes).unwrap();
         }
+        let unkeyed = HierarchicalIndirect::on_engine_cached(
+            Arc::clone(&build(&scene).engine),
+            &scene,
+            &scene.lights,
+            1e-6,
+            DIRECT_CACHE_BUDGET_BYTES,
+            Some(&cache),
+        )
+        .expect("solves")
+        .0;
+        assert_eq!(unkeyed.stats().lights_from_cache, 0);
         let (again, notices) = open(&scene);
         assert_eq!(again.stats().lights_from_cache, 0);
         assert_eq!(notices.len(), 2, "{notices:?}");

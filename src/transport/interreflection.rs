@@ -283,8 +283,9 @@ pub struct Interreflection {
     /// The occluders (None in an empty convex room, unless forced).
     pub occluders: Option<Occluders>,
     options: InterreflectionOptions,
-    /// The key of its operator's cache entry (what the links and balancing were made of).
-    operator_key: u64,
+    /// The key of its operator's cache entry (what the links and balancing were made of), when
+    /// it was built with a cache.
+    operator_key: Option<u64>,
     /// Sizes and times.
     pub stats: InterreflectionStats,
 }
@@ -361,20 +362,21 @@ impl Interreflection {
         let geometry = NodeGeometry::new(&solver.mesh, &tree);
         let neighbours = LeafNeighbours::new(&tree);
         let mut notices = Vec::new();
-        let key = operator_key(scene, &solver, visibility, closed, &options.links);
+        // Only a cache needs the key: without one the leaves are not hashed.
+        let key = cache.map(|_| operator_key(scene, &solver, visibility, closed, &options.links));
         let mut tree = Some(tree);
         let structure_s = t.elapsed().as_secs_f64();
         let read = Instant::now();
-        let cached = cache.and_then(
-            |c| match c.read_with(key, |r| OperatorEntry::read(r, tree.take()?)) {
+        let cached = cache.zip(key).and_then(|(c, key)| {
+            match c.read_with(key, |r| OperatorEntry::read(r, tree.take()?)) {
                 CacheLoad::Hit(entry) => Some(entry),
                 CacheLoad::Missing => None,
                 CacheLoad::Invalid(why) => {
                     notices.push(format!("cache {why}; rebuilding the interreflection engine"));
                     None
                 }
-            },
-        );
+            }
+        });
         let (entry, origin, links_s, balance_s, cache_s) = match cached {
             Some(entry) => (
                 entry,
@@ -406,7 +408,10 @@ impl Interreflection {
                     balance,
                 };
                 let t = Instant::now();
-                let origin = match cache.map(|c| (c, c.write_with(key, |w| entry.write(w)))) {
+                let written = cache
+                    .zip(key)
+                    .map(|(c, key)| (c, c.write_with(key, |w| entry.write(w))));
+                let origin = match written {
                     None => OperatorOrigin::Built,
                     Some((_, Ok(()))) => OperatorOrigin::BuiltAndCached,
                     Some((c, Err(e))) => {
@@ -471,8 +476,9 @@ impl Interreflection {
         &self.options
     }
 
-    /// The key of its operator's cache entry: a hash of its leaves, occluders and link options.
-    pub fn operator_key(&self) -> u64 {
+    /// The key of its operator's cache entry (a hash of its leaves, occluders and link
+    /// options), when it was built with a cache.
+    pub fn operator_key(&self) -> Option<u64> {
         self.operator_key
     }
 
@@ -1047,11 +1053,10 @@ solver_patch_size = {solver}
         let dir = tempfile::tempdir().unwrap();
         let cache = BakeCache::in_dir(dir.path());
         let boxed = |floor: f64, x: f64| {
-            let s = room(
+            let mut s = room(
                 &format!("[[box]]\nmin = [{x}, 0.5, 0.0]\nmax = [1.5, 1.2, 0.8]\nreflectance = 0.5\n"),
                 0.5,
             );
-            let mut s = s;
             s.surfaces[0].reflectance.0 = [floor; 3];
             s
         };
@@ -1315,11 +1320,6 @@ solver_patch_size = 0.5
         assert!(constant > 0.3, "{constant}");
     }
 
-    /// In the 5 cm slot between two cupboards, what a point deep in it gathers comes through the
-    /// slot's open ends and top from many small, bright leaves each seen through a sliver: the
-    /// gather's second looks bring it within 1 % of every leaf gathered with 32 × 32 rays
-    /// (linear radiosity off, no clusters, so only the visibility differs); without them the
-    /// first rays miss slivers and take unanimity for the truth, off by more than 4 %.
     /// The largest relative difference of `engine`'s gather of the leaf radiosity `b` (grey) at
     /// `receivers` from every leaf gathered one by one with 32 × 32 visibility rays and its
     /// constant radiosity.
@@ -1408,6 +1408,11 @@ solver_patch_size = 0.5
         assert!(worst < 0.01, "{worst}");
     }
 
+    /// In the 5 cm slot between two cupboards, what a point deep in it gathers comes through the
+    /// slot's open ends and top from many small, bright leaves each seen through a sliver: the
+    /// gather's second looks bring it within 1 % of every leaf gathered with 32 × 32 rays
+    /// (linear radiosity off, no clusters, so only the visibility differs); without them the
+    /// first rays miss slivers and take unanimity for the truth, off by more than 4 %.
     #[test]
     fn gather_through_a_slot_matches_dense_visibility() {
         let s = scene(
