@@ -175,11 +175,21 @@ pub fn polygon_quadrature_split(
     split: f64,
     visit: impl FnMut(DVec3, f64, DVec3),
 ) {
-    quadrature(position, radius_m, polygon, normal, split, None, visit);
+    quadrature(
+        position,
+        radius_m,
+        polygon,
+        normal,
+        split,
+        f64::INFINITY,
+        None,
+        visit,
+    );
 }
 
-/// [`polygon_quadrature_split`] visiting only the samples whose point `visible` says the source
-/// sees; a piece whose three samples disagree (a shadow line crosses it) is split again, up to
+/// [`polygon_quadrature_split`], with pieces no longer than `max_piece_m` either (m; infinite
+/// for none), visiting only the samples whose point `visible` says the source sees; a piece
+/// whose three samples disagree (a shadow line crosses it) is split again, up to
 /// `shadow_splits` more times ([`SHADOW_SPLIT_DEPTH`] by default; 0 keeps the pieces), and so
 /// is every piece whose corners disagree once the polygon's corners do (a straight line through
 /// a triangle leaves a corner on each side), so that the visible part of the polygon is resolved
@@ -192,6 +202,7 @@ pub fn polygon_quadrature_visible(
     polygon: &[DVec3],
     normal: DVec3,
     split: f64,
+    max_piece_m: f64,
     shadow_splits: u32,
     visible: &dyn Fn(DVec3) -> bool,
     visit: impl FnMut(DVec3, f64, DVec3),
@@ -206,7 +217,16 @@ pub fn polygon_quadrature_visible(
         crossed,
         splits: shadow_splits,
     };
-    quadrature(position, radius_m, polygon, normal, split, Some(shadow), visit);
+    quadrature(
+        position,
+        radius_m,
+        polygon,
+        normal,
+        split,
+        max_piece_m,
+        Some(shadow),
+        visit,
+    );
 }
 
 /// Extra splits of a piece that a shadow line crosses ([`polygon_quadrature_visible`]) by
@@ -223,12 +243,14 @@ struct Shadow<'a> {
 }
 
 /// The quadrature behind [`polygon_quadrature_split`] and [`polygon_quadrature_visible`].
+#[allow(clippy::too_many_arguments)]
 fn quadrature(
     position: DVec3,
     radius_m: f64,
     polygon: &[DVec3],
     normal: DVec3,
     split: f64,
+    max_piece_m: f64,
     shadow: Option<Shadow<'_>>,
     mut visit: impl FnMut(DVec3, f64, DVec3),
 ) {
@@ -236,6 +258,7 @@ fn quadrature(
     let crossed_polygon = shadow.as_ref().is_some_and(|s| s.crossed);
     let max_splits = shadow.as_ref().map_or(0, |s| s.splits);
     let split2 = split * split;
+    let max_piece2 = max_piece_m * max_piece_m;
     if (polygon[0] - position).dot(normal) >= 0.0 {
         return; // the source is behind (or in the plane of) the polygon
     }
@@ -260,7 +283,7 @@ fn quadrature(
             .length_squared()
             .max((c - b).length_squared())
             .max((a - c).length_squared());
-        if longest2 > r2 * split2 && depth < MAX_SPLIT_DEPTH {
+        if longest2 > (r2 * split2).min(max_piece2) && depth < MAX_SPLIT_DEPTH {
             stack.extend(triangle_quarters([a, b, c]).map(|tri| (tri, depth + 1, shadow)));
             continue;
         }
@@ -437,6 +460,7 @@ mod tests {
                 &patch,
                 DVec3::Z,
                 1.0,
+                f64::INFINITY,
                 SHADOW_SPLIT_DEPTH,
                 &visible,
                 |_, w, _| flux += w,

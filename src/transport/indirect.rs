@@ -1075,10 +1075,11 @@ fn same_state(a: &Light, b: &Light) -> bool {
 
 /// Bumped whenever a light's solve makes something else of the same engine and state: the
 /// lights' solved values are cached under keys made with it.
-const SOLUTION_FORMAT: u64 = 1;
+const SOLUTION_FORMAT: u64 = 2;
 
-/// The part of every light's solution key that is the engine's: its operator key, its options
-/// and leaf reflectances, and the tolerance (hashed once for all lights).
+/// The part of every light's solution key that is the engine's: its operator key, its options,
+/// the leaves whose direct light is sampled finely and the leaf reflectances, and the tolerance
+/// (hashed once for all lights).
 fn solutions_engine_key(engine: &Interreflection, operator_key: u64, tolerance: f64) -> u64 {
     let mut h = Fnv64::default();
     h.u64(SOLUTION_FORMAT)
@@ -1086,6 +1087,9 @@ fn solutions_engine_key(engine: &Interreflection, operator_key: u64, tolerance: 
         .u64(operator_key)
         .str(&format!("{:?}", engine.options()))
         .f64(tolerance);
+    for &fine in &engine.solver.beam_edge {
+        h.u64(u64::from(fine));
+    }
     for channel in &engine.reflectance {
         for &r in channel {
             h.f64(r);

@@ -505,10 +505,11 @@ impl Interreflection {
     }
 
     /// How the direct quadrature samples a leaf.
-    fn direct_pieces(&self) -> Split {
+    fn direct_pieces(&self) -> Split<'_> {
         Split {
             piece: self.options.direct_split,
             shadow_splits: self.options.shadow_splits,
+            beam_edge: &self.solver.beam_edge,
         }
     }
 

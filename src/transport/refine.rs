@@ -13,10 +13,14 @@
 //!   contact changes over centimetres (the dark strip of a box face by the floor, the floor in the
 //!   box's shadow), along the edge only over the box's size, so the strips are anisotropic (a strip
 //!   at most `CONTACT_ASPECT` = 4 times as long as its far side's distance to the edge). A strip
-//!   near the edge that a light's shadow line crosses (the box's own shadow next to its base,
-//!   a few centimetres wide beside a bright pool) is halved further, down to `shadow_min_m`.
+//!   near a box's contact edge that a light edge crosses — a shadow line (the box's own shadow
+//!   next to its base, a few centimetres wide beside a bright pool) or a beam's cut-off (a
+//!   spot's edge over a picture frame's top) of the direct light of all the lights together —
+//!   is halved further across the edge, down to `shadow_min_m`; one that a beam's cut-off
+//!   crosses is halved along it too while longer than `LIGHT_EDGE_LENGTH` times its far side's
+//!   distance to the edge, and its direct light is sampled finely ([`SolverMesh::beam_edge`]).
 //!   The room's own edges near a light hung close to a room surface (a wall-washer under the
-//!   ceiling) are graded the same way.
+//!   ceiling) are graded the same way, without the light-edge rule.
 //! * **Along room edges where the direct light bends**: the pieces of the room's own edges
 //!   where the direct light on either surface next to them is far from linear across a coarse
 //!   patch ([`crate::transport::room_edges`]: a pool ending by a wall, a lamp's horizon under the
@@ -47,7 +51,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::scene::mesher::AxisRect;
-use crate::scene::{Aabb, Patch, PatchMesh, Scene, SurfaceKind};
+use crate::scene::{Aabb, Light, Patch, PatchMesh, Scene, SurfaceKind};
 use crate::transport::mesh_contacts::MeshContacts;
 use crate::transport::occlusion::Occluders;
 use crate::transport::room_edges::{BendingPiece, bending_edge_pieces};
@@ -67,9 +71,11 @@ pub struct RefineOptions {
     /// Narrowest strip (m) along a contact edge (a strip is halved while wider than twice this).
     /// Default 0.015 m.
     pub contact_min_m: f64,
-    /// A strip along a contact edge that a light's shadow line crosses (some points of it see
-    /// the light, others not) is halved across the edge down to this width (m), and so is a
-    /// slot's cell across a shadow line through it; 0 turns both off. Default 0.01 m.
+    /// A strip along a box's contact edge that a light edge crosses (a shadow line or a beam's
+    /// cut-off: some points of the strip are lit and others not) is halved across the edge
+    /// while wider than twice this (m), and, for a beam's cut-off, along it while longer than
+    /// twice this; a slot's cell across a light edge through it while wider than
+    /// `SLOT_LIGHT_EDGE_FACTOR` times this; 0 turns both off. Default 0.005 m.
     pub shadow_min_m: f64,
     /// A box face up to this far (m) from a parallel room surface, and not touching it, makes a
     /// slot: the room surface behind it is graded along the face's outline as along a contact
@@ -94,7 +100,7 @@ impl Default for RefineOptions {
             lamp_min_m: 0.03,
             contact_ratio: 0.5,
             contact_min_m: 0.015,
-            shadow_min_m: 0.01,
+            shadow_min_m: 0.005,
             slot_max_m: 0.3,
             room_edge_min_m: 0.1,
         }
@@ -143,6 +149,11 @@ pub struct SolverMesh {
     /// Per leaf, true when it lies in a slot: its partly visible links are refined further
     /// ([`crate::transport::links::LinkOptions::slot_visibility_refine`]).
     pub in_slot: Vec<bool>,
+    /// Per leaf, true when a light's beam edge (a hard cut-off of its curve) runs through it
+    /// beside a contact, where the light-edge rule split it: its direct light is sampled in
+    /// pieces no longer than [`crate::transport::patchdirect::BEAM_EDGE_PIECE`] of its shorter
+    /// side (docs/DECISIONS.md "Light edges beside contacts").
+    pub beam_edge: Vec<bool>,
     /// Per light that caused splits, what it did.
     pub lamps: Vec<LampRefinement>,
     /// Edges where OBJ meshes stand on room surfaces, the leaves made along them (beyond the
@@ -200,6 +211,12 @@ impl SolverMesh {
                 self.contacts, self.contact_leaves_added
             ));
         }
+        let beam_edge = self.beam_edge.iter().filter(|&&b| b).count();
+        if beam_edge > 0 {
+            notes.push(format!(
+                "sampled {beam_edge} patches beside contacts finely in their direct light, where a beam's hard edge crosses them"
+            ));
+        }
         if self.room_edges > 0 && self.room_edge_leaves_added > 0 {
             notes.push(format!(
                 "graded along {} pieces of the room's edges where the direct light next to them bends (strips at most {:.2} m wide at the edge, half that beside narrow pools): +{} patches",
@@ -226,12 +243,27 @@ struct Contact {
     segment: Aabb,
     /// Width (m) of the slot between the box face and the room surface; 0 for a contact.
     gap: f64,
-    /// One of the room's own edges, graded to [`RefineOptions::room_edge_min_m`] (rather than
-    /// `contact_min_m`), without the shadow rule.
-    room_edge: bool,
+    /// What meets there.
+    kind: EdgeKind,
     /// Cells closer to the edge than its length are split along it while longer than this
     /// (m): a piece of room edge whose direct light bends along it; infinite otherwise.
     max_length: f64,
+}
+
+/// What a [`Contact`] edge is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum EdgeKind {
+    /// A box meets its support (a room surface or another box): graded to `contact_min_m`,
+    /// and where a light's edge runs beside it to `shadow_min_m`.
+    Box,
+    /// The outline of a box face standing off a room surface or another box (the contact's
+    /// `gap`), on either side of the slot.
+    Slot,
+    /// One of the room's own edges near a light close to a room surface.
+    NearLamp,
+    /// A piece of the room's own edges where the direct light next to it bends, graded to
+    /// [`RefineOptions::room_edge_min_m`].
+    Bending,
 }
 
 /// A slot: a box face standing a little off a parallel room surface, or off the facing face of
@@ -414,9 +446,27 @@ const ROOM_EDGE_ALONG_FRACTION: f64 = 0.125;
 /// irradiance (docs/DECISIONS.md "Room edges are graded where the direct light bends").
 const ROOM_EDGE_TOLERANCE: f64 = 0.02;
 
-/// A strip is split at a light's shadow line while it lies within this many of its widths of the
-/// contact edge.
+/// A strip is split at a light's edge (a shadow line or a beam's cut-off) while it lies within
+/// this many of its widths of the contact edge.
 const SHADOW_REACH: f64 = 4.0;
+
+/// A slot's cell is halved across a light edge through it while wider than this many times
+/// `shadow_min_m` (2 cm): the strips of 1 cm that twice its factor at contacts makes put the
+/// deep slot of the furniture-gaps reference room 3.1 % off instead of 2.4 %
+/// (docs/DECISIONS.md "Light edges beside contacts").
+const SLOT_LIGHT_EDGE_FACTOR: f64 = 4.0;
+
+/// A strip along a contact edge that a light's edge crosses, once as narrow as the light-edge
+/// rule makes it, is split along the edge while longer than this many times its far side's
+/// distance to the edge: about the reach of the kernel of a receiver that far from the edge
+/// (docs/DECISIONS.md "Light edges beside contacts").
+const LIGHT_EDGE_LENGTH: f64 = 1.0;
+
+/// A point of a cell is lit when its direct light, over what the lights' geometry alone makes
+/// there, is at least this fraction of the largest such ratio among the points looked at in
+/// the cell ([`Splitter::lit_points`]); a light edge runs through a cell when some of them are
+/// lit and others not.
+const LIGHT_EDGE_RATIO: f64 = 0.5;
 
 /// A light this close (m) to a room surface grades the room's edges near it like box contacts
 /// (a wall-washer's grazing light makes the wall/ceiling corner next to it change over
@@ -425,10 +475,23 @@ const CORNER_LAMP_M: f64 = 0.5;
 const CORNER_REACH_FACTOR: f64 = 6.0;
 const CORNER_REACH_M: f64 = 0.3;
 
+/// Which rule of [`Splitter::contact_axis`] split a cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Grading {
+    /// Towards a contact edge: a box's, a slot's outline, or a room edge beside a lamp.
+    Contact,
+    /// Towards a piece of the room's own edges.
+    RoomEdge,
+    /// At a light's edge beside a contact.
+    LightEdge,
+}
+
 /// What the recursive split of one rectangle made.
 #[derive(Default)]
 struct Split {
-    leaves: Vec<Cell>,
+    /// The leaves, each with whether a light's beam edge runs through it
+    /// ([`SolverMesh::beam_edge`]).
+    leaves: Vec<(Cell, bool)>,
     /// The first light whose rule split it.
     lamp: Option<usize>,
     by_contact: bool,
@@ -505,11 +568,11 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
                 }
             }
             Leaves::Rects(leaves) => {
-                for leaf in &leaves {
+                for (leaf, beam_edge) in &leaves {
                     let bounds = leaf.bounds();
                     let centre = (bounds.min + bounds.max) / 2.0;
                     let in_slot = splitter.slots.iter().any(|s| s.contains(centre));
-                    out.rect(patch, index, leaf, near_lamp, in_slot);
+                    out.rect(patch, index, leaf, near_lamp, in_slot, *beam_edge);
                 }
             }
         }
@@ -534,13 +597,18 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
         coarse_patch: out.coarse_patch,
         alone: out.alone,
         in_slot: out.in_slot,
+        beam_edge: out.beam_edge,
         lamps,
         contacts: splitter
             .contacts
             .iter()
-            .filter(|c| c.gap == 0.0 && !c.room_edge)
+            .filter(|c| matches!(c.kind, EdgeKind::Box | EdgeKind::NearLamp))
             .count(),
-        room_edges: splitter.contacts.iter().filter(|c| c.room_edge).count(),
+        room_edges: splitter
+            .contacts
+            .iter()
+            .filter(|c| c.kind == EdgeKind::Bending)
+            .count(),
         room_edge_min_m: options.room_edge_min_m,
         room_edge_leaves_added: room_edge_added,
         slots: splitter.slots.len(),
@@ -598,7 +666,8 @@ fn cell_of(mesh: &PatchMesh, patch: &Patch) -> Cell {
 /// The leaves one coarse patch became.
 enum Leaves {
     Triangles(Vec<[DVec3; 3]>),
-    Rects(Vec<Cell>),
+    /// Each with whether a light's beam edge runs through it.
+    Rects(Vec<(Cell, bool)>),
 }
 
 impl Leaves {
@@ -646,7 +715,7 @@ impl Splitter<'_> {
             };
         }
         let mut split = Split::default();
-        self.split(cell_of(&scene.coarse, patch), &mut split);
+        self.split(cell_of(&scene.coarse, patch), false, &mut split);
         SplitPatch {
             leaves: Leaves::Rects(split.leaves),
             lamp: split.lamp,
@@ -658,21 +727,24 @@ impl Splitter<'_> {
     }
 
     /// Splits a rectangle cell recursively (see the module docs), appending the leaves; a leaf
-    /// an OBJ mesh covers is counted and left out.
-    fn split(&self, cell: Cell, out: &mut Split) {
+    /// an OBJ mesh covers is counted and left out. `light_edge`: the light-edge rule split the
+    /// cell or one it came from, so a leaf it becomes is checked for a beam edge.
+    fn split(&self, cell: Cell, light_edge: bool, out: &mut Split) {
         // A cell an OBJ mesh covers whole is left out before any rule splits it.
         if self.covered(&cell, true) {
             out.covered += 1;
             return;
         }
+        let mut light_edge = light_edge;
         let axis = self
             .lamp_axis(&cell, &mut out.lamp)
             .or_else(|| match self.contact_axis(&cell) {
-                Some((axis, true)) => {
+                Some((axis, Grading::RoomEdge)) => {
                     out.by_room_edge = true;
                     Some(axis)
                 }
                 by_contact => {
+                    light_edge |= matches!(by_contact, Some((_, Grading::LightEdge)));
                     let axis = by_contact.map(|(k, _)| k).or_else(|| self.slot_axis(&cell));
                     out.by_contact |= axis.is_some();
                     axis
@@ -685,10 +757,13 @@ impl Splitter<'_> {
             });
         match axis {
             None if self.covered(&cell, false) => out.covered += 1,
-            None => out.leaves.push(cell),
+            None => {
+                let beam_edge = light_edge && self.beam_edge_crosses(&cell);
+                out.leaves.push((cell, beam_edge));
+            }
             Some(k) => {
                 for half in cell.halves(k) {
-                    self.split(half, out);
+                    self.split(half, light_edge, out);
                 }
             }
         }
@@ -748,15 +823,19 @@ impl Splitter<'_> {
     }
 
     /// The axis across a contact edge in the cell's plane, when the cell is wider across it than
-    /// `contact_ratio ×` its distance to it, or when it touches the edge and a light's shadow line
-    /// runs through it; with whether that edge is one of the room's own edges.
-    fn contact_axis(&self, cell: &Cell) -> Option<(usize, bool)> {
+    /// `contact_ratio ×` its distance to it, or the axis along it when it is too long for its
+    /// distance; or either where a light's edge runs through it near the edge; with the rule
+    /// that split it.
+    fn contact_axis(&self, cell: &Cell) -> Option<(usize, Grading)> {
         let options = self.options;
         if options.contact_ratio <= 0.0 {
             return None;
         }
         let bounds = cell.bounds();
         let [ua, va] = AxisRect::in_plane_axes(cell.rect.axis, cell.rect.facing_positive);
+        // The light-edge tests, once per cell (per axis across) whatever the contacts near it.
+        let mut edge_across: [Option<bool>; 2] = [None; 2];
+        let mut beam_edge: Option<bool> = None;
         for contact in &self.contacts {
             let seg = &contact.segment;
             // The contact must lie in the cell's plane.
@@ -776,7 +855,8 @@ impl Splitter<'_> {
             }
             let width = cell.extent(across);
             let distance = box_distance(&bounds, seg) + contact.gap;
-            let (min_m, aspect) = if contact.room_edge {
+            let bending = contact.kind == EdgeKind::Bending;
+            let (min_m, aspect) = if bending {
                 // A pool narrower than the piece changes over less than the piece's strips.
                 let min_m = if contact.max_length.is_finite() {
                     0.5 * options.room_edge_min_m
@@ -787,7 +867,12 @@ impl Splitter<'_> {
             } else {
                 (options.contact_min_m, CONTACT_ASPECT)
             };
-            let split = |k: usize| Some((k, contact.room_edge));
+            let grading = if bending {
+                Grading::RoomEdge
+            } else {
+                Grading::Contact
+            };
+            let split = |k: usize| Some((k, grading));
             if width > 2.0 * min_m && width > options.contact_ratio * distance {
                 return split(across);
             }
@@ -806,15 +891,27 @@ impl Splitter<'_> {
             if length > contact.max_length && distance < reach && length > 2.0 * min_m {
                 return split(1 - across);
             }
-            // The shadow rule reaches a few strip widths from the edge: the box's shadow line
-            // beside its base, where the nearest receivers still see it at a steep angle.
-            if contact.gap == 0.0
-                && !contact.room_edge
-                && distance <= SHADOW_REACH * width
-                && width > 2.0 * options.shadow_min_m
-                && self.shadow_line_crosses(cell, across)
-            {
-                return split(across);
+            // The light-edge rule: a strip within a few of its widths of the edge that a
+            // shadow line or a beam's cut-off crosses (the box's shadow beside its base, a
+            // spot's edge over a box's top face against a wall) is halved across the edge,
+            // where the nearest receivers still see it at a steep angle; one that a beam's
+            // cut-off crosses is halved along the edge too while longer than
+            // `LIGHT_EDGE_LENGTH ×` its far side's distance to it (docs/DECISIONS.md "Light
+            // edges beside contacts").
+            if contact.kind == EdgeKind::Box && options.shadow_min_m > 0.0 {
+                let min_m = 2.0 * options.shadow_min_m;
+                if width > min_m
+                    && distance <= SHADOW_REACH * width
+                    && *edge_across[across].get_or_insert_with(|| self.light_edge_across(cell, across))
+                {
+                    return Some((across, Grading::LightEdge));
+                }
+                if length > min_m
+                    && length > LIGHT_EDGE_LENGTH * (distance + width)
+                    && *beam_edge.get_or_insert_with(|| self.beam_edge_crosses(cell))
+                {
+                    return Some((1 - across, Grading::LightEdge));
+                }
             }
         }
         None
@@ -823,8 +920,8 @@ impl Splitter<'_> {
     /// The longer side, when the cell lies in a slot (on either side) and is longer than twice
     /// the slot's width: the light a slot lets in fades over a few of its widths
     /// (docs/DECISIONS.md "Slots behind furniture"), never below strips of `contact_min_m`;
-    /// otherwise the axis across a light's shadow line through the slot cell, down to strips of
-    /// `shadow_min_m` (docs/DECISIONS.md "The shadow line in a slot").
+    /// otherwise the axis across a light edge through the slot cell, while wider than
+    /// `SLOT_LIGHT_EDGE_FACTOR × shadow_min_m` (docs/DECISIONS.md "The shadow line in a slot").
     fn slot_axis(&self, cell: &Cell) -> Option<usize> {
         let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
         let extent = cell.extent(longer);
@@ -841,56 +938,123 @@ impl Splitter<'_> {
             return None;
         }
         self.shadow_line_axis(cell)
-            .filter(|&k| cell.extent(k) > 2.0 * shadow_min)
+            .filter(|&k| cell.extent(k) > SLOT_LIGHT_EDGE_FACTOR * shadow_min)
     }
 
-    /// The in-plane axis across which a light's shadow line runs through the cell: of the
-    /// two, the one whose opposite edges (three points on each, lifted off the surface) differ
-    /// most in how many see some light in front of the cell; `None` when no edge point's view
-    /// of a light differs from another's.
+    /// The in-plane axis across which a light edge (a shadow line or a beam's cut-off) runs
+    /// through the cell: of the two, the one whose opposite edges (three points on each, lifted
+    /// off the surface) differ most in how many of their points are lit ([`Self::lit_points`]);
+    /// `None` when no light edge runs through it.
     fn shadow_line_axis(&self, cell: &Cell) -> Option<usize> {
-        let occ = self.occluders.as_ref()?;
-        let r = &cell.rect;
-        let normal = r.normal();
         let mut best: Option<(usize, usize)> = None;
-        for light in &self.scene.lights {
-            for k in 0..2 {
-                let seen = [r.min[k], r.max[k]].map(|side| {
-                    edge_points(cell, k, side)
-                        .iter()
-                        .filter(|&&p| normal.dot(light.position - p) > 0.0 && occ.visible(light.position, p))
-                        .count()
-                });
-                let differ = seen[0].abs_diff(seen[1]);
-                if differ > 0 && best.is_none_or(|(_, d)| differ > d) {
-                    best = Some((k, differ));
-                }
+        for k in 0..2 {
+            let points: Vec<DVec3> = [cell.rect.min[k], cell.rect.max[k]]
+                .into_iter()
+                .flat_map(|side| edge_points(cell, k, side))
+                .collect();
+            let Some(lit) = self.lit_points(cell, &points, true) else {
+                continue;
+            };
+            let count = |side: &[bool]| side.iter().filter(|&&l| l).count();
+            let differ = count(&lit[..3]).abs_diff(count(&lit[3..]));
+            if differ > 0 && best.is_none_or(|(_, d)| differ > d) {
+                best = Some((k, differ));
             }
         }
         best.map(|(k, _)| k)
     }
 
-    /// True when some light in front of the cell sees part of its edges parallel to the contact
-    /// (three points on each, lifted off the surface) and not the rest.
-    fn shadow_line_crosses(&self, cell: &Cell, across: usize) -> bool {
-        let Some(occ) = &self.occluders else { return false };
-        let normal = cell.rect.normal();
+    /// True when a light edge (a shadow line or a beam's cut-off) runs through the cell between
+    /// its two sides parallel to a contact edge (`across`: the axis across it): of the points on
+    /// them (three on each, lifted off the surface), some are lit and others not
+    /// ([`Self::lit_points`]).
+    fn light_edge_across(&self, cell: &Cell, across: usize) -> bool {
         let r = &cell.rect;
         let points: Vec<DVec3> = [r.min[across], r.max[across]]
             .into_iter()
             .flat_map(|side| edge_points(cell, across, side))
             .collect();
-        self.scene.lights.iter().any(|light| {
-            let in_front: Vec<&DVec3> = points
-                .iter()
-                .filter(|p| normal.dot(light.position - **p) > 0.0)
-                .collect();
-            let seen = in_front
-                .iter()
-                .filter(|&&&p| occ.visible(light.position, p))
-                .count();
-            seen > 0 && seen < in_front.len()
-        })
+        self.lit_points(cell, &points, true)
+            .is_some_and(|lit| lit.contains(&true) && lit.contains(&false))
+    }
+
+    /// True when a beam edge (a cut-off of the lights' curves, occluders left out) runs through
+    /// the cell: its direct light there is sampled finely ([`SolverMesh::beam_edge`]).
+    fn beam_edge_crosses(&self, cell: &Cell) -> bool {
+        self.light_edge_crosses(cell, false)
+    }
+
+    /// True when a light edge (with `occluded`, a shadow line or a beam's cut-off; else a
+    /// cut-off only) runs through the cell: of the points on its four edges (three on each,
+    /// lifted off the surface), some are lit and others not ([`Self::lit_points`]).
+    fn light_edge_crosses(&self, cell: &Cell, occluded: bool) -> bool {
+        let r = &cell.rect;
+        let points: Vec<DVec3> = (0..2)
+            .flat_map(|k| [r.min[k], r.max[k]].into_iter().map(move |side| (k, side)))
+            .flat_map(|(k, side)| edge_points(cell, k, side))
+            .collect();
+        self.lit_points(cell, &points, occluded)
+            .is_some_and(|lit| lit.contains(&true) && lit.contains(&false))
+    }
+
+    /// Per point of `cell` (on its surface), whether it is lit: the direct illuminance of all
+    /// the lights together there (curves and aims counted, occluders with `occluded`; every
+    /// light at full output, so dimmers and colours do not count), over what the same lights
+    /// would give there with the intensity each sends towards the cell's centre (the geometry
+    /// alone: distance and angle), is at least `LIGHT_EDGE_RATIO ×` the largest of these
+    /// ratios. So a light edge is where the light leaves what its geometry makes of it — a
+    /// shadow line or a beam's cut-off — not a smooth fall-off across a large cell; and the
+    /// edge of one light among many that light the cell as much is not an edge of the light
+    /// there (docs/DECISIONS.md "Light edges beside contacts"). `None` when no light reaches
+    /// any of the points.
+    fn lit_points(&self, cell: &Cell, points: &[DVec3], occluded: bool) -> Option<Vec<bool>> {
+        let normal = cell.rect.normal();
+        let bounds = cell.bounds();
+        let centre = 0.5 * (bounds.min + bounds.max);
+        let intensity = |light: &Light, to_light: DVec3| {
+            let gamma = light.aim.dot(-to_light.normalize()).clamp(-1.0, 1.0).acos();
+            light.curve.eval_rad(gamma)
+        };
+        let towards_centre: Vec<f64> = self
+            .scene
+            .lights
+            .iter()
+            .map(|light| intensity(light, light.position - centre))
+            .collect();
+        let ratios: Vec<f64> = points
+            .iter()
+            .map(|&p| {
+                let (mut direct, mut geometric) = (0.0, 0.0);
+                for (light, &central) in self.scene.lights.iter().zip(&towards_centre) {
+                    let to_light = light.position - p;
+                    let cos = normal.dot(to_light);
+                    if cos <= 0.0 {
+                        continue;
+                    }
+                    let r2 = to_light.length_squared();
+                    let g = cos / (r2 * r2.sqrt());
+                    geometric += central * g;
+                    let e = intensity(light, to_light) * g;
+                    // A ray only where the light sends some.
+                    if e > 0.0
+                        && (!occluded
+                            || self
+                                .occluders
+                                .as_ref()
+                                .is_none_or(|occ| occ.visible(light.position, p)))
+                    {
+                        direct += e;
+                    }
+                }
+                match (direct > 0.0, geometric > 0.0) {
+                    (false, _) => 0.0,
+                    (true, false) => f64::INFINITY,
+                    (true, true) => direct / geometric,
+                }
+            })
+            .collect();
+        let largest = ratios.iter().fold(0.0f64, |a, &r| a.max(r));
+        (largest > 0.0).then(|| ratios.iter().map(|&r| r >= LIGHT_EDGE_RATIO * largest).collect())
     }
 }
 
@@ -979,7 +1143,7 @@ fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[BendingPiece]) -> 
                     out.push(Contact {
                         segment: Aabb { min, max },
                         gap,
-                        room_edge: false,
+                        kind: if gap > 0.0 { EdgeKind::Slot } else { EdgeKind::Box },
                         max_length: f64::INFINITY,
                     });
                 }
@@ -1040,7 +1204,7 @@ fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[BendingPiece]) -> 
                     out.push(Contact {
                         segment: Aabb { min, max },
                         gap: 0.0,
-                        room_edge: false,
+                        kind: EdgeKind::NearLamp,
                         max_length: f64::INFINITY,
                     });
                 }
@@ -1052,7 +1216,7 @@ fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[BendingPiece]) -> 
         Contact {
             segment: piece.segment,
             gap: 0.0,
-            room_edge: true,
+            kind: EdgeKind::Bending,
             max_length: if piece.along {
                 ROOM_EDGE_ALONG_FRACTION * length
             } else {
@@ -1070,6 +1234,7 @@ struct Builder {
     coarse_patch: Vec<u32>,
     alone: Vec<bool>,
     in_slot: Vec<bool>,
+    beam_edge: Vec<bool>,
     ids: HashMap<(u32, [u64; 3]), u32>,
 }
 
@@ -1085,7 +1250,15 @@ impl Builder {
         })
     }
 
-    fn rect(&mut self, parent: &Patch, index: usize, cell: &Cell, near_lamp: bool, in_slot: bool) {
+    fn rect(
+        &mut self,
+        parent: &Patch,
+        index: usize,
+        cell: &Cell,
+        near_lamp: bool,
+        in_slot: bool,
+        beam_edge: bool,
+    ) {
         let r = &cell.rect;
         let corners = [
             r.point(r.min[0], r.min[1]),
@@ -1105,6 +1278,7 @@ impl Builder {
         self.coarse_patch.push(index as u32);
         self.alone.push(near_lamp || in_slot);
         self.in_slot.push(in_slot);
+        self.beam_edge.push(beam_edge);
     }
 
     fn triangle(&mut self, parent: &Patch, index: usize, t: [DVec3; 3], alone: bool) {
@@ -1120,6 +1294,7 @@ impl Builder {
         self.coarse_patch.push(index as u32);
         self.alone.push(alone);
         self.in_slot.push(false);
+        self.beam_edge.push(false);
     }
 }
 
@@ -1442,8 +1617,8 @@ solver_patch_size = 0.5
 
     /// The box's shadow line on the wall in a slot (the light 1.5 m up in front of a 0.8 m box
     /// 5 cm off the wall lights the wall behind it down to z ≈ 0.78) is graded across the line
-    /// down to `shadow_min_m`: thin strips there (and along the box's outline, which the slot
-    /// rule grades anyway), none holding the line with the rule off.
+    /// down to `SLOT_LIGHT_EDGE_FACTOR × shadow_min_m`: thin strips there (and along the box's
+    /// outline, which the slot rule grades anyway), none holding the line with the rule off.
     #[test]
     fn shadow_line_in_a_slot_is_graded() {
         let s = scene(&EMPTY.replace("[2.0, 1.5, 1.2]", "[1.5, 1.5, 1.5]").replace(
@@ -1475,7 +1650,7 @@ solver_patch_size = 0.5
         let graded = wall_leaves(&refine(&s, &options));
         let thin: Vec<_> = graded
             .iter()
-            .filter(|(lo, hi)| hi - lo <= 2.0 * options.shadow_min_m + 1e-9)
+            .filter(|(lo, hi)| hi - lo <= SLOT_LIGHT_EDGE_FACTOR * options.shadow_min_m + 1e-9)
             .collect();
         assert!(!thin.is_empty(), "{graded:?}");
         for (lo, hi) in &thin {
@@ -1496,10 +1671,112 @@ solver_patch_size = 0.5
             },
         ));
         assert!(
-            !off.iter()
-                .any(|(lo, hi)| hi - lo <= 2.0 * options.shadow_min_m + 1e-9 && *lo <= line && line <= *hi),
+            !off.iter().any(
+                |(lo, hi)| hi - lo <= SLOT_LIGHT_EDGE_FACTOR * options.shadow_min_m + 1e-9
+                    && *lo <= line
+                    && line <= *hi
+            ),
             "{off:?}"
         );
+    }
+
+    /// A hard 15° spot 1.2 m out from a picture frame (a box 4 cm deep against the wall) lights
+    /// the frame's top only over a sliver at its front, where the beam's upper edge passes over
+    /// it: the leaves there are graded to 1 cm or less across the wall contact and no longer
+    /// along it than their far side's distance to the wall, and are sampled finely
+    /// (`beam_edge`), as is every leaf that the beam's edge crosses beside a contact (on the
+    /// wall beside the frame too) and no other; 0.6 m along the frame, beyond the beam, the top
+    /// keeps the contact rule's 2 cm strips. The spot aimed at the floor grades none of it.
+    #[test]
+    fn a_beam_edge_beside_a_contact_is_graded_and_sampled_finely() {
+        let room = |aim: &str| {
+            scene(&format!(
+                r#"
+version = 1
+[room]
+size = [6.0, 4.5, 3.0]
+[room.reflectance]
+floor = 0.15
+walls = 0.75
+ceiling = 0.8
+[[box]]
+min = [3.6, 0.0, 1.0]
+max = [5.0, 0.04, 2.1]
+reflectance = 0.2
+[[light]]
+name = "spot"
+position = [4.3, 1.2, 2.9]
+aim = {aim}
+lid = [[0, 9000], [15, 9000], [15, 0], [180, 0]]
+[settings]
+solver_patch_size = 0.5
+"#
+            ))
+        };
+        // The frame's top leaf holding (x, y) on z = 2.1: its index and extents along x and y.
+        let top_leaf = |solver: &SolverMesh, x: f64, y: f64| -> (usize, f64, f64) {
+            let m = &solver.mesh;
+            m.patches
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| (p.centroid.z - 2.1).abs() < 1e-9 && p.normal.z > 0.5)
+                .map(|(k, p)| {
+                    let corners: Vec<DVec3> =
+                        p.vertex_ids().iter().map(|&v| m.positions[v as usize]).collect();
+                    let lo = corners.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+                    let hi = corners.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
+                    (k, lo, hi)
+                })
+                .find(|(_, lo, hi)| lo.x <= x && x <= hi.x && lo.y <= y && y <= hi.y)
+                .map(|(k, lo, hi)| (k, hi.x - lo.x, hi.y - lo.y))
+                .expect("a leaf of the frame's top there")
+        };
+        let lit = refine(&room("[4.3, 0.04, 1.55]"), &RefineOptions::default());
+        // At x = 4.31 the beam's edge crosses the top at y ≈ 2.9 cm, 1.1 cm from its front.
+        let (k, along, across) = top_leaf(&lit, 4.31, 0.025);
+        assert!(across <= 0.01 + 1e-9 && along <= 0.03, "{along} × {across} m");
+        assert!(lit.beam_edge[k]);
+        let (k, along, across) = top_leaf(&lit, 3.7, 0.035);
+        assert!(
+            (across - 0.02).abs() < 1e-9 && along > 0.05,
+            "{along} × {across} m"
+        );
+        assert!(!lit.beam_edge[k]);
+        // Every leaf sampled finely is crossed by the beam's edge: of 5 × 5 points over it,
+        // some lie inside the 15° cone and some outside.
+        let m = &lit.mesh;
+        let (light, aim) = (
+            DVec3::new(4.3, 1.2, 2.9),
+            (DVec3::new(4.3, 0.04, 1.55) - DVec3::new(4.3, 1.2, 2.9)).normalize(),
+        );
+        let fine: Vec<usize> = (0..m.patches.len()).filter(|&k| lit.beam_edge[k]).collect();
+        assert!(fine.len() >= 4, "{fine:?}");
+        for &k in &fine {
+            let c: Vec<DVec3> = m.patches[k]
+                .vertex_ids()
+                .iter()
+                .map(|&v| m.positions[v as usize])
+                .collect();
+            let angles: Vec<f64> = (0..25)
+                .map(|i| {
+                    let (u, v) = ((i % 5) as f64 / 4.0, (i / 5) as f64 / 4.0);
+                    let p = c[0] + (c[1] - c[0]) * u + (c[3] - c[0]) * v;
+                    aim.angle_between(p - light).to_degrees()
+                })
+                .collect();
+            assert!(
+                angles.iter().any(|&a| a < 15.0) && angles.iter().any(|&a| a > 15.0),
+                "{:?}: {angles:?}",
+                m.patches[k].centroid
+            );
+        }
+        let away = refine(&room("[4.3, 3.0, 0.0]"), &RefineOptions::default());
+        let (_, along, across) = top_leaf(&away, 4.31, 0.035);
+        assert!(
+            (across - 0.02).abs() < 1e-9 && along > 0.05,
+            "{along} × {across} m"
+        );
+        assert!(!away.beam_edge.contains(&true));
     }
 
     /// A box standing 5 cm in front of the wall y = 3 makes a slot: the wall behind it and the
