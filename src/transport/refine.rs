@@ -323,6 +323,15 @@ fn edge_points(cell: &Cell, k: usize, side: f64) -> [DVec3; 3] {
     })
 }
 
+/// The points of `cell`'s two sides across its axis `k` (three on each, [`edge_points`]): the
+/// lower side's first.
+fn side_points(cell: &Cell, k: usize) -> Vec<DVec3> {
+    [cell.rect.min[k], cell.rect.max[k]]
+        .into_iter()
+        .flat_map(|side| edge_points(cell, k, side))
+        .collect()
+}
+
 /// Each face of box `b` with the room surface parallel to it: (axis, the box face's coordinate,
 /// the room surface's coordinate), for a room of `size`.
 fn faces_to_room(b: &Aabb, size: DVec3) -> impl Iterator<Item = (usize, f64, f64)> + '_ {
@@ -948,11 +957,7 @@ impl Splitter<'_> {
     fn shadow_line_axis(&self, cell: &Cell) -> Option<usize> {
         let mut best: Option<(usize, usize)> = None;
         for k in 0..2 {
-            let points: Vec<DVec3> = [cell.rect.min[k], cell.rect.max[k]]
-                .into_iter()
-                .flat_map(|side| edge_points(cell, k, side))
-                .collect();
-            let Some(lit) = self.lit_points(cell, &points, true) else {
+            let Some(lit) = self.lit_points(cell, &side_points(cell, k), true) else {
                 continue;
             };
             let count = |side: &[bool]| side.iter().filter(|&&l| l).count();
@@ -969,13 +974,7 @@ impl Splitter<'_> {
     /// them (three on each, lifted off the surface), some are lit and others not
     /// ([`Self::lit_points`]).
     fn light_edge_across(&self, cell: &Cell, across: usize) -> bool {
-        let r = &cell.rect;
-        let points: Vec<DVec3> = [r.min[across], r.max[across]]
-            .into_iter()
-            .flat_map(|side| edge_points(cell, across, side))
-            .collect();
-        self.lit_points(cell, &points, true)
-            .is_some_and(|lit| lit.contains(&true) && lit.contains(&false))
+        self.lit_and_dark(cell, &side_points(cell, across), true)
     }
 
     /// True when a beam edge (a cut-off of the lights' curves, occluders left out) runs through
@@ -988,12 +987,16 @@ impl Splitter<'_> {
     /// cut-off only) runs through the cell: of the points on its four edges (three on each,
     /// lifted off the surface), some are lit and others not ([`Self::lit_points`]).
     fn light_edge_crosses(&self, cell: &Cell, occluded: bool) -> bool {
-        let r = &cell.rect;
-        let points: Vec<DVec3> = (0..2)
-            .flat_map(|k| [r.min[k], r.max[k]].into_iter().map(move |side| (k, side)))
-            .flat_map(|(k, side)| edge_points(cell, k, side))
-            .collect();
-        self.lit_points(cell, &points, occluded)
+        self.lit_and_dark(
+            cell,
+            &[side_points(cell, 0), side_points(cell, 1)].concat(),
+            occluded,
+        )
+    }
+
+    /// True when some of `points` (of `cell`) are lit and others not ([`Self::lit_points`]).
+    fn lit_and_dark(&self, cell: &Cell, points: &[DVec3], occluded: bool) -> bool {
+        self.lit_points(cell, points, occluded)
             .is_some_and(|lit| lit.contains(&true) && lit.contains(&false))
     }
 
