@@ -10,6 +10,7 @@ pub mod ies;
 pub mod ldt;
 pub mod legendre;
 pub mod lidfile;
+pub mod lookup;
 pub mod luminous;
 pub mod sh;
 pub mod truncation;

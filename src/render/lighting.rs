@@ -33,7 +33,6 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::camera::View;
-use super::lookup::{CurveLookup, SinHalfTable, acos};
 use super::shade::{DisplayShader, FalseColorTable, Shader};
 use super::shadows::{self, ShadowBits, ShadowChunk};
 use super::surface::{NO_TRIANGLE, PixelSurfaces};
@@ -41,6 +40,7 @@ use super::tone::{self, tone_srgb8_lit};
 use super::{BACKGROUND_RGB, Frame};
 use crate::error::{Error, Result};
 use crate::photometry::LightState;
+use crate::photometry::lookup::{CurveLookup, SinHalfTable, acos};
 use crate::scene::model::{PatchMesh, Surface};
 use crate::transport::direct::MIN_DISTANCE_M;
 use crate::transport::occlusion::Occluders;

@@ -15,7 +15,6 @@ pub mod exposure;
 pub mod golden;
 pub mod legend;
 pub mod lighting;
-pub mod lookup;
 pub mod overlay;
 pub mod pfm;
 pub mod pick;

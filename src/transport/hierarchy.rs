@@ -327,7 +327,8 @@ const GATHER_COLUMNS: usize = 4;
 /// links' `gradients`, `grad[2c..2c + 2] = Σ_e ∇f_e b[s_e][c]`. The columns go in chunks of up to
 /// [`GATHER_COLUMNS`] whose sums stay in registers across the links (each sum adds its terms in
 /// the links' order, as one term at a time into `value` would). Without `gradients`, `grad` is
-/// left as it is (zero in [`Operator::apply_block`]'s output).
+/// left as it is (zero in [`Operator::apply_block`]'s output). A single column goes through
+/// [`gather_one`] instead.
 fn gather(
     b: &[f64],
     k: usize,
@@ -336,6 +337,10 @@ fn gather(
     value: &mut [f64],
     grad: &mut [f64],
 ) {
+    if k == 1 {
+        gather_one(b, links, gradients, value, grad);
+        return;
+    }
     let mut c0 = 0;
     while c0 < k {
         let w = (k - c0).min(GATHER_COLUMNS);
@@ -347,6 +352,65 @@ fn gather(
         }
         c0 += w;
     }
+}
+
+/// Partial sums of a single column's gather ([`gather_one`]).
+const GATHER_LANES: usize = 4;
+
+/// [`gather`] of a single column (`k = 1`): link `e`'s term goes into partial sum
+/// `e mod GATHER_LANES`, and the partial sums are added at the end. One sum would make every add
+/// wait for the one before (a single column's gather was bound by that latency, not by reading
+/// the links: docs/DECISIONS.md "A single column's gather in four sums"); the results differ
+/// from one sum, and from the same column gathered in a block, in their last bits only.
+fn gather_one(
+    b: &[f64],
+    (sources, coefficients): (&[u32], &[f32]),
+    gradients: Option<&[[f32; 2]]>,
+    value: &mut [f64],
+    grad: &mut [f64],
+) {
+    const L: usize = GATHER_LANES;
+    let whole = sources.len() - sources.len() % L;
+    let (heads, tails) = (sources.split_at(whole), coefficients.split_at(whole));
+    let mut sum = [0.0; L];
+    match gradients {
+        None => {
+            for (s, f) in heads.0.chunks_exact(L).zip(tails.0.chunks_exact(L)) {
+                for l in 0..L {
+                    sum[l] += f64::from(f[l]) * b[s[l] as usize];
+                }
+            }
+            for (l, (&s, &f)) in heads.1.iter().zip(tails.1).enumerate() {
+                sum[l] += f64::from(f) * b[s as usize];
+            }
+        }
+        Some(gradients) => {
+            let (mut gu_sum, mut gv_sum) = ([0.0; L], [0.0; L]);
+            let g = gradients.split_at(whole);
+            let mut add = |l: usize, s: u32, f: f32, [gu, gv]: [f32; 2]| {
+                let x = b[s as usize];
+                sum[l] += f64::from(f) * x;
+                gu_sum[l] += f64::from(gu) * x;
+                gv_sum[l] += f64::from(gv) * x;
+            };
+            for ((s, f), g) in heads
+                .0
+                .chunks_exact(L)
+                .zip(tails.0.chunks_exact(L))
+                .zip(g.0.chunks_exact(L))
+            {
+                for l in 0..L {
+                    add(l, s[l], f[l], g[l]);
+                }
+            }
+            for (l, ((&s, &f), &g)) in heads.1.iter().zip(tails.1).zip(g.1).enumerate() {
+                add(l, s, f, g);
+            }
+            grad[0] = gu_sum.iter().sum();
+            grad[1] = gv_sum.iter().sum();
+        }
+    }
+    value[0] = sum.iter().sum();
 }
 
 /// [`gather`] for the `W` columns from `c0`.

@@ -1155,6 +1155,32 @@ solver_patch_size = {solver}
         assert!((a - b).abs() < 1e-10 * a.abs(), "{a} vs {b}");
     }
 
+    /// A single column's product (four partial sums a node: docs/DECISIONS.md "A single
+    /// column's gather in four sums") is that column's product in a block, to rounding: in a
+    /// room with a box (graded leaves, receiving clusters with gradients).
+    #[test]
+    fn a_single_columns_product_is_its_column_in_a_block() {
+        let s = room(
+            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 1.8, 0.9]\nreflectance = 0.5\n",
+            0.5,
+        );
+        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default());
+        let x = values(engine.n_leaves());
+        let single = engine.operator.apply_block(&x, 1);
+        let block: Vec<f64> = x.iter().flat_map(|&v| [2.0 * v, v]).collect();
+        let in_block = engine.operator.apply_block(&block, 2);
+        let peak = single.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(peak > 0.0);
+        for (i, v) in single.iter().enumerate() {
+            for (got, scale) in [(in_block[2 * i], 2.0), (in_block[2 * i + 1], 1.0)] {
+                assert!(
+                    (got - scale * v).abs() <= 1e-13 * peak,
+                    "leaf {i}: {got} in the block, {v} alone"
+                );
+            }
+        }
+    }
+
     /// Pairs of coarse patches that face each other (not in one plane).
     fn engine_pairs(s: &Scene) -> usize {
         let p = &s.coarse.patches;

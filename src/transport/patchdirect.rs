@@ -12,6 +12,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use crate::photometry::lookup::CurveLookup;
 use crate::photometry::sh::{ShBasis, sh_count};
 use crate::photometry::{Curve, LightState};
 use crate::scene::PatchMesh;
@@ -107,14 +108,14 @@ impl PatchDirectCache {
         aim: DVec3,
         scale: f64,
     ) -> Vec<f64> {
-        let aim = aim.as_vec3();
+        let (aim, lookup) = (aim.as_vec3(), CurveLookup::new(curve));
         (0..mesh.patches.len())
             .into_par_iter()
             .with_min_len(MIN_PATCHES_PER_TASK)
             .map(|index| {
                 let mut sum = 0.0;
                 patch_samples(mesh, index, position, radius_m, split, occluders, |dir, w| {
-                    sum += f64::from(w) * curve_intensity(curve, aim, dir);
+                    sum += f64::from(w) * curve_intensity(&lookup, aim, dir);
                 });
                 scale * sum
             })
@@ -156,7 +157,7 @@ impl PatchDirectCache {
                 *c = Some(j);
             }
         }
-        let aim = aim.as_vec3();
+        let (aim, lookup) = (aim.as_vec3(), CurveLookup::new(curve));
         out.par_chunks_mut(m)
             .enumerate()
             .with_min_len(MIN_PATCHES_PER_TASK)
@@ -169,9 +170,8 @@ impl PatchDirectCache {
                     }
                 };
                 for (&dir, &w) in self.dirs[range.clone()].iter().zip(&self.weights[range]) {
-                    let gamma = f64::from(aim.dot(dir).clamp(-1.0, 1.0)).acos().to_degrees();
                     let w = f64::from(w);
-                    match curve.segment_deg(gamma) {
+                    match lookup.segment_cos(f64::from(aim.dot(dir))) {
                         None => {}
                         Some((i, None)) => add(i, w),
                         Some((i, Some(t))) => {
@@ -223,8 +223,8 @@ impl PatchDirectCache {
     /// Patch-averaged direct irradiance (lx) into `out` (one per patch) for `curve` (cd) aimed
     /// along the unit vector `aim`, times `scale`.
     pub fn irradiance_into(&self, curve: &Curve, aim: DVec3, scale: f64, out: &mut [f64]) {
-        let aim = aim.as_vec3();
-        self.irradiance_with(|dir| curve_intensity(curve, aim, dir), scale, out);
+        let (aim, lookup) = (aim.as_vec3(), CurveLookup::new(curve));
+        self.irradiance_with(|dir| curve_intensity(&lookup, aim, dir), scale, out);
     }
 
     /// Like [`Self::irradiance_into`] for any intensity `I(dir)` (cd) of the unit direction from
@@ -246,9 +246,13 @@ impl PatchDirectCache {
     }
 }
 
-/// `curve`'s intensity (cd) along the unit direction `dir` for the unit `aim`.
-fn curve_intensity(curve: &Curve, aim: Vec3, dir: Vec3) -> f64 {
-    curve.eval_rad(f64::from(aim.dot(dir).clamp(-1.0, 1.0)).acos())
+/// The intensity (cd) of the curve behind `lookup` along the unit direction `dir` for the unit
+/// `aim`: [`CurveLookup::eval_cos`], the curve's value at the angle to within 2.5·10⁻⁸ rad, its
+/// segment found through the lookup's table (an evaluation per cached sample is most of an
+/// edit's patch direct light: docs/DECISIONS.md "Patch direct light through the curve's lookup").
+#[inline]
+fn curve_intensity(lookup: &CurveLookup, aim: Vec3, dir: Vec3) -> f64 {
+    lookup.eval_cos(f64::from(aim.dot(dir)))
 }
 
 /// Visits the visible quadrature samples of patch `index` of `mesh` seen from a light at

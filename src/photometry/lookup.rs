@@ -1,4 +1,6 @@
-//! Per-pixel curve evaluation without a binary search or a libm call: [`CurveLookup`] finds a
+//! Curve evaluation without a binary search or a libm call, for the loops that evaluate a curve
+//! once per pixel or per quadrature sample (the renderer's per-pixel direct light, the engine's
+//! patch direct light of every edit): [`CurveLookup`] finds a
 //! curve's segment through a table over γ and returns what [`Curve::eval_deg`] returns (the
 //! same comparisons, so steps fall on the same side; the fraction along a segment by a stored
 //! reciprocal instead of a division, within 4e-15 relative); [`acos`] is a polynomial arc cosine
@@ -66,10 +68,17 @@ impl CurveLookup {
     /// control point (tested on the cosine first, before any arc cosine).
     #[inline]
     pub fn eval_cos(&self, cos_gamma: f64) -> f64 {
+        self.value(self.segment_cos(cos_gamma))
+    }
+
+    /// The segment ([`Self::segment`]) of the angle whose cosine is `cos_gamma`, as
+    /// [`Self::eval_cos`] finds it: `None` past the last control point, tested on the cosine.
+    #[inline]
+    pub fn segment_cos(&self, cos_gamma: f64) -> Option<(usize, Option<f64>)> {
         if cos_gamma < self.cos_last {
-            return 0.0;
+            return None;
         }
-        self.eval_rad(acos(cos_gamma))
+        self.segment(acos(cos_gamma).to_degrees())
     }
 
     /// Intensity (cd) at `gamma_rad`: [`Curve::eval_rad`] (module docs).
@@ -81,7 +90,13 @@ impl CurveLookup {
     /// Intensity (cd) at `gamma_deg`: [`Curve::eval_deg`] (module docs).
     #[inline]
     pub fn eval_deg(&self, gamma_deg: f64) -> f64 {
-        match self.segment(gamma_deg) {
+        self.value(self.segment(gamma_deg))
+    }
+
+    /// The intensity (cd) at a [`Self::segment`].
+    #[inline(always)]
+    fn value(&self, segment: Option<(usize, Option<f64>)>) -> f64 {
+        match segment {
             None => 0.0,
             Some((i, None)) => self.intensity_cd[i],
             Some((i, Some(t))) => {
@@ -122,9 +137,10 @@ impl CurveLookup {
     }
 
     /// `None` outside the curve; else the first point `i` with `γ_i ≥ γ` and, unless γ is on a
-    /// point (or before the first), the fraction `t` along the segment `i − 1 → i`.
+    /// point (or before the first), the fraction `t` along the segment `i − 1 → i`:
+    /// [`Curve::segment_deg`] (module docs).
     #[inline(always)]
-    fn segment(&self, gamma_deg: f64) -> Option<(usize, Option<f64>)> {
+    pub fn segment(&self, gamma_deg: f64) -> Option<(usize, Option<f64>)> {
         let g = &self.gamma_deg;
         let last = g.len() - 1;
         if !(gamma_deg >= g[0] && gamma_deg <= g[last]) {
