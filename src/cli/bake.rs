@@ -3,6 +3,7 @@
 
 use std::io::{IsTerminal, Write};
 use std::path::Path;
+use std::time::Instant;
 
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
@@ -215,9 +216,18 @@ pub(crate) fn format_bake(b: &Bake) -> String {
     s
 }
 
+/// What `haiko bake` found of the hierarchical engine: its sizes and times, light 0's measured
+/// edits (none in a room without lights) and the wall seconds until the engine was ready.
+struct Engine {
+    stats: IndirectStats,
+    costs: Option<EditCosts>,
+    ready_s: f64,
+}
+
 /// Runs `haiko bake`: the plan, then the bake (or the hierarchical engine with its measured
 /// per-edit costs); `json` prints one JSON document instead.
 pub(crate) fn run_bake(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
+    let started = Instant::now();
     let scene = scene::load(room)?;
     let p = plan(&scene, PlanOptions::default());
     // Refused before the plan is printed: the one line on standard error is all that shows.
@@ -228,36 +238,46 @@ pub(crate) fn run_bake(room: &Path, json: bool, limit: &MemoryLimit) -> Result<(
     let session = open_session(scene, true, limit)?;
     let b = session
         .bake()
-        .ok_or_else(|| Error::internal("bake: the session has no bake"))?;
+        .ok_or_else(|| Error::internal("bake: the session has no bake"))?
+        .clone();
     let plan_s = b.timings.plan_s;
-    let engine = match session.hierarchical() {
+    // The bake itself: the room read, planned, its engine built and every light solved.
+    let ready_s = started.elapsed().as_secs_f64();
+    let scene = session.scene().clone();
+    // The engine leaves the session, which is not needed any more: the measured move frees
+    // the engine before it builds the moved room's (HierarchicalIndirect::measure_edits).
+    let engine = match session.into_hierarchical() {
         Some(h) => {
-            let costs = if session.scene().lights.is_empty() {
+            let stats = h.stats();
+            let costs = if scene.lights.is_empty() {
                 None
             } else {
-                Some(h.measure_edits(session.scene(), 0)?)
+                Some(h.measure_edits(&scene, 0)?)
             };
-            Some((h.stats(), costs))
+            Some(Engine {
+                stats,
+                costs,
+                ready_s,
+            })
         }
         None => None,
     };
-    let b = session
-        .bake()
-        .ok_or_else(|| Error::internal("bake: the session has no bake"))?;
+    let b = &b;
     match (json, engine) {
         (true, engine) => {
             let json_error = |e: serde_json::Error| Error::internal(e.to_string());
             let doc = bake_json(b, plan_s, engine.as_ref());
             println!("{}", serde_json::to_string_pretty(&doc).map_err(json_error)?);
         }
-        (false, Some((stats, costs))) => print!("{}", format_hierarchical(&stats, costs.as_ref())),
+        (false, Some(engine)) => print!("{}", format_hierarchical(&engine)),
         (false, None) => print!("{}", format_bake(b)),
     }
     Ok(())
 }
 
 /// Formats the hierarchical engine's sizes, memory by part, times by stage and per-edit costs.
-fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> String {
+fn format_hierarchical(engine: &Engine) -> String {
+    let (stats, costs) = (&engine.stats, engine.costs.as_ref());
     let e = &stats.engine;
     let mb = |b: usize| b as f64 / 1e6;
     let mut s = format!(
@@ -284,6 +304,10 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
         stats.direct_caches_s * 1e3,
         stats.solve_s * 1e3,
         stats.lights_from_cache
+    ));
+    s.push_str(&format!(
+        "ready after {:.1} s (the room read, planned, its engine built and every light solved; the measured edits below come after)\n",
+        engine.ready_s
     ));
     if let Some(c) = costs {
         s.push_str(&format!(
@@ -313,12 +337,13 @@ fn format_hierarchical(stats: &IndirectStats, costs: Option<&EditCosts>) -> Stri
 
 /// The JSON document of `haiko bake --json`: the engine, and for the hierarchical one its
 /// counts, memory by part (with the total), time by stage and per-edit costs (seconds).
-fn bake_json(
-    b: &Bake,
-    plan_s: f64,
-    engine: Option<&(IndirectStats, Option<EditCosts>)>,
-) -> serde_json::Value {
-    let Some((stats, costs)) = engine else {
+fn bake_json(b: &Bake, plan_s: f64, engine: Option<&Engine>) -> serde_json::Value {
+    let Some(Engine {
+        stats,
+        costs,
+        ready_s,
+    }) = engine
+    else {
         let t = &b.timings;
         return serde_json::json!({
             "engine": "basis",
@@ -365,6 +390,7 @@ fn bake_json(
             "operator_cache": e.cache_s,
             "direct_caches": stats.direct_caches_s,
             "solve": stats.solve_s,
+            "ready": ready_s,
         },
     });
     if let Some(c) = costs {

@@ -1137,6 +1137,13 @@ impl Session {
         }
     }
 
+    /// The session's hierarchical indirect engine, the rest of the session dropped (so that
+    /// what the engine holds can be freed before something as large is built: `haiko bake`'s
+    /// measured move).
+    pub fn into_hierarchical(self) -> Option<HierarchicalIndirect> {
+        self.hierarchical
+    }
+
     /// The hierarchical indirect engine, when the plan chose it.
     pub fn hierarchical(&self) -> Option<&HierarchicalIndirect> {
         self.hierarchical.as_ref()

@@ -755,13 +755,16 @@ impl HierarchicalIndirect {
         }
     }
 
-    /// Measures, on a copy, what a curve edit (then an intensity edit after it), a re-aim, a
-    /// dimmer change and a 0.1 m move (along
-    /// x, or back when that leaves the room) of light `i` of `scene` cost, each from the light's
-    /// current state, including the interpolation of its indirect light to the fine vertices.
+    /// Measures, on copies, what a curve edit (then an intensity edit after it), a re-aim, a
+    /// dimmer change and a 0.1 m move (along x, or back when that leaves the room) of light `i`
+    /// of `scene` cost, each from the light's current state, including the interpolation of its
+    /// indirect light to the fine vertices, and the editor's estimate of the re-aim. Consumes the
+    /// engine: a move that regrades builds the moved room's engine after this one is dropped,
+    /// so that the two are never held together (the editor holds both while it rebuilds, since
+    /// it answers edits on the current one meanwhile).
     ///
     /// Errors: a solve failing (internal).
-    pub fn measure_edits(&self, scene: &Scene, i: usize) -> Result<EditCosts> {
+    pub fn measure_edits(self, scene: &Scene, i: usize) -> Result<EditCosts> {
         let light = &scene.lights[i];
         let timed = |edited: &Light| -> Result<f64> {
             let mut copy = self.clone();
@@ -807,28 +810,40 @@ impl HierarchicalIndirect {
         } else {
             -0.1
         };
+        drop(copy);
+        let aim_estimate = self.measure_estimate(scene, i, &aim, ESTIMATE_ORDER)?;
         let mut moved_scene = scene.clone();
         moved_scene.lights[i].position.x += step;
         let t = Instant::now();
         let regraded = self.engine.regrade(&moved_scene);
         let move_rebuilt = regraded.is_some();
         if let Some(solver) = regraded {
-            let engine = self.engine.rebuilt(&moved_scene, solver);
+            let (tolerance, cache_budget) = (self.tolerance, self.cache_budget);
+            let HierarchicalIndirect {
+                engine,
+                lights,
+                interp,
+                ..
+            } = self;
+            drop((lights, interp));
+            let engine = match Arc::try_unwrap(engine) {
+                Ok(engine) => engine.into_rebuilt(&moved_scene, solver),
+                Err(shared) => shared.rebuilt(&moved_scene, solver),
+            };
             let rebuilt = Self::on_engine(
                 Arc::new(engine),
                 &moved_scene,
                 &moved_scene.lights,
-                self.tolerance,
-                self.cache_budget,
+                tolerance,
+                cache_budget,
             )?;
             let _ = rebuilt.vertex_indirect(i);
         } else {
-            let mut copy = self.clone();
+            let mut copy = self;
             copy.set_light(i, &moved_scene.lights[i])?;
             let _ = copy.vertex_indirect(i);
         }
         let move_s = t.elapsed().as_secs_f64();
-        let aim_estimate = self.measure_estimate(scene, i, &aim, ESTIMATE_ORDER)?;
         Ok(EditCosts {
             curve_s,
             point_s,

@@ -314,6 +314,14 @@ impl Interreflection {
         )
     }
 
+    /// [`Self::rebuilt`], this engine dropped first (its operator freed before the new one is
+    /// built).
+    pub fn into_rebuilt(self, scene: &Scene, solver: SolverMesh) -> Self {
+        let (channels, visibility, options) = (self.channels(), self.occluders.is_some(), self.options);
+        drop(self);
+        Self::build_graded(scene, solver, channels, visibility, &options)
+    }
+
     /// Builds the engine for `scene`: `channels` reflectance channels (1 or 3), visibility rays
     /// only when `visibility` (an empty convex room needs none).
     pub fn build(scene: &Scene, channels: usize, visibility: bool, options: &InterreflectionOptions) -> Self {
