@@ -929,7 +929,7 @@ impl Session {
             if let Some(h) = &self.hierarchical
                 && h.light_revision(i) != slot.given
             {
-                relighter.give_indirect(i, h.vertex_indirect(i));
+                relighter.give_indirect(i, &h.vertex_indirect(i));
                 slot.given = h.light_revision(i);
                 slot.dirty.state = true;
             }
