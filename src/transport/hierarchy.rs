@@ -358,10 +358,10 @@ fn gather(
 const GATHER_LANES: usize = 4;
 
 /// [`gather`] of a single column (`k = 1`): link `e`'s term goes into partial sum
-/// `e mod GATHER_LANES`, and the partial sums are added at the end. One sum would make every add
-/// wait for the one before (a single column's gather was bound by that latency, not by reading
-/// the links: docs/DECISIONS.md "A single column's gather in four sums"); the results differ
-/// from one sum, and from the same column gathered in a block, in their last bits only.
+/// `e mod GATHER_LANES`, and the partial sums are added at the end. One sum makes every add wait
+/// for the one before (docs/DECISIONS.md "A single column's gather in four sums": the product
+/// alone about a third faster on the open-plan floor); the results differ from one sum, and
+/// from the same column gathered in a block, in their last bits only.
 fn gather_one(
     b: &[f64],
     (sources, coefficients): (&[u32], &[f32]),
