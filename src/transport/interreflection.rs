@@ -294,11 +294,17 @@ impl Interreflection {
     /// The graded mesh `scene` calls for (its lights where they are now) when it is not this
     /// engine's, else `None`: a light that moved or was added or removed can change the
     /// refinement near lamps, and then the engine must be rebuilt on the new mesh
-    /// ([`Self::build_graded`]) to stay as exact as a fresh one.
+    /// ([`Self::build_graded`]) to stay as exact as a fresh one. The leaves' flags count as
+    /// well as their geometry: a beam's edge can move onto leaves that were already split, and
+    /// their direct light must then be sampled finely ([`SolverMesh::beam_edge`]).
     pub fn regrade(&self, scene: &Scene) -> Option<SolverMesh> {
         let graded = refine(scene, &self.options().refine);
-        let mesh = &self.solver.mesh;
-        let same = graded.mesh.patches.len() == mesh.patches.len() && graded.mesh.positions == mesh.positions;
+        let (old, mesh) = (&self.solver, &self.solver.mesh);
+        let same = graded.mesh.patches.len() == mesh.patches.len()
+            && graded.mesh.positions == mesh.positions
+            && graded.alone == old.alone
+            && graded.in_slot == old.in_slot
+            && graded.beam_edge == old.beam_edge;
         (!same).then_some(graded)
     }
 
@@ -1187,6 +1193,25 @@ solver_patch_size = {solver}
                 );
             }
         }
+    }
+
+    /// A regrade check finds a change in the leaves' flags alone: the same room with one
+    /// leaf's beam-edge flag flipped in the engine calls for its graded mesh again, and the
+    /// engine as built does not.
+    #[test]
+    fn a_regrade_check_compares_the_leaves_flags_too() {
+        let s = room(
+            "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 1.8, 0.9]\nreflectance = 0.5\n",
+            0.5,
+        );
+        let mut engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default());
+        assert!(engine.regrade(&s).is_none(), "the engine's own room");
+        engine.solver.beam_edge[0] = !engine.solver.beam_edge[0];
+        let graded = engine.regrade(&s).expect("a flag differs");
+        assert_eq!(
+            graded.mesh.positions, engine.solver.mesh.positions,
+            "the same geometry"
+        );
     }
 
     /// Pairs of coarse patches that face each other (not in one plane).
