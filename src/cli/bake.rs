@@ -236,17 +236,14 @@ pub(crate) fn run_bake(room: &Path, json: bool, limit: &MemoryLimit) -> Result<(
         print!("{}", format_plan(&p));
     }
     let session = open_session(scene, true, limit)?;
-    let b = session
-        .bake()
-        .ok_or_else(|| Error::internal("bake: the session has no bake"))?
-        .clone();
-    let plan_s = b.timings.plan_s;
     // The bake itself: the room read, planned, its engine built and every light solved.
     let ready_s = started.elapsed().as_secs_f64();
-    let scene = session.scene().clone();
-    // The engine leaves the session, which is not needed any more: the measured move frees
-    // the engine before it builds the moved room's (HierarchicalIndirect::measure_edits).
-    let engine = match session.into_hierarchical() {
+    // The session is not needed any more: the measured move frees the engine before it builds
+    // the moved room's (HierarchicalIndirect::measure_edits).
+    let (scene, b, hierarchical) = session.into_parts();
+    let b = b.ok_or_else(|| Error::internal("bake: the session has no bake"))?;
+    let plan_s = b.timings.plan_s;
+    let engine = match hierarchical {
         Some(h) => {
             let stats = h.stats();
             let costs = if scene.lights.is_empty() {
@@ -262,15 +259,14 @@ pub(crate) fn run_bake(room: &Path, json: bool, limit: &MemoryLimit) -> Result<(
         }
         None => None,
     };
-    let b = &b;
     match (json, engine) {
         (true, engine) => {
             let json_error = |e: serde_json::Error| Error::internal(e.to_string());
-            let doc = bake_json(b, plan_s, engine.as_ref());
+            let doc = bake_json(&b, plan_s, engine.as_ref());
             println!("{}", serde_json::to_string_pretty(&doc).map_err(json_error)?);
         }
         (false, Some(engine)) => print!("{}", format_hierarchical(&engine)),
-        (false, None) => print!("{}", format_bake(b)),
+        (false, None) => print!("{}", format_bake(&b)),
     }
     Ok(())
 }

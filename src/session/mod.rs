@@ -1137,11 +1137,12 @@ impl Session {
         }
     }
 
-    /// The session's hierarchical indirect engine, the rest of the session dropped (so that
-    /// what the engine holds can be freed before something as large is built: `haiko bake`'s
-    /// measured move).
-    pub fn into_hierarchical(self) -> Option<HierarchicalIndirect> {
-        self.hierarchical
+    /// The session's scene (its lights as the commands left them), bake and hierarchical
+    /// indirect engine, the rest of the session dropped and nothing copied: `haiko bake` frees
+    /// the session, then the engine, before its measured move builds another as large.
+    pub fn into_parts(mut self) -> (Scene, Option<Bake>, Option<HierarchicalIndirect>) {
+        self.synced_scene();
+        (self.scene, self.bake, self.hierarchical)
     }
 
     /// The hierarchical indirect engine, when the plan chose it.
