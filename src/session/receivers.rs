@@ -2,7 +2,7 @@
 //! the editor's cursor), kept current edit by edit (docs/ARCHITECTURE.md, "Numbers").
 //!
 //! What an edit cannot change is computed once per set: each light's direct-light geometry
-//! ([`DirectCache`]: directions, `cosθ / (r² + a²)`, visibility; rebuilt only when the light
+//! ([`DirectCache`]: `cosθ / (r² + a²)` with visibility; rebuilt only when the light
 //! moves) and the gather from the coarse patches ([`GatherOperator`]: `F · V` per receiver and
 //! patch). An edit of one light then costs one curve evaluation per receiver for its direct
 //! light, its patch irradiance from its baked columns ([`light_patch_irradiance`]), and one pass
@@ -194,7 +194,13 @@ impl ReceiverSet {
                 direct: vec![0.0; self.receivers.len()],
                 irradiance: Vec::new(),
             };
-            compute_light(&mut computed, input, self.mode, self.gather.as_ref());
+            compute_light(
+                &mut computed,
+                &self.receivers,
+                input,
+                self.mode,
+                self.gather.as_ref(),
+            );
             *slot = Some(computed);
             self.stale = true;
         }
@@ -250,8 +256,15 @@ impl ReceiverSet {
     }
 }
 
-/// Fills `out.direct` (and, with the gather, `out.irradiance`) for the light's current state.
-fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, gather: Option<&Gather>) {
+/// Fills `out.direct` at `receivers` (those its cache was built for) and, with the gather,
+/// `out.irradiance`, for the light's current state.
+fn compute_light(
+    out: &mut SetLight,
+    receivers: &[Receiver],
+    input: &LightInput<'_>,
+    mode: DirectMode,
+    gather: Option<&Gather>,
+) {
     let light = input.light;
     let state = LightState {
         curve: light.curve.clone(),
@@ -271,6 +284,7 @@ fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, g
         (Some((basis, coeffs, baked)), DirectMode::Basis) => {
             let mask = baked.plan.mask.map(DVec3::from);
             out.cache.illuminance_with(
+                receivers,
                 |dir| {
                     if mask.is_some_and(|n| dir.dot(n) <= 0.0) {
                         0.0
@@ -284,7 +298,7 @@ fn compute_light(out: &mut SetLight, input: &LightInput<'_>, mode: DirectMode, g
         }
         _ => out
             .cache
-            .illuminance_into(&light.curve, light.aim, light.dimmer, &mut out.direct),
+            .illuminance_into(receivers, &light.curve, light.aim, light.dimmer, &mut out.direct),
     }
     if weight != 1.0 {
         out.direct.iter_mut().for_each(|e| *e *= weight);

@@ -18,15 +18,18 @@ pub use crate::scene::Receiver;
 /// Receivers closer than this to a light (m) get no light: they are inside the luminaire.
 pub(crate) const MIN_DISTANCE_M: f64 = 1e-6;
 
-/// Per (light, receiver) geometry: the unit direction from the light and the factor
-/// `cosθ / (r² + a²) · V` (1/m²), one entry per receiver (factor 0 for receivers that cannot be
-/// lit), so an edit writes every receiver's illuminance in one parallel pass without allocating.
+/// Per (light, receiver) geometry: the factor `cosθ / (r² + a²) · V` (1/m²), one entry per
+/// receiver (0 for receivers that cannot be lit), so an edit writes every receiver's illuminance
+/// in one parallel pass without allocating. The direction from the light to each receiver is
+/// made again at each evaluation from the receiver's point ([`direction_to`], the same bits as
+/// at build): 24 bytes a receiver less per light than keeping it, for about the same reads
+/// (docs/DECISIONS.md "Direct caches without directions").
 #[derive(Debug, Clone)]
 pub struct DirectCache {
     /// Number of receivers with a non-zero factor.
     n_lit: usize,
-    /// Unit direction light → receiver (world), one per receiver (zero when unlit).
-    dirs: Vec<DVec3>,
+    /// The light's position (world, m) the factors were made for.
+    position: DVec3,
     /// `cosθ / (r² + a²) · V` in 1/m², one per receiver (0 when unlit).
     factors: Vec<f64>,
 }
@@ -40,21 +43,16 @@ impl DirectCache {
         receivers: &[Receiver],
         occluders: Option<&dyn Visibility>,
     ) -> Self {
-        let (dirs, factors): (Vec<DVec3>, Vec<f64>) = receivers
+        let factors: Vec<f64> = receivers
             .par_iter()
-            .map(|rx| {
-                let Some((dir, factor)) = geometry_factor(position, radius_m, rx) else {
-                    return (DVec3::ZERO, 0.0);
-                };
-                if occluders.is_some_and(|vis| !vis.visible(position, rx.point)) {
-                    return (DVec3::ZERO, 0.0);
-                }
-                (dir, factor)
+            .map(|rx| match geometry_factor(position, radius_m, rx) {
+                Some((_, factor)) if occluders.is_none_or(|vis| vis.visible(position, rx.point)) => factor,
+                _ => 0.0,
             })
-            .unzip();
+            .collect();
         DirectCache {
             n_lit: factors.iter().filter(|&&f| f != 0.0).count(),
-            dirs,
+            position,
             factors,
         }
     }
@@ -70,10 +68,18 @@ impl DirectCache {
     }
 
     /// Direct illuminance (lx) at every receiver into `out` (len = receivers), for `curve` (cd)
-    /// aimed along the unit vector `aim` and scaled by `scale` (dimmer). Receivers that cannot be
-    /// lit get 0.
-    pub fn illuminance_into(&self, curve: &Curve, aim: DVec3, scale: f64, out: &mut [f64]) {
+    /// aimed along the unit vector `aim` and scaled by `scale` (dimmer). `receivers` are those
+    /// the cache was built for. Receivers that cannot be lit get 0.
+    pub fn illuminance_into(
+        &self,
+        receivers: &[Receiver],
+        curve: &Curve,
+        aim: DVec3,
+        scale: f64,
+        out: &mut [f64],
+    ) {
         self.illuminance_with(
+            receivers,
             |dir| curve.eval_rad(aim.dot(dir).clamp(-1.0, 1.0).acos()),
             scale,
             out,
@@ -82,21 +88,45 @@ impl DirectCache {
 
     /// Like [`Self::illuminance_into`] for any intensity `I(dir)` (cd) of the unit world direction
     /// from the light, e.g. a truncated SH series in paper mode.
-    pub fn illuminance_with(&self, intensity: impl Fn(DVec3) -> f64 + Sync, scale: f64, out: &mut [f64]) {
+    pub fn illuminance_with(
+        &self,
+        receivers: &[Receiver],
+        intensity: impl Fn(DVec3) -> f64 + Sync,
+        scale: f64,
+        out: &mut [f64],
+    ) {
+        assert_eq!(
+            receivers.len(),
+            self.factors.len(),
+            "the receivers must be those the cache was built for"
+        );
         assert_eq!(
             out.len(),
             self.factors.len(),
             "output length must match the receivers"
         );
-        out.par_iter_mut()
-            .zip(self.dirs.par_iter().zip(&self.factors))
-            .with_min_len(MIN_RECEIVERS_PER_TASK)
-            .for_each(|(o, (&dir, &factor))| {
-                *o = if factor == 0.0 {
-                    0.0
-                } else {
-                    scale * intensity(dir) * factor
-                };
+        let position = self.position;
+        out.par_chunks_mut(DIRECTION_CHUNK)
+            .zip(
+                receivers
+                    .par_chunks(DIRECTION_CHUNK)
+                    .zip(self.factors.par_chunks(DIRECTION_CHUNK)),
+            )
+            .with_min_len(MIN_RECEIVERS_PER_TASK / DIRECTION_CHUNK)
+            .for_each(|(out, (receivers, factors))| {
+                // The directions first, in a loop of their own: one at a time, each square root
+                // and division would wait in line before the curve's evaluation.
+                let mut dirs = [DVec3::ZERO; DIRECTION_CHUNK];
+                for (d, rx) in dirs.iter_mut().zip(receivers) {
+                    *d = direction_to(position, rx.point).0;
+                }
+                for ((o, &dir), &factor) in out.iter_mut().zip(&dirs).zip(factors) {
+                    *o = if factor == 0.0 {
+                        0.0
+                    } else {
+                        scale * intensity(dir) * factor
+                    };
+                }
             });
     }
 }
@@ -104,15 +134,25 @@ impl DirectCache {
 /// Receivers per rayon task when evaluating a cache: enough to amortise the task overhead.
 const MIN_RECEIVERS_PER_TASK: usize = 4096;
 
+/// Receivers whose directions [`DirectCache::illuminance_with`] makes at a time, on the stack.
+const DIRECTION_CHUNK: usize = 256;
+
+/// Unit direction from a light at `position` to `point` (world, m), and their squared distance
+/// (m²). Undefined (not finite) when the two coincide.
+#[inline]
+pub fn direction_to(position: DVec3, point: DVec3) -> (DVec3, f64) {
+    let to = point - position;
+    let r2 = to.length_squared();
+    (to * (1.0 / r2.sqrt()), r2) // one division, not three
+}
+
 /// Unit direction light → receiver and `cosθ / (r² + a²)`, or `None` when the receiver faces
 /// away or sits inside the luminaire.
 pub fn geometry_factor(position: DVec3, radius_m: f64, rx: &Receiver) -> Option<(DVec3, f64)> {
-    let to = rx.point - position;
-    let r2 = to.length_squared();
+    let (dir, r2) = direction_to(position, rx.point);
     if r2 < MIN_DISTANCE_M * MIN_DISTANCE_M {
         return None;
     }
-    let dir = to * (1.0 / r2.sqrt()); // one division, not three
     let cos_incidence = -rx.normal.dot(dir);
     (cos_incidence > 0.0).then(|| (dir, cos_incidence / (r2 + radius_m * radius_m)))
 }

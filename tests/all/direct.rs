@@ -77,7 +77,7 @@ fn cache_and_single_point_paths_agree_and_dimmer_scales() {
     let receivers: Vec<Receiver> = (0..50).map(|i| floor_point(i as f64 * 0.1)).collect();
     let cache = DirectCache::build(LIGHT, 0.05, &receivers, None);
     let mut out = vec![0.0; receivers.len()];
-    cache.illuminance_into(&curve, DOWN, 0.5, &mut out);
+    cache.illuminance_into(&receivers, &curve, DOWN, 0.5, &mut out);
     for (rx, e) in receivers.iter().zip(&out) {
         let single = illuminance_at(LIGHT, 0.05, &curve, DOWN, 0.5, rx, None);
         assert_eq!(*e, single);
@@ -109,7 +109,7 @@ fn aimed_spotlight_matches_the_curve_at_the_angle_to_the_axis() {
         .collect();
     let cache = DirectCache::build(light, 0.0, &receivers, None);
     let mut out = vec![0.0; receivers.len()];
-    cache.illuminance_into(&spot, aim, 1.0, &mut out);
+    cache.illuminance_into(&receivers, &spot, aim, 1.0, &mut out);
     let mut lit = 0;
     for (rx, e) in receivers.iter().zip(&out) {
         let to = rx.point - light;
