@@ -5,7 +5,8 @@
 //! furniture standing 5 and 10 cm off the walls, two cupboards 5 cm apart, boxes stacked against a
 //! wall, a white corridor, a narrow spot across a desk's edge, a corner niche, a partition from
 //! floor to ceiling with a doorway and a wall cabinet, wall sconces grazing a wall up and down,
-//! cove lighting on a ledge under the ceiling),
+//! cove lighting on a ledge under the ceiling, an open bookshelf with a shelf light in one of
+//! its compartments),
 //! 148–268 points each on floors, box
 //! and mesh tops and faces, walls and ceilings, including points 1–20 cm from box and mesh faces
 //! and 2–15 cm from the room's floor and ceiling edges. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
@@ -36,7 +37,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 20] = [
+pub const ROOMS: [&str; 21] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -57,6 +58,7 @@ pub const ROOMS: [&str; 20] = [
     "sconces",
     "cove",
     "pictures",
+    "shelves",
 ];
 
 /// The environment variable that regenerates the references.
@@ -218,7 +220,8 @@ impl Points<'_> {
 /// wall just above it; for the cove, the ceiling from the cove's wall out, the wall above the
 /// ledge, the ledge's front and underside and the wall under it; for the pictures, their faces,
 /// the wall 1–30 cm above, below and beside them, their frames' top faces and the ceiling above
-/// them by the wall.
+/// them by the wall; for the shelves, in each compartment its floor, the wall behind it, the
+/// shelf's underside above it and the side panel's face, and the floor in front of the shelf.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
@@ -487,6 +490,28 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
         for d in [0.02, 0.1, 0.3] {
             pts.add(DVec3::new(1.6, d, s.z), DVec3::NEG_Z);
             pts.add(DVec3::new(4.3, d, s.z), DVec3::NEG_Z);
+        }
+    }
+    if name == "shelves" {
+        // In each compartment: its floor (front, middle, back, by the side panel), the wall
+        // behind it (low, middle, high), the underside of the shelf above, and the side panel's
+        // inner face; the floor in front of the shelf.
+        let compartments = [(0.1, 0.48), (0.5, 0.88), (0.9, 1.28), (1.3, 1.68), (1.7, 1.98)];
+        for (z0, z1) in compartments {
+            for y in [3.18, 3.3, 3.47] {
+                pts.add(DVec3::new(1.8, y, z0), DVec3::Z);
+            }
+            pts.add(DVec3::new(1.05, 3.3, z0), DVec3::Z);
+            for z in [z0 + 0.02, (z0 + z1) / 2.0, z1 - 0.02] {
+                pts.add(DVec3::new(1.8, s.y, z), DVec3::NEG_Y);
+            }
+            for y in [3.2, 3.45] {
+                pts.add(DVec3::new(1.8, y, z1), DVec3::NEG_Z);
+            }
+            pts.add(DVec3::new(1.02, 3.3, (z0 + z1) / 2.0), DVec3::X);
+        }
+        for d in [0.01, 0.05, 0.2] {
+            pts.add(DVec3::new(1.8, 3.15 - d, 0.0), DVec3::Z);
         }
     }
     if name == "wall-washers" {
@@ -827,8 +852,11 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// room (twentieth) was 17.6 % low on the wall 3 cm above a picture frame whose top a spot's
 /// edge lights only at the front, until strips beside a box contact that a beam's edge crosses
 /// were graded along the edge too and sampled finely in their direct light (4.3 % since, the
-/// frame's top 2 cm from the wall; docs/DECISIONS.md "Light edges beside contacts").
-const ENGINE_BOUNDS: [(&str, f64, f64); 20] = [
+/// frame's top 2 cm from the wall; docs/DECISIONS.md "Light edges beside contacts"). The
+/// `shelves` room (twenty-second round: an open bookshelf whose compartments are slots open only
+/// to the room, a shelf light inside one) was added as it came, with no option changed for it:
+/// 2.3 % at worst, on a side panel's inner face.
+const ENGINE_BOUNDS: [(&str, f64, f64); 21] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
@@ -849,6 +877,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 20] = [
     ("sconces", 0.005, 0.025),
     ("cove", 0.005, 0.028),
     ("pictures", 0.005, 0.047),
+    ("shelves", 0.005, 0.027),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
