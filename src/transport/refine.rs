@@ -23,8 +23,8 @@
 //!   ceiling) are graded the same way, without the light-edge rule.
 //! * **Along room edges where the direct light bends**: the pieces of the room's own edges
 //!   where the direct light on either surface next to them is far from linear across a coarse
-//!   patch ([`crate::transport::room_edges`]: a pool ending by a wall, a lamp's horizon under the
-//!   ceiling) are graded like contacts down to strips of `room_edge_min_m`, up to
+//!   patch, or steep beside a surface left dark ([`crate::transport::room_edges`]: a pool ending
+//!   by a wall, a lamp's horizon under the ceiling, a batwing lighting the walls' tops) are graded like contacts down to strips of `room_edge_min_m`, up to
 //!   `ROOM_EDGE_ASPECT` times as long as their distance to the edge.
 //! * **In slots**: a box face standing up to `slot_max_m` off a parallel room surface (a
 //!   sideboard 5 cm in front of a wall), or off the facing face of another box (two cupboards
@@ -219,7 +219,7 @@ impl SolverMesh {
         }
         if self.room_edges > 0 && self.room_edge_leaves_added > 0 {
             notes.push(format!(
-                "graded along {} pieces of the room's edges where the direct light next to them bends (strips at most {:.2} m wide at the edge, half that beside narrow pools): +{} patches",
+                "graded along {} pieces of the room's edges where the direct light next to them bends, or steps beside a dark surface (strips at most {:.2} m wide at the edge, half that beside narrow pools): +{} patches",
                 self.room_edges,
                 2.0 * self.room_edge_min_m,
                 self.room_edge_leaves_added

@@ -6,9 +6,12 @@
 //! leaf's linear radiosity follows it where the light on both surfaces next to the edge is
 //! about linear across one leaf; where the direct light there bends — a spot's pool ending
 //! 0.26 m from a wall, an up-light's 1/r³ fall-off on the ceiling beside a wall — both surfaces
-//! are graded along that piece of the edge. Where the direct light near an edge is smooth (a
-//! downlight's gentle fall-off towards the walls) the coarse leaves are kept: grading every edge
-//! doubles a small room's links.
+//! are graded along that piece of the edge. So is a piece where the light is straight but
+//! steep beside a surface the lights leave dark (a batwing under the ceiling lighting the
+//! walls' tops): the solve holds a leaf's radiosity as its mean, which the dark surface beside
+//! the edge then receives instead of the edge's own light ([`edge_step`]). Where the direct
+//! light near an edge is smooth (a downlight's gentle fall-off towards the walls) the coarse
+//! leaves are kept: grading every edge doubles a small room's links.
 //!
 //! Every light counts at full output, whatever its dimmer: the grading follows what the lights
 //! can do, so a dimmer edit never calls for another mesh.
@@ -164,12 +167,25 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
         let length = piece.max[*along] - piece.min[*along];
         let positions = ALONG.map(|t| t * length);
         let (mut across_bends, mut along_bends) = (false, false);
-        for side in sides {
-            for (depths, &(_, factor, look_along)) in side.depths.iter().zip(&PROFILES) {
-                // Row `a` holds the depths at along-position `a`.
-                let e = rows.next().expect("one block of samples per side and profile");
+        // Per side and profile, row `a` holds the depths at along-position `a`.
+        let blocks: [[&[f64]; PROFILES.len()]; 2] = std::array::from_fn(|_| {
+            std::array::from_fn(|_| rows.next().expect("one block of samples per side and profile"))
+        });
+        for (s, side) in sides.iter().enumerate() {
+            // The other surface's light at the edge, at each position along it (the first
+            // profile's first sample).
+            let other_edge = |a: usize| blocks[1 - s][0][a * DEPTHS.len()];
+            for ((depths, &(_, factor, look_along)), e) in side.depths.iter().zip(&PROFILES).zip(blocks[s]) {
                 let off = |bend: f64| side.rho * EDGE_VIEW * bend > factor * tolerance * indirect;
-                across_bends |= e.chunks(DEPTHS.len()).any(|row| off(bend(depths, row)));
+                // A step is measured against the light the other surface has at the edge.
+                let off_step = |a: usize, step: f64| {
+                    let level = indirect + other_edge(a).max(0.0);
+                    side.rho * EDGE_VIEW * step > STEP_FACTOR * tolerance * level
+                };
+                across_bends |= e
+                    .chunks(DEPTHS.len())
+                    .enumerate()
+                    .any(|(a, row)| off(bend(depths, row)) || (look_along && off_step(a, edge_step(row))));
                 along_bends |= look_along
                     && (0..DEPTHS.len()).any(|d| {
                         let column: Vec<f64> = (0..ALONG.len()).map(|a| e[a * DEPTHS.len() + d]).collect();
@@ -185,6 +201,21 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
         }
     }
     out
+}
+
+/// How many times the tolerance the edge's own light may differ from the mean over one piece
+/// across it ([`edge_step`]) before the piece is graded: a steep but straight profile, which a
+/// leaf's constant radiosity in the solve cannot follow either.
+const STEP_FACTOR: f64 = 4.0;
+
+/// How far the light at the edge (the first sample) is from the mean of the samples across it;
+/// 0 when a value is NaN (a sample left out).
+fn edge_step(values: &[f64]) -> f64 {
+    if values.iter().any(|v| v.is_nan()) {
+        return 0.0;
+    }
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    (values[0] - mean).abs()
 }
 
 /// One surface beside a piece of room edge, as sampled.
@@ -265,6 +296,45 @@ mod tests {
         assert!(bend(&x, &[3.0, 2.5, 2.0, 1.5, 1.0]) < 1e-12);
     }
 
+    /// The edge sample's distance from the mean of its profile; a profile with a sample left
+    /// out has none.
+    #[test]
+    fn edge_step_is_the_first_samples_distance_from_the_mean() {
+        assert!((edge_step(&[1.0, 2.0, 3.0, 4.0, 5.0]) - 2.0).abs() < 1e-12);
+        assert!((edge_step(&[5.0, 1.0, 1.0, 1.0, 1.0]) - 3.2).abs() < 1e-12);
+        assert_eq!(edge_step(&[1.0, f64::NAN, 3.0, 4.0, 5.0]), 0.0);
+    }
+
+    /// A batwing 5 cm under the ceiling (peak at 60°, still 120 cd at the horizontal) lights
+    /// each wall's top in a straight, steep profile — a third of the light at the ceiling that
+    /// it has 0.5 m lower — beside a ceiling it hardly lights: a leaf's constant radiosity in the
+    /// solve gives the ceiling beside the wall the wall's mean instead of its dim top (a
+    /// Monte-Carlo reference room like it was 7 % high there). The step grades at least the four
+    /// middle pieces of each end wall's top; the bend test alone graded none of them (checked by
+    /// setting `STEP_FACTOR` out of reach). The floor's edges, under the batwing's gentle light,
+    /// stay as they are.
+    #[test]
+    fn a_steep_straight_profile_beside_a_dark_surface_grades_the_edge() {
+        let batwing = "[[0, 300], [30, 550], [60, 900], [75, 500], [90, 120], [100, 60], [110, 0], [180, 0]]";
+        let pieces = bending_edge_pieces(&room("[2.0, 1.5, 2.45]", batwing), 0.5, 0.02);
+        for x in [0.0, 4.0] {
+            let end_wall = pieces
+                .iter()
+                .filter(|p| {
+                    let g = p.segment;
+                    g.min.x == x && g.max.x == x && g.min.z == 2.5 && g.max.z == 2.5
+                })
+                .count();
+            assert!(end_wall >= 4, "the wall x = {x}'s top: {pieces:?}");
+        }
+        assert!(
+            pieces
+                .iter()
+                .all(|p| p.segment.min.z == 2.5 && p.segment.max.z == 2.5),
+            "the walls' tops only: {pieces:?}"
+        );
+    }
+
     /// A hard-edged 40° spot 2.4 m above (2, 1) lights a floor pool of radius 0.87 m, which ends
     /// 0.13 m from the wall y = 0 and 1.13 m or more from the other walls: the floor/wall edge at
     /// y = 0 bends under the pool (x 1–3, four 0.5 m pieces) and nowhere else.
@@ -290,17 +360,20 @@ mod tests {
 
     /// A soft downlight hung 1.5 m up in the middle of the room lights the floor and the walls'
     /// lower parts smoothly and leaves the ceiling and the walls' tops dark: no edge bends. The
-    /// same light 0.1 m under the ceiling bends the long walls' top edges (its horizon, where
-    /// the wall goes dark, lies 0.1 m under them).
+    /// same light 0.1 m under the ceiling bends the walls' top edges only: its horizon, where the
+    /// wall goes dark, lies 0.1 m under them (the long walls' profiles bend there; the end walls',
+    /// 2 m away, are straighter but step from their dark top to a bright mean beside a ceiling
+    /// the light leaves dark: [`edge_step`]).
     #[test]
     fn a_lamps_horizon_bends_the_walls_tops_and_a_smooth_light_no_edge() {
         let lid = "[[0, 100], [30, 95], [60, 70], [90, 0]]";
         let high = bending_edge_pieces(&room("[2.0, 1.5, 2.4]", lid), 0.5, 0.02);
         assert!(!high.is_empty());
-        assert!(high.iter().all(|p| {
-            let p = p.segment;
-            p.min.z == 2.5 && p.max.z == 2.5 && p.min.y == p.max.y
-        }));
+        assert!(high.iter().any(|p| p.segment.min.y == p.segment.max.y));
+        assert!(
+            high.iter()
+                .all(|p| p.segment.min.z == 2.5 && p.segment.max.z == 2.5)
+        );
         let s = room("[2.0, 1.5, 1.5]", lid);
         assert_eq!(bending_edge_pieces(&s, 0.5, 0.02), Vec::new());
         // A box standing against the wall y = 0 under that light (x 1.2–2.2): the samples inside

@@ -6,7 +6,7 @@
 //! wall, a white corridor, a narrow spot across a desk's edge, a corner niche, a partition from
 //! floor to ceiling with a doorway and a wall cabinet, wall sconces grazing a wall up and down,
 //! cove lighting on a ledge under the ceiling, an open bookshelf with a shelf light in one of
-//! its compartments),
+//! its compartments, batwings under a low ceiling beside a column),
 //! 148–268 points each on floors, box
 //! and mesh tops and faces, walls and ceilings, including points 1–20 cm from box and mesh faces
 //! and 2–15 cm from the room's floor and ceiling edges. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
@@ -37,7 +37,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 21] = [
+pub const ROOMS: [&str; 22] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -59,6 +59,7 @@ pub const ROOMS: [&str; 21] = [
     "cove",
     "pictures",
     "shelves",
+    "batwing",
 ];
 
 /// The environment variable that regenerates the references.
@@ -221,7 +222,8 @@ impl Points<'_> {
 /// ledge, the ledge's front and underside and the wall under it; for the pictures, their faces,
 /// the wall 1–30 cm above, below and beside them, their frames' top faces and the ceiling above
 /// them by the wall; for the shelves, in each compartment its floor, the wall behind it, the
-/// shelf's underside above it and the side panel's face, and the floor in front of the shelf.
+/// shelf's underside above it and the side panel's face, and the floor in front of the shelf;
+/// for the batwings, the ceiling out from each and beside the column, and the column's faces.
 pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
     let s = scene.room_size;
     let mut pts = Points {
@@ -512,6 +514,25 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
         }
         for d in [0.01, 0.05, 0.2] {
             pts.add(DVec3::new(1.8, 3.15 - d, 0.0), DVec3::Z);
+        }
+    }
+    if name == "batwing" {
+        // The ceiling the batwings graze from 5 cm, out from each; the column's faces towards
+        // and away from the near one, low, middle and just under the ceiling; the ceiling beside
+        // the column.
+        for x0 in [1.8, 4.5] {
+            for d in [0.1, 0.2, 0.4, 0.8] {
+                pts.add(DVec3::new(x0 + d, 2.0, s.z), DVec3::NEG_Z);
+            }
+        }
+        for (x, n) in [(2.35, DVec3::NEG_X), (2.65, DVec3::X)] {
+            for z in [0.3, 1.2, 2.2, 2.38] {
+                pts.add(DVec3::new(x, 2.0, z), n);
+            }
+        }
+        for d in [0.02, 0.1] {
+            pts.add(DVec3::new(2.35 - d, 2.0, s.z), DVec3::NEG_Z);
+            pts.add(DVec3::new(2.5, 1.85 - d, s.z), DVec3::NEG_Z);
         }
     }
     if name == "wall-washers" {
@@ -855,8 +876,12 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// frame's top 2 cm from the wall; docs/DECISIONS.md "Light edges beside contacts"). The
 /// `shelves` room (twenty-second round: an open bookshelf whose compartments are slots open only
 /// to the room, a shelf light inside one) was added as it came, with no option changed for it:
-/// 2.3 % at worst, on a side panel's inner face.
-const ENGINE_BOUNDS: [(&str, f64, f64); 21] = [
+/// 2.3 % at worst, on a side panel's inner face. The `batwing` room (twenty-second round: two
+/// batwings 5 cm under a low ceiling, a column) was 7.1 % high on the ceiling 2 cm from a wall
+/// whose top they light in a steep, straight profile, until such a step beside a surface the
+/// lights leave dark graded the edge too (1.0 % since; docs/DECISIONS.md "Room edges are graded
+/// where the direct light bends").
+const ENGINE_BOUNDS: [(&str, f64, f64); 22] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
@@ -878,6 +903,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 21] = [
     ("cove", 0.005, 0.028),
     ("pictures", 0.005, 0.047),
     ("shelves", 0.005, 0.027),
+    ("batwing", 0.005, 0.015),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
