@@ -24,8 +24,9 @@
 //! * **Along room edges where the direct light bends**: the pieces of the room's own edges
 //!   where the direct light on either surface next to them is far from linear across a coarse
 //!   patch, or steep beside a surface left dark ([`crate::transport::room_edges`]: a pool ending
-//!   by a wall, a lamp's horizon under the ceiling, a batwing lighting the walls' tops) are graded like contacts down to strips of `room_edge_min_m`, up to
-//!   `ROOM_EDGE_ASPECT` times as long as their distance to the edge.
+//!   by a wall, a lamp's horizon under the ceiling, a batwing lighting the walls' tops) are
+//!   graded like contacts down to strips of `room_edge_min_m`, up to `ROOM_EDGE_ASPECT` times as
+//!   long as their distance to the edge.
 //! * **In slots**: a box face standing up to `slot_max_m` off a parallel room surface (a
 //!   sideboard 5 cm in front of a wall), or off the facing face of another box (two cupboards
 //!   side by side) lets light into the slot only at its outline, and that

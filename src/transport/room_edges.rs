@@ -172,26 +172,25 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
             std::array::from_fn(|_| rows.next().expect("one block of samples per side and profile"))
         });
         for (s, side) in sides.iter().enumerate() {
-            // The other surface's light at the edge, at each position along it (the first
-            // profile's first sample).
-            let other_edge = |a: usize| blocks[1 - s][0][a * DEPTHS.len()];
             for ((depths, &(_, factor, look_along)), e) in side.depths.iter().zip(&PROFILES).zip(blocks[s]) {
                 let off = |bend: f64| side.rho * EDGE_VIEW * bend > factor * tolerance * indirect;
-                // A step is measured against the light the other surface has at the edge.
-                let off_step = |a: usize, step: f64| {
-                    let level = indirect + other_edge(a).max(0.0);
-                    side.rho * EDGE_VIEW * step > STEP_FACTOR * tolerance * level
-                };
-                across_bends |= e
-                    .chunks(DEPTHS.len())
-                    .enumerate()
-                    .any(|(a, row)| off(bend(depths, row)) || (look_along && off_step(a, edge_step(row))));
+                across_bends |= e.chunks(DEPTHS.len()).any(|row| off(bend(depths, row)));
                 along_bends |= look_along
                     && (0..DEPTHS.len()).any(|d| {
                         let column: Vec<f64> = (0..ALONG.len()).map(|a| e[a * DEPTHS.len() + d]).collect();
                         off(bend(&positions, &column))
                     });
             }
+            // The step over the one-piece profile, against the light the other surface has at
+            // the edge at the same place along it (its first sample).
+            let (own, other) = (blocks[s][0], blocks[1 - s][0]);
+            across_bends |= own
+                .chunks(DEPTHS.len())
+                .zip(other.chunks(DEPTHS.len()))
+                .any(|(row, beside)| {
+                    let level = indirect + beside[0].max(0.0);
+                    side.rho * EDGE_VIEW * edge_step(row) > STEP_FACTOR * tolerance * level
+                });
         }
         if across_bends || along_bends {
             out.push(BendingPiece {
