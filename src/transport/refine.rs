@@ -3,9 +3,10 @@
 //! indirect light next to them.
 //!
 //! * **Near lights**: a patch is halved across its longer side while that side exceeds
-//!   `lamp_ratio ×` its distance to a light in front of it (down to `lamp_min_m`). A lamp hung
-//!   0.2 m below a ceiling lights a hot spot of a few decimetres there, which acts as a second
-//!   source for everything around it; a 0.5 m patch would smear it.
+//!   `lamp_ratio ×` its distance to a light in front of it (down to `lamp_min_m`, or to the
+//!   light's distance when it is nearer). A lamp hung 0.2 m below a ceiling lights a hot spot
+//!   of a few decimetres there, which acts as a second source for everything around it; a
+//!   0.5 m patch would smear it, and a 3 cm patch the spot of a puck 1 cm above a desk.
 //! * **Along box contacts**: where a box stands on the floor (or on another box, or against a
 //!   wall or the ceiling), the patches of the supporting surface and of the box's faces that meet
 //!   along the contact edge are halved across the edge while their width across it exceeds
@@ -64,7 +65,9 @@ pub struct RefineOptions {
     /// Halve a patch while its longer side exceeds this many times its distance to a light in
     /// front of it; 0 turns the rule off. Default 0.5.
     pub lamp_ratio: f64,
-    /// Shortest side (m) the light rule makes. Default 0.03 m.
+    /// Shortest side (m) the light rule makes near a light farther than this from the patch;
+    /// a nearer light (a puck 1 cm above a desk) takes the patches down to its distance, not
+    /// below [`LAMP_MIN_FLOOR_M`] ([`RefineOptions::lamp_min_for`]). Default 0.03 m.
     pub lamp_min_m: f64,
     /// Halve a patch across a box contact edge while its width across the edge exceeds this
     /// many times its distance to the edge; 0 turns the rule off. Default 0.5.
@@ -90,6 +93,22 @@ pub struct RefineOptions {
     /// `ROOM_EDGE_ASPECT` times as long as far from the edge (docs/DECISIONS.md "Room edges are
     /// graded where the direct light bends"); 0 turns it off. Default 0.1 m.
     pub room_edge_min_m: f64,
+}
+
+/// The shortest side (m) the light rule makes for a light nearer a patch than
+/// [`RefineOptions::lamp_min_m`] (docs/DECISIONS.md "Patches near a lamp almost touching
+/// them"): 5 mm, a sixth of the usual 3 cm.
+pub const LAMP_MIN_FLOOR_M: f64 = 0.005;
+
+impl RefineOptions {
+    /// The shortest side (m) the light rule makes near a light `distance_m` from the patch:
+    /// `lamp_min_m`, or the distance when the light is nearer, not below
+    /// [`LAMP_MIN_FLOOR_M`] (nor above `lamp_min_m`). A lamp 1 cm above a desk pours half its
+    /// light within 2 cm of its foot, and that spot lights the wall 15 cm away as a second
+    /// source whose place, to a few millimetres, sets how much: 3 cm patches smear it.
+    pub fn lamp_min_for(&self, distance_m: f64) -> f64 {
+        self.lamp_min_m.min(distance_m.max(LAMP_MIN_FLOOR_M))
+    }
 }
 
 impl Default for RefineOptions {
@@ -220,7 +239,7 @@ impl SolverMesh {
         }
         if self.room_edges > 0 && self.room_edge_leaves_added > 0 {
             notes.push(format!(
-                "graded along {} pieces of the room's edges where the direct light next to them bends, or steps beside a dark surface (strips at most {:.2} m wide at the edge, half that beside narrow pools): +{} patches",
+                "graded along {} pieces of the room's edges where the light next to them (direct, or from a lamp's spot on a surface it almost touches) bends, or steps beside a dark surface (strips at most {:.2} m wide at the edge, half that beside narrow pools): +{} patches",
                 self.room_edges,
                 2.0 * self.room_edge_min_m,
                 self.room_edge_leaves_added
@@ -818,15 +837,18 @@ impl Splitter<'_> {
     fn lamp_axis(&self, cell: &Cell, first_lamp: &mut Option<usize>) -> Option<usize> {
         let options = self.options;
         let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
-        if options.lamp_ratio <= 0.0 || cell.extent(longer) <= 2.0 * options.lamp_min_m {
+        let extent = cell.extent(longer);
+        if options.lamp_ratio <= 0.0 || extent <= 2.0 * options.lamp_min_for(0.0) {
             return None;
         }
         let bounds = cell.bounds();
         let normal = cell.rect.normal();
         let centre = (bounds.min + bounds.max) / 2.0;
         let (i, _) = self.scene.lights.iter().enumerate().find(|(_, light)| {
+            let distance = point_box_distance(light.position, &bounds);
             normal.dot(light.position - centre) > 0.0
-                && cell.extent(longer) > options.lamp_ratio * point_box_distance(light.position, &bounds)
+                && extent > options.lamp_ratio * distance
+                && extent > 2.0 * options.lamp_min_for(distance)
         })?;
         first_lamp.get_or_insert(i);
         Some(longer)
@@ -1080,12 +1102,13 @@ fn split_triangle(
     while let Some(t) = stack.pop() {
         let longest = (0..3).map(|e| t[e].distance(t[(e + 1) % 3])).fold(0.0, f64::max);
         let centre = (t[0] + t[1] + t[2]) / 3.0;
-        let near = (options.lamp_ratio > 0.0 && longest > 2.0 * options.lamp_min_m)
+        let near = (options.lamp_ratio > 0.0 && longest > 2.0 * options.lamp_min_for(0.0))
             .then(|| {
                 scene.lights.iter().position(|l| {
+                    let distance = (l.position.distance(centre) - longest / 2.0).max(0.0);
                     patch.normal.dot(l.position - centre) > 0.0
-                        && longest
-                            > options.lamp_ratio * (l.position.distance(centre) - longest / 2.0).max(0.0)
+                        && longest > options.lamp_ratio * distance
+                        && longest > 2.0 * options.lamp_min_for(distance)
                 })
             })
             .flatten();
@@ -1489,6 +1512,41 @@ solver_patch_size = 0.5
         // The lamp's horizon lies 0.2 m under the ceiling: the walls go dark just below their
         // top edges, which are graded.
         assert!(notes[1].contains("pieces of the room's edges"), "{notes:?}");
+    }
+
+    /// A lamp 1 cm under the ceiling takes the ceiling leaves at its foot down to its distance
+    /// (halving 0.5 m patches: 1.5625 cm, at most twice the distance), where the usual
+    /// 3 cm floor would stop at 3.125 cm, as it still does for the lamp 5 cm under it; no leaf
+    /// goes below 5 mm ([`LAMP_MIN_FLOOR_M`]).
+    #[test]
+    fn a_lamp_almost_touching_a_surface_takes_its_foot_below_the_usual_floor() {
+        let foot_leaves = |z: &str| {
+            let s = scene(&EMPTY.replace("[2.0, 1.5, 1.2]", &format!("[2.0, 1.5, {z}]")));
+            let solver = refine(&s, &coarse_grading());
+            let foot = DVec3::new(2.0, 1.5, 2.5);
+            let mut sizes = Vec::new();
+            let mut smallest = f64::INFINITY;
+            for p in &solver.mesh.patches {
+                let corners: Vec<DVec3> = p
+                    .vertex_ids()
+                    .iter()
+                    .map(|&v| solver.mesh.positions[v as usize])
+                    .collect();
+                let lo = corners.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+                let hi = corners.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
+                let longest = (hi - lo).max_element();
+                smallest = smallest.min(longest);
+                if foot.cmpge(lo - 1e-9).all() && foot.cmple(hi + 1e-9).all() {
+                    sizes.push(longest);
+                }
+            }
+            (sizes, smallest)
+        };
+        let (near, smallest) = foot_leaves("2.49");
+        assert_eq!(near, [0.015625; 4], "the four leaves meeting at the foot");
+        assert!(smallest >= LAMP_MIN_FLOOR_M, "{smallest}");
+        let (farther, _) = foot_leaves("2.45");
+        assert_eq!(farther, [0.03125; 4]);
     }
 
     /// A box on the floor: floor strips and the box sides' bottom strips are graded to 6.25 cm

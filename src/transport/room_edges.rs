@@ -9,9 +9,11 @@
 //! are graded along that piece of the edge. So is a piece where the light is straight but
 //! steep beside a surface the lights leave dark (a batwing under the ceiling lighting the
 //! walls' tops): the solve holds a leaf's radiosity as its mean, which the dark surface beside
-//! the edge then receives instead of the edge's own light ([`edge_step`]). Where the direct
-//! light near an edge is smooth (a downlight's gentle fall-off towards the walls) the coarse
-//! leaves are kept: grading every edge doubles a small room's links.
+//! the edge then receives instead of the edge's own light ([`edge_step`]). The light sampled
+//! is the lamps' own plus that of each lamp's spot on a room plane it almost touches
+//! ([`ReflectedSpot`]): a lamp 1 cm under the ceiling lights the walls' tops through it. Where
+//! the light near an edge is smooth (a downlight's gentle fall-off towards the walls) the
+//! coarse leaves are kept: grading every edge doubles a small room's links.
 //!
 //! Every light counts at full output, whatever its dimmer: the grading follows what the lights
 //! can do, so a dimmer edit never calls for another mesh.
@@ -22,8 +24,9 @@ use glam::DVec3;
 
 use crate::scene::mesher::cells_between;
 use crate::scene::{Aabb, Receiver, Scene};
-use crate::transport::direct::{Dimmers, lights_direct_at};
+use crate::transport::direct::{Dimmers, lights_direct_at, luminance_weight};
 use crate::transport::occlusion::Occluders;
+use crate::transport::visibility::Visibility;
 
 /// Depths (as fractions of a profile's depth, below) at which the direct light is sampled
 /// across an edge, on each side; the first is [`FIRST_DEPTH_M`] instead.
@@ -63,6 +66,22 @@ impl RoomPlane {
         }
     }
 
+    /// The reflectance (largest channel) of the room surface on this plane; 0 when the scene
+    /// has none.
+    fn reflectance(self, scene: &Scene) -> f64 {
+        let name = self.surface_name();
+        scene
+            .surfaces
+            .iter()
+            .find(|s| s.name == name)
+            .map_or(0.0, |s| s.reflectance.max())
+    }
+
+    /// Every room plane.
+    fn all() -> impl Iterator<Item = RoomPlane> {
+        (0..3).flat_map(|axis| [false, true].map(|far| RoomPlane { axis, far }))
+    }
+
     /// Unit normal into the room.
     fn normal(self) -> DVec3 {
         let mut n = DVec3::ZERO;
@@ -87,14 +106,7 @@ pub struct BendingPiece {
 /// room's indirect irradiance.
 pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<BendingPiece> {
     let size = scene.room_size;
-    let reflectance = |plane: RoomPlane| {
-        let name = plane.surface_name();
-        scene
-            .surfaces
-            .iter()
-            .find(|s| s.name == name)
-            .map_or(0.0, |s| s.reflectance.max())
-    };
+    let reflectance = |plane: RoomPlane| plane.reflectance(scene);
     // Every piece with its axis and two sides: the plane, the direction into the room along it,
     // its reflectance and, per profile, the sample depths (m).
     let mut pieces = Vec::new();
@@ -152,14 +164,23 @@ pub fn bending_edge_pieces(scene: &Scene, piece_m: f64, tolerance: f64) -> Vec<B
     }
     // A sample inside a box standing against the wall (or on the floor) is no light of the room
     // surface: its rows and columns are left out (NaN, which `bend` skips).
+    // The spots of lights almost touching a room plane light the other surfaces as lights of
+    // their own: their light counts with the direct light.
     let occluders = Occluders::of_scene(scene);
+    let spots = reflected_spots(scene, SPOT_RADIUS_PIECES * piece_m, occluders.as_ref());
     let mut lux = lights_direct_at(scene, occluders.as_ref(), &receivers, Dimmers::Full);
     for (e, rx) in lux.iter_mut().zip(&receivers) {
         if scene.boxes.iter().any(|b| b.contains_strictly(rx.point)) {
             *e = f64::NAN;
+        } else {
+            *e += spots
+                .iter()
+                .map(|spot| spot.illuminance_at(rx, occluders.as_ref()))
+                .sum::<f64>();
         }
     }
-    let indirect = indirect_scale(scene, occluders.as_ref());
+    let spot_flux = spots.iter().map(|spot| spot.received_lm).sum();
+    let indirect = indirect_scale(scene, occluders.as_ref(), spot_flux);
     let per_profile = ALONG.len() * DEPTHS.len();
     let mut rows = lux.chunks(per_profile);
     let mut out = Vec::new();
@@ -247,9 +268,10 @@ fn bend(x: &[f64], values: &[f64]) -> f64 {
 }
 
 /// The room's indirect irradiance (lx) by the integrating-sphere estimate: the area-weighted
-/// mean direct irradiance of the coarse patches times `ρ̄ / (1 − ρ̄)`, `ρ̄` their area-weighted
-/// mean reflectance.
-fn indirect_scale(scene: &Scene, occluders: Option<&Occluders>) -> f64 {
+/// mean direct irradiance of the coarse patches, with `extra_lm` (the flux of spots their
+/// centroids miss) spread over their area, times `ρ̄ / (1 − ρ̄)`, `ρ̄` their area-weighted mean
+/// reflectance.
+fn indirect_scale(scene: &Scene, occluders: Option<&Occluders>, extra_lm: f64) -> f64 {
     let patches = &scene.coarse.patches;
     let receivers: Vec<Receiver> = patches
         .iter()
@@ -269,7 +291,102 @@ fn indirect_scale(scene: &Scene, occluders: Option<&Occluders>) -> f64 {
         return 0.0;
     }
     let rho = (rho / area).min(0.99);
-    flux / area * rho / (1.0 - rho)
+    (flux + extra_lm) / area * rho / (1.0 - rho)
+}
+
+/// The radius of a light's spot on a room plane, in pieces: a light closer to the plane than
+/// this is taken to make a spot there that lights the room as a light of its own.
+const SPOT_RADIUS_PIECES: f64 = 0.5;
+/// Steps of a spot's flux quadrature: polar angle about the plane's normal, and azimuth.
+const SPOT_STEPS: (usize, usize) = (48, 24);
+
+/// The bright spot a light makes on a room plane it almost touches, taken as a light of its own
+/// (docs/DECISIONS.md "Room edges are graded where the direct light bends"): a lamp 1 cm under
+/// a white ceiling sends its up-light onto a few square centimetres of it, which then light the
+/// walls' tops at grazing incidence, in the steep profile a batwing's own light has there. Its
+/// light on the room is the plane's Lambertian reflection of the flux landing within the spot's
+/// radius, from the light's foot on the plane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ReflectedSpot {
+    /// The light's foot on the plane (world, m).
+    position: DVec3,
+    /// The plane's unit normal into the room.
+    normal: DVec3,
+    /// The flux (lm) the light sends onto the plane within the spot's radius, at full output.
+    received_lm: f64,
+    /// The spot's intensity (cd) along the normal: `ρ · received_lm / π`.
+    intensity_cd: f64,
+}
+
+impl ReflectedSpot {
+    /// The spot's illuminance (lx) at `rx`: `I cos θ_out cos θ_in / r²`, 0 where blocked.
+    fn illuminance_at(&self, rx: &Receiver, occluders: Option<&Occluders>) -> f64 {
+        let d = rx.point - self.position;
+        let r2 = d.length_squared();
+        if r2 < 1e-12 {
+            return 0.0;
+        }
+        let r = r2.sqrt();
+        let (cos_out, cos_in) = (self.normal.dot(d) / r, -rx.normal.dot(d) / r);
+        if cos_out <= 0.0 || cos_in <= 0.0 {
+            return 0.0;
+        }
+        if occluders.is_some_and(|o| !o.visible(self.position + self.normal * 1e-4, rx.point)) {
+            return 0.0;
+        }
+        self.intensity_cd * cos_out * cos_in / r2
+    }
+}
+
+/// The spots of every light closer to a room plane than `radius_m` (and not on it), each light
+/// at full output: the flux it sends within `radius_m` of its foot, by a quadrature over the
+/// cone of directions to that disc (`dω = sin t dt dφ`, `t` from the plane's normal).
+fn reflected_spots(scene: &Scene, radius_m: f64, occluders: Option<&Occluders>) -> Vec<ReflectedSpot> {
+    let (steps_t, steps_phi) = SPOT_STEPS;
+    let mut spots = Vec::new();
+    for light in &scene.lights {
+        for plane in RoomPlane::all() {
+            let coordinate = if plane.far {
+                scene.room_size[plane.axis]
+            } else {
+                0.0
+            };
+            let height = (light.position[plane.axis] - coordinate).abs();
+            if height <= 0.0 || height >= radius_m {
+                continue;
+            }
+            let normal = plane.normal();
+            let mut position = light.position;
+            position[plane.axis] = coordinate;
+            let (u, v) = normal.any_orthonormal_pair();
+            let cone = (radius_m / height).atan();
+            let (dt, dphi) = (cone / steps_t as f64, std::f64::consts::TAU / steps_phi as f64);
+            let mut received_lm = 0.0;
+            for i in 0..steps_t {
+                let t = (i as f64 + 0.5) * dt;
+                for j in 0..steps_phi {
+                    let phi = (j as f64 + 0.5) * dphi;
+                    let dir = -normal * t.cos() + (u * phi.cos() + v * phi.sin()) * t.sin();
+                    let hit = light.position + dir * (height / t.cos());
+                    if occluders.is_some_and(|o| !o.visible(light.position, hit)) {
+                        continue;
+                    }
+                    let gamma = light.aim.dot(dir).clamp(-1.0, 1.0).acos();
+                    received_lm += light.curve.eval_rad(gamma) * t.sin() * dt * dphi;
+                }
+            }
+            received_lm *= luminance_weight(light.color);
+            if received_lm > 0.0 {
+                spots.push(ReflectedSpot {
+                    position,
+                    normal,
+                    received_lm,
+                    intensity_cd: plane.reflectance(scene) * received_lm / std::f64::consts::PI,
+                });
+            }
+        }
+    }
+    spots
 }
 
 #[cfg(test)]
@@ -332,6 +449,65 @@ mod tests {
                 .all(|p| p.segment.min.z == 2.5 && p.segment.max.z == 2.5),
             "the walls' tops only: {pieces:?}"
         );
+    }
+
+    /// A light of 100 cd in every direction 5 cm under the ceiling sends
+    /// `2π I (1 − h / √(R² + h²))` = 505.1 lm onto the ceiling within R = 0.25 m of its foot:
+    /// one spot there (the other planes are farther than R), whose intensity is the ceiling's
+    /// ρ = 0.7 times that over π.
+    #[test]
+    fn a_spots_flux_is_what_the_light_sends_within_its_radius() {
+        let s = room("[2.0, 1.5, 2.45]", "[[0, 100], [180, 100]]");
+        let spots = reflected_spots(&s, 0.25, None);
+        assert_eq!(spots.len(), 1, "{spots:?}");
+        let spot = spots[0];
+        let (h, r) = (0.05_f64, 0.25_f64);
+        let expected = std::f64::consts::TAU * 100.0 * (1.0 - h / (r * r + h * h).sqrt());
+        assert!(
+            (spot.received_lm / expected - 1.0).abs() < 1e-3,
+            "{} vs {expected}",
+            spot.received_lm
+        );
+        assert!((spot.intensity_cd - 0.7 * spot.received_lm / std::f64::consts::PI).abs() < 1e-9);
+        assert_eq!(
+            (spot.position, spot.normal),
+            (glam::DVec3::new(2.0, 1.5, 2.5), glam::DVec3::NEG_Z)
+        );
+    }
+
+    /// An up-light 1 cm under the ceiling whose light leaves at least 10° above the horizontal
+    /// lands all of it within 6 cm of its foot: no wall gets any of its direct light, so the
+    /// direct light bends and steps nowhere. Its spot then lights the walls' tops at grazing
+    /// incidence (nothing at the ceiling, rising downwards) beside a ceiling left dark: the step
+    /// grades the tops of the long walls, 1.5 m from it, along their middle 3 m (the end walls,
+    /// 2 m away, get a flatter profile), and nothing else (a Monte-Carlo reference room with
+    /// such a lamp was 6 % high on the ceiling 2 cm from a wall before the spots counted).
+    #[test]
+    fn a_lamps_spot_on_the_ceiling_grades_the_walls_tops() {
+        let s = room("[2.0, 1.5, 2.49]", "[[0, 0], [90, 0], [100, 300], [180, 350]]");
+        assert_eq!(reflected_spots(&s, 0.25, None).len(), 1);
+        let pieces = bending_edge_pieces(&s, 0.5, 0.02);
+        for y in [0.0, 3.0] {
+            let top: Vec<(f64, f64)> = pieces
+                .iter()
+                .map(|p| p.segment)
+                .filter(|g| g.min.y == y && g.max.y == y && g.min.z == 2.5 && g.max.z == 2.5)
+                .map(|g| (g.min.x, g.max.x))
+                .collect();
+            assert_eq!(
+                top,
+                [
+                    (0.5, 1.0),
+                    (1.0, 1.5),
+                    (1.5, 2.0),
+                    (2.0, 2.5),
+                    (2.5, 3.0),
+                    (3.0, 3.5)
+                ],
+                "the top of the wall y = {y}: {pieces:?}"
+            );
+        }
+        assert_eq!(pieces.len(), 12, "the long walls' tops only: {pieces:?}");
     }
 
     /// A hard-edged 40° spot 2.4 m above (2, 1) lights a floor pool of radius 0.87 m, which ends

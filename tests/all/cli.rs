@@ -447,7 +447,7 @@ fn plan_and_bake_commands_report_their_decisions() {
     assert!(
         notes
             .iter()
-            .any(|n| n.starts_with("graded along 19 pieces of the room's edges where the direct light")),
+            .any(|n| n.starts_with("graded along 19 pieces of the room's edges where the light next to them")),
         "{notes:?}"
     );
     // The text says the same, and that no SH basis is baked for the hierarchical engine.

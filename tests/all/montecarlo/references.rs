@@ -6,7 +6,8 @@
 //! wall, a white corridor, a narrow spot across a desk's edge, a corner niche, a partition from
 //! floor to ceiling with a doorway and a wall cabinet, wall sconces grazing a wall up and down,
 //! cove lighting on a ledge under the ceiling, an open bookshelf with a shelf light in one of
-//! its compartments, batwings under a low ceiling beside a column),
+//! its compartments, batwings under a low ceiling beside a column, lamps 1–2 cm from a ceiling,
+//! a wall and the floor, a white closet, puck lights 1 cm above a desk),
 //! 148–268 points each on floors, box
 //! and mesh tops and faces, walls and ceilings, including points 1–20 cm from box and mesh faces
 //! and 2–15 cm from the room's floor and ceiling edges. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
@@ -37,7 +38,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 22] = [
+pub const ROOMS: [&str; 25] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -60,6 +61,9 @@ pub const ROOMS: [&str; 22] = [
     "pictures",
     "shelves",
     "batwing",
+    "near-surfaces",
+    "closet",
+    "desk-lamps",
 ];
 
 /// The environment variable that regenerates the references.
@@ -535,6 +539,73 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
             pts.add(DVec3::new(2.5, 1.85 - d, s.z), DVec3::NEG_Z);
         }
     }
+    if name == "near-surfaces" {
+        // The wall x = 5 the grazer lights up and down from 2 cm, in line with it and beside
+        // it, and the ceiling above it.
+        for y in [1.0, 1.3] {
+            for z in [0.3, 1.0, 1.5, 1.7, 1.9, 2.1, 2.4, 2.55] {
+                pts.add(DVec3::new(s.x, y, z), DVec3::NEG_X);
+            }
+        }
+        for d in [0.02, 0.1, 0.3] {
+            pts.add(DVec3::new(s.x - d, 1.0, s.z), DVec3::NEG_Z);
+        }
+        // The wall y = 4 the in-ground uplight grazes from 10 cm, the ceiling above it and the
+        // floor around the light.
+        for z in [0.05, 0.3, 1.0, 2.0, 2.5] {
+            pts.add(DVec3::new(0.8, s.y, z), DVec3::NEG_Y);
+        }
+        for y in [3.95, 3.8, 3.5] {
+            pts.add(DVec3::new(0.8, y, s.z), DVec3::NEG_Z);
+        }
+        for (x, y) in [(0.8, 3.97), (0.8, 3.7), (0.6, 3.9), (1.2, 3.9)] {
+            pts.add(DVec3::new(x, y, 0.0), DVec3::Z);
+        }
+        // The floor under the up-down light and the table's top towards it.
+        for x in [1.5, 2.0, 2.5] {
+            pts.add(DVec3::new(x, 2.0, 0.0), DVec3::Z);
+        }
+    }
+    if name == "closet" {
+        // The shelf's top by the back wall and at its front, its underside, the back wall just
+        // above and below it, and the side walls in the dark corner above it.
+        for y in [0.52, 0.7, 0.88] {
+            pts.add(DVec3::new(0.6, y, 1.63), DVec3::Z);
+            pts.add(DVec3::new(0.3, y, 1.6), DVec3::NEG_Z);
+        }
+        for z in [1.4, 1.58, 1.65, 1.8, 2.2, 2.38] {
+            pts.add(DVec3::new(0.6, s.y, z), DVec3::NEG_Y);
+        }
+        for (x, n) in [(0.0, DVec3::X), (s.x, DVec3::NEG_X)] {
+            for z in [1.65, 2.0, 2.38] {
+                pts.add(DVec3::new(x, 0.7, z), n);
+            }
+        }
+    }
+    if name == "desk-lamps" {
+        // The desk's top around each puck, the wall above the desk behind them, the
+        // bookcase's side facing them, and the wall under the shelf.
+        for (x, y) in [
+            (1.4, 0.15),
+            (1.4, 0.05),
+            (1.6, 0.15),
+            (2.1, 0.4),
+            (2.1, 0.6),
+            (2.25, 0.4),
+        ] {
+            pts.add(DVec3::new(x, y, 0.74), DVec3::Z);
+        }
+        for x in [1.4, 2.1] {
+            for z in [0.76, 0.8, 0.9, 1.1, 1.4, 1.49] {
+                pts.add(DVec3::new(x, 0.0, z), DVec3::Y);
+            }
+        }
+        for y in [0.05, 0.2, 0.33] {
+            for z in [0.76, 0.85, 1.1, 1.5] {
+                pts.add(DVec3::new(2.3, y, z), DVec3::NEG_X);
+            }
+        }
+    }
     if name == "wall-washers" {
         for x in [1.5, 2.25, 3.0] {
             for d in [0.05, 0.15, 0.3, 0.5] {
@@ -880,8 +951,16 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// batwings 5 cm under a low ceiling, a column) was 7.1 % high on the ceiling 2 cm from a wall
 /// whose top they light in a steep, straight profile, until such a step beside a surface the
 /// lights leave dark graded the edge too (1.0 % since; docs/DECISIONS.md "Room edges are graded
-/// where the direct light bends").
-const ENGINE_BOUNDS: [(&str, f64, f64); 22] = [
+/// where the direct light bends"). The `near-surfaces` room (twenty-third round: lamps with no
+/// luminous radius 1–2 cm from a ceiling, a wall and the floor, lighting them) was 6.0 % high on
+/// the ceiling 2 cm from a wall that the ceiling lamp's reflected spot lights at grazing
+/// incidence, until such spots counted in the room-edge rules (1.3 % since). The `closet`
+/// (twenty-third round: white, a shelf touching three walls, clothes hanging 8 cm from the back
+/// wall) came in at 3.0 % with no change. The `desk-lamps` room (twenty-third round: pucks 1 cm
+/// above a desk against a wall) was 3.7 % low on the wall 6 cm above the desk until leaves near
+/// a lamp that close went down to its distance (1.7 % since; docs/DECISIONS.md "Patches near a
+/// lamp almost touching them").
+const ENGINE_BOUNDS: [(&str, f64, f64); 25] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
@@ -904,6 +983,9 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 22] = [
     ("pictures", 0.005, 0.047),
     ("shelves", 0.005, 0.027),
     ("batwing", 0.005, 0.015),
+    ("near-surfaces", 0.005, 0.016),
+    ("closet", 0.005, 0.036),
+    ("desk-lamps", 0.005, 0.021),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
