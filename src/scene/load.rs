@@ -691,8 +691,8 @@ impl Loader<'_> {
         Curve::new(&pairs).map_err(|e| self.error(&points.span(), field, e.to_string()))
     }
 
-    /// A light position: strictly inside the room, in no box, and in no OBJ's bounds unless it
-    /// lies on one of that OBJ's faces.
+    /// A light position: strictly inside the room, in no box, and in no OBJ (see
+    /// [`Solids::inside_mesh`]).
     fn light_position(&self, spec: &Spanned<Vec3Spec>, field: &str, solids: &Solids) -> Result<DVec3> {
         let position = self.vector(spec, field)?;
         let room_size = solids.room_size;
@@ -704,8 +704,8 @@ impl Loader<'_> {
             )
         } else if let Some(b) = solids.boxes.iter().position(|b| b.contains_strictly(position)) {
             format!("the light is inside box[{b}]")
-        } else if let Some(m) = solids.inside_mesh_bounds(position) {
-            format!("the light is inside the bounds of mesh[{m}] and on none of its faces")
+        } else if let Some(m) = solids.inside_mesh(position) {
+            format!("the light is inside mesh[{m}]")
         } else {
             return Ok(position);
         };
@@ -845,21 +845,31 @@ struct Solids<'a> {
 }
 
 impl Solids<'_> {
-    /// The first mesh whose bounds hold `p` strictly, unless `p` lies on one of its faces.
-    fn inside_mesh_bounds(&self, p: DVec3) -> Option<usize> {
+    /// The first mesh that holds `p`: strictly inside its bounds, on none of its faces, and
+    /// wound around by them — the generalized winding number `w = Σ Ω / 4π` over its
+    /// triangles' signed solid angles is 1 inside a closed mesh and 0 outside it, whichever way
+    /// its faces turn, so `|w| > ½` (docs/DECISIONS.md "A light inside an OBJ"). The bounds
+    /// alone refused an up-light under a baffle hung at 30°, which lies inside the baffle's
+    /// bounds but outside the baffle.
+    fn inside_mesh(&self, p: DVec3) -> Option<usize> {
         let tolerance = 1e-9 * (1.0 + self.room_size.max_element());
         self.mesh_bounds.iter().enumerate().find_map(|(m, bounds)| {
-            let on_a_face = self
-                .obj_surfaces
-                .iter()
-                .filter(|s| s.geometry.mesh_index == m)
-                .any(|s| {
-                    let g = &s.geometry;
-                    g.triangles
-                        .iter()
-                        .any(|t| on_triangle(p, t.map(|i| g.positions[i as usize]), tolerance))
-                });
-            (bounds.contains_strictly(p) && !on_a_face).then_some(m)
+            if !bounds.contains_strictly(p) {
+                return None;
+            }
+            let triangles = || {
+                self.obj_surfaces
+                    .iter()
+                    .filter(|s| s.geometry.mesh_index == m)
+                    .flat_map(|s| {
+                        let g = &s.geometry;
+                        g.triangles.iter().map(|t| t.map(|i| g.positions[i as usize]))
+                    })
+            };
+            if triangles().any(|t| on_triangle(p, t, tolerance)) {
+                return None;
+            }
+            (obj::winding_number(p, triangles()).abs() > 0.5).then_some(m)
         })
     }
 }

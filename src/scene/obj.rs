@@ -462,6 +462,25 @@ fn material_reflectance(obj: &Path, material: Option<&Material>) -> Result<Refle
     Ok(Reflectance(*kd))
 }
 
+/// The generalized winding number of the triangles around `p` (Jacobson et al. 2013):
+/// `Σ Ω / 4π` over their signed solid angles seen from `p`; ±1 inside a closed mesh (the sign
+/// from its faces' turn), 0 outside, between for an open one.
+pub fn winding_number(p: DVec3, triangles: impl Iterator<Item = [DVec3; 3]>) -> f64 {
+    triangles
+        .map(|[a, b, c]| signed_solid_angle(a - p, b - p, c - p))
+        .sum::<f64>()
+        / (4.0 * std::f64::consts::PI)
+}
+
+/// Signed solid angle (sr) of the triangle `a, b, c` seen from the origin, positive when it
+/// turns counter-clockwise seen from there (Van Oosterom & Strackee 1983).
+pub fn signed_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (la, lb, lc) = (a.length(), b.length(), c.length());
+    let numerator = a.dot(b.cross(c));
+    let denominator = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    2.0 * numerator.atan2(denominator)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

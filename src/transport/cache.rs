@@ -19,8 +19,9 @@ use std::time::SystemTime;
 
 /// File magic.
 const MAGIC: &[u8; 8] = b"HAIKOBAK";
-/// Bumped whenever the payload layout or the bake's maths change.
-pub const FORMAT_VERSION: u32 = 1;
+/// Bumped whenever the payload layout or the bake's maths change (2: shadow rays meet a mesh's
+/// triangles along their shared edges, docs/DECISIONS.md "Shadow rays through a mesh's edges").
+pub const FORMAT_VERSION: u32 = 2;
 const HEADER_LEN: usize = 8 + 4 + 4 + 8 + 8 + 8;
 
 pub use crate::fsio::Fnv64;

@@ -178,10 +178,7 @@ pub fn illuminance_at(
 
 /// Solid angle (sr) of the triangle `a, b, c` seen from the origin (Van Oosterom & Strackee 1983).
 pub fn triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let (la, lb, lc) = (a.length(), b.length(), c.length());
-    let numerator = a.dot(b.cross(c)).abs();
-    let denominator = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
-    2.0 * numerator.atan2(denominator)
+    crate::scene::obj::signed_solid_angle(a, b, c).abs()
 }
 
 /// Solid-angle quadrature over a planar convex polygon (world, m) seen from a source at

@@ -186,8 +186,9 @@ impl OperatorOrigin {
 }
 
 /// Bumped whenever the links or the balancing make something else of the same leaves, occluders
-/// and options: the operator's cache entries are keyed by it.
-const OPERATOR_FORMAT: u64 = 1;
+/// and options: the operator's cache entries are keyed by it (2: shadow rays meet a mesh's
+/// triangles along their shared edges).
+const OPERATOR_FORMAT: u64 = 2;
 
 /// The key of the operator's cache entry: everything the links and the balancing are made of —
 /// the leaves (corners, polygons, surfaces, which stand alone or in a slot), the occluders when

@@ -248,8 +248,40 @@ fn segment_blocked(boxes: Boxes<'_>, triangles: Option<&TriangleBvh>, from: DVec
     }
     let ray = Ray::new(from.as_vec3a(), (d / len).as_vec3a(), t0, t1);
     !tris.bvh.ray_traverse_miss(ray, |r, id| {
-        tris.triangles[tris.bvh.primitive_indices[id] as usize].intersect(r)
+        ray_meets_triangle(&tris.triangles[tris.bvh.primitive_indices[id] as usize], r)
     })
+}
+
+/// How far (barycentric, of the triangle's size) past its edges a ray still meets a triangle:
+/// about a micrometre on a 0.1 m fine triangle.
+const TRIANGLE_EDGE_MARGIN: f32 = 1e-5;
+
+/// Distance along `ray` at which it meets `t` within the ray's range, or infinity: Möller–Trumbore
+/// with the edges widened by [`TRIANGLE_EDGE_MARGIN`] (docs/DECISIONS.md "Shadow rays through a
+/// mesh's edges"). obvhs' own test rounds a ray through the edge two triangles share a hair
+/// outside both, so light passed through an OBJ panel along every line of its fine grid — the
+/// plane of a light and a receiver standing over such a line.
+fn ray_meets_triangle(t: &Triangle, ray: &Ray) -> f32 {
+    let (e1, e2) = (t.v1 - t.v0, t.v2 - t.v0);
+    let p = ray.direction.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return f32::INFINITY;
+    }
+    let inv = 1.0 / det;
+    let s = ray.origin - t.v0;
+    let u = s.dot(p) * inv;
+    let q = s.cross(e1);
+    let v = ray.direction.dot(q) * inv;
+    if u < -TRIANGLE_EDGE_MARGIN || v < -TRIANGLE_EDGE_MARGIN || u + v > 1.0 + TRIANGLE_EDGE_MARGIN {
+        return f32::INFINITY;
+    }
+    let distance = e2.dot(q) * inv;
+    if distance >= ray.tmin && distance <= ray.tmax {
+        distance
+    } else {
+        f32::INFINITY
+    }
 }
 
 impl Visibility for Occluders {
@@ -311,6 +343,53 @@ mod tests {
         Aabb {
             min: DVec3::from(min),
             max: DVec3::from(max),
+        }
+    }
+
+    /// A square panel of two triangles meeting along its diagonal, and a 0.5 m square of eight
+    /// meeting along lines through its middle (a fine grid): a segment through the shared edge
+    /// or the shared corner, exactly, is blocked; one past the panel's outer edge is not.
+    #[test]
+    fn a_ray_through_an_edge_two_triangles_share_is_blocked() {
+        let (a, b, c, d) = (
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(0.0, 1.0, 1.0),
+        );
+        let occ = Occluders::from_parts(&[], &[[a, b, c], [a, c, d]]);
+        for k in 1..20 {
+            let x = k as f64 / 20.0;
+            let on_diagonal = DVec3::new(x, x, 1.0);
+            let below = DVec3::new(0.37, 0.61, 0.2);
+            let above = below + (on_diagonal - below) * 2.0;
+            assert!(occ.blocked(below, above), "through ({x}, {x})");
+        }
+        assert!(!occ.blocked(DVec3::new(1.01, 0.5, 0.0), DVec3::new(1.01, 0.5, 2.0)));
+        // A grid of 0.25 m squares over x, y in [1, 1.5], z = 2.1654, crossed in the plane x = 1.25
+        // from a light under it to a point over it (the reference room's baffle, flattened).
+        let mut grid = Vec::new();
+        for i in 0..2 {
+            for j in 0..2 {
+                let (x, y) = (1.0 + 0.25 * i as f64, 1.0 + 0.25 * j as f64);
+                let z = 2.2;
+                let q = [
+                    DVec3::new(x, y, z),
+                    DVec3::new(x + 0.25, y, z),
+                    DVec3::new(x + 0.25, y + 0.25, z),
+                    DVec3::new(x, y + 0.25, z),
+                ];
+                grid.push([q[0], q[1], q[2]]);
+                grid.push([q[0], q[2], q[3]]);
+            }
+        }
+        let occ = Occluders::from_parts(&[], &grid);
+        let light = DVec3::new(1.25, 1.27, 2.1654);
+        for y in [1.1, 1.25, 1.3, 1.45] {
+            assert!(
+                occ.blocked(light, DVec3::new(1.25, y, 2.8)),
+                "to (1.25, {y}, 2.8)"
+            );
         }
     }
 

@@ -588,6 +588,35 @@ fn light_inside_a_box_is_rejected() {
     assert!(m.contains("light[0].position") && m.contains("box[0]"), "{m}");
 }
 
+/// A wedge (a ramp rising from x = 1 to 1 m at x = 3): a light over its slope lies inside the
+/// wedge's bounds but outside it, and loads; one under the slope is refused, naming the mesh,
+/// whichever way the wedge's faces turn.
+#[test]
+fn a_light_inside_an_obj_is_refused_and_one_only_in_its_bounds_is_not() {
+    let wedge = "v 1 1 0\nv 3 1 0\nv 3 2 0\nv 1 2 0\nv 3 1 1\nv 3 2 1\n\
+                 f 1 4 3 2\nf 2 3 6 5\nf 1 5 6 4\nf 1 2 5\nf 4 6 3\n";
+    let reversed = "v 1 1 0\nv 3 1 0\nv 3 2 0\nv 1 2 0\nv 3 1 1\nv 3 2 1\n\
+                    f 2 3 4 1\nf 5 6 3 2\nf 4 6 5 1\nf 5 2 1\nf 3 6 4\n";
+    let room = |position: &str| {
+        format!(
+            "{GOOD_ROOM}[[light]]\nname = \"b\"\nposition = {position}\nlid = [[0, 100], [90, 0]]\n\
+             [[mesh]]\nfile = \"wedge.obj\"\nup = \"z\"\n"
+        )
+    };
+    for obj in [wedge, reversed] {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "wedge.obj", obj);
+        let over = write(dir.path(), "over.toml", &room("[1.5, 1.5, 0.8]"));
+        let scene = load(&over).unwrap_or_else(|e| panic!("over the slope: {e}"));
+        assert_eq!(scene.lights[1].position, DVec3::new(1.5, 1.5, 0.8));
+        let m = load_error(&room("[2.8, 1.5, 0.3]"), &[("wedge.obj", obj)]);
+        assert!(
+            m.contains("light[1].position") && m.contains("inside mesh[0]"),
+            "{m}"
+        );
+    }
+}
+
 #[test]
 fn missing_obj_names_the_path_written_and_resolved() {
     let m = load_error(&format!("{GOOD_ROOM}[[mesh]]\nfile = \"no/such.obj\"\n"), &[]);

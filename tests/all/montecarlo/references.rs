@@ -8,7 +8,7 @@
 //! cove lighting on a ledge under the ceiling, an open bookshelf with a shelf light in one of
 //! its compartments, batwings under a low ceiling beside a column, lamps 1–2 cm from a ceiling,
 //! a wall and the floor, a white closet, puck lights 1 cm above a desk, an 8 m atrium's wall
-//! grazers, hard spots into corners),
+//! grazers, hard spots into corners, lamps at OBJ furniture),
 //! 148–268 points each on floors, box
 //! and mesh tops and faces, walls and ceilings, including points 1–20 cm from box and mesh faces
 //! and 2–15 cm from the room's floor and ceiling edges. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
@@ -39,7 +39,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 27] = [
+pub const ROOMS: [&str; 28] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -67,6 +67,7 @@ pub const ROOMS: [&str; 27] = [
     "desk-lamps",
     "atrium",
     "corners",
+    "mesh-lamps",
 ];
 
 /// The environment variable that regenerates the references.
@@ -664,6 +665,41 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
             pts.add(DVec3::new(x, y, 0.0), DVec3::Z);
         }
     }
+    if name == "mesh-lamps" {
+        // The table top around the puck 1 cm above it, and the floor around the pedestal and
+        // past the table's rim.
+        for (x, y) in [
+            (2.75, 2.0),
+            (2.75, 2.05),
+            (2.85, 2.0),
+            (2.6, 2.0),
+            (2.5, 2.3),
+            (2.3, 1.8),
+        ] {
+            pts.add(DVec3::new(x, y, 0.74), DVec3::Z);
+        }
+        for x in [2.35, 2.65, 3.15, 3.3] {
+            pts.add(DVec3::new(x, 2.0, 0.0), DVec3::Z);
+        }
+        // The baffle's underside (its lower face, tilted 30° about x) the up-light lights from
+        // 3 cm, and the ceiling above the baffle.
+        let (sin, cos) = (0.5_f64, 0.75_f64.sqrt());
+        let down = DVec3::new(0.0, sin, -cos);
+        for (x, y) in [
+            (0.0, 0.0),
+            (0.3, 0.0),
+            (0.55, 0.0),
+            (0.0, 0.2),
+            (0.0, -0.25),
+            (-0.4, 0.1),
+        ] {
+            let p = DVec3::new(1.6 + x, 0.9 + y * cos + 0.01 * sin, 2.2 + y * sin - 0.01 * cos);
+            pts.add(p, down);
+        }
+        for (x, y) in [(1.6, 0.9), (1.6, 1.3), (2.4, 0.9)] {
+            pts.add(DVec3::new(x, y, s.z), DVec3::NEG_Z);
+        }
+    }
     if name == "wall-washers" {
         for x in [1.5, 2.25, 3.0] {
             for d in [0.05, 0.15, 0.3, 0.5] {
@@ -1019,8 +1055,13 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// a lamp that close went down to its distance (1.7 % since; docs/DECISIONS.md "Patches near a
 /// lamp almost touching them"). The `atrium` (3 × 4 × 8 m, in-ground grazers 10 cm from each
 /// wall up to the roof) and `corners` (hard spots into a floor corner, a ceiling corner and onto
-/// a box in a corner) came in at 2.2 % and 1.4 % with no change.
-const ENGINE_BOUNDS: [(&str, f64, f64); 27] = [
+/// a box in a corner) came in at 2.2 % and 1.4 % with no change. The `mesh-lamps` room
+/// (twenty-third round: a puck 1 cm above an OBJ table, an up-light 3 cm under a tilted OBJ
+/// baffle) first could not be written — the light under the baffle lay in its bounds, which
+/// were refused — and then had the ceiling above the baffle 2 888 % high: shadow rays passed
+/// through the baffle along its fine triangles' shared edges (1.6 % since; docs/DECISIONS.md
+/// "Shadow rays through a mesh's edges", "A light inside an OBJ").
+const ENGINE_BOUNDS: [(&str, f64, f64); 28] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
@@ -1048,6 +1089,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 27] = [
     ("desk-lamps", 0.005, 0.021),
     ("atrium", 0.005, 0.027),
     ("corners", 0.005, 0.018),
+    ("mesh-lamps", 0.005, 0.019),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
