@@ -366,8 +366,9 @@ mod tests {
             assert!(occ.blocked(below, above), "through ({x}, {x})");
         }
         assert!(!occ.blocked(DVec3::new(1.01, 0.5, 0.0), DVec3::new(1.01, 0.5, 2.0)));
-        // A grid of 0.25 m squares over x, y in [1, 1.5], z = 2.1654, crossed in the plane x = 1.25
-        // from a light under it to a point over it (the reference room's baffle, flattened).
+        // A grid of 0.25 m squares over x, y in [1, 1.5] at z = 2.2, crossed in the plane
+        // x = 1.25 from a light 3.5 cm under it to points over it (the reference room's baffle,
+        // flattened).
         let mut grid = Vec::new();
         for i in 0..2 {
             for j in 0..2 {

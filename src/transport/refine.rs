@@ -1365,6 +1365,20 @@ lid = [[0, 100], [90, 0]]
 solver_patch_size = 0.5
 "#;
 
+    /// The bounds of leaf `p` of `mesh` (world, m): its corners' extent.
+    fn leaf_box(mesh: &PatchMesh, p: &Patch) -> Aabb {
+        p.vertex_ids().iter().map(|&v| mesh.positions[v as usize]).fold(
+            Aabb {
+                min: DVec3::INFINITY,
+                max: DVec3::NEG_INFINITY,
+            },
+            |b, q| Aabb {
+                min: b.min.min(q),
+                max: b.max.max(q),
+            },
+        )
+    }
+
     /// The empty room with a 1 × 1 × 0.8 m box on the floor and its light at `light`.
     fn box_room(light: &str) -> Scene {
         scene(&EMPTY.replace("[2.0, 1.5, 1.2]", light).replace(
@@ -1484,15 +1498,9 @@ solver_patch_size = 0.5
         let lamp = s.lights[0].position;
         let mut smallest = f64::INFINITY;
         for p in &solver.mesh.patches {
-            let corners: Vec<DVec3> = p
-                .vertex_ids()
-                .iter()
-                .map(|&v| solver.mesh.positions[v as usize])
-                .collect();
-            let lo = corners.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
-            let hi = corners.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
-            let longest = (hi - lo).max_element();
-            let d = point_box_distance(lamp, &Aabb { min: lo, max: hi });
+            let bounds = leaf_box(&solver.mesh, p);
+            let longest = (bounds.max - bounds.min).max_element();
+            let d = point_box_distance(lamp, &bounds);
             if p.normal.dot(lamp - p.centroid) > 0.0 {
                 assert!(longest <= d.max(2.0 * 0.03) + 1e-12, "{longest} at distance {d}");
             }
@@ -1527,13 +1535,7 @@ solver_patch_size = 0.5
             let mut sizes = Vec::new();
             let mut smallest = f64::INFINITY;
             for p in &solver.mesh.patches {
-                let corners: Vec<DVec3> = p
-                    .vertex_ids()
-                    .iter()
-                    .map(|&v| solver.mesh.positions[v as usize])
-                    .collect();
-                let lo = corners.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
-                let hi = corners.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
+                let Aabb { min: lo, max: hi } = leaf_box(&solver.mesh, p);
                 let longest = (hi - lo).max_element();
                 smallest = smallest.min(longest);
                 if foot.cmpge(lo - 1e-9).all() && foot.cmple(hi + 1e-9).all() {
@@ -1783,11 +1785,8 @@ solver_patch_size = 0.5
                 .enumerate()
                 .filter(|(_, p)| (p.centroid.z - 2.1).abs() < 1e-9 && p.normal.z > 0.5)
                 .map(|(k, p)| {
-                    let corners: Vec<DVec3> =
-                        p.vertex_ids().iter().map(|&v| m.positions[v as usize]).collect();
-                    let lo = corners.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
-                    let hi = corners.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
-                    (k, lo, hi)
+                    let b = leaf_box(m, p);
+                    (k, b.min, b.max)
                 })
                 .find(|(_, lo, hi)| lo.x <= x && x <= hi.x && lo.y <= y && y <= hi.y)
                 .map(|(k, lo, hi)| (k, hi.x - lo.x, hi.y - lo.y))
