@@ -838,6 +838,7 @@ impl Splitter<'_> {
         let options = self.options;
         let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
         let extent = cell.extent(longer);
+        // No light, however near, splits a cell this short (`lamp_min_for` grows with distance).
         if options.lamp_ratio <= 0.0 || extent <= 2.0 * options.lamp_min_for(0.0) {
             return None;
         }
