@@ -396,8 +396,8 @@ impl Statements {
         }
     }
 
-    /// The group's vertices placed in the world (only those its faces use) and its triangles,
-    /// zero-area fan triangles dropped; a face whose total area is below [`MIN_FACE_AREA`] or
+    /// The group's vertices placed in the world (only those its faces use) and its triangles
+    /// ([`triangulate`]), zero-area triangles dropped; a face whose total area is below [`MIN_FACE_AREA`] or
     /// not finite is an error.
     fn place(
         &self,
@@ -419,7 +419,7 @@ impl Statements {
                     })
                 })
                 .collect();
-            let fan: Vec<[u32; 3]> = (2..ids.len()).map(|c| [ids[0], ids[c - 1], ids[c]]).collect();
+            let fan = triangulate(&positions, &ids);
             let area = |t: &[u32; 3]| {
                 let [a, b, c] = t.map(|i| positions[i as usize]);
                 0.5 * (b - a).cross(c - a).length()
@@ -440,6 +440,55 @@ impl Statements {
         }
         Ok((positions, triangles))
     }
+}
+
+/// The triangles of the polygon `ids` (indices into `positions`, in the face's order): a fan
+/// from its first corner when the polygon is convex (or not planar enough to tell), else ear
+/// clipping, so an L-shaped face (a sofa's seat) is covered once and facing one way
+/// (docs/DECISIONS.md "Non-convex OBJ faces"). Every triangle keeps the face's winding.
+fn triangulate(positions: &[DVec3], ids: &[u32]) -> Vec<[u32; 3]> {
+    let fan =
+        |ids: &[u32]| -> Vec<[u32; 3]> { (2..ids.len()).map(|c| [ids[0], ids[c - 1], ids[c]]).collect() };
+    let at = |i: u32| positions[i as usize];
+    // Newell's normal: the polygon's area vector, whatever its shape.
+    let normal = (0..ids.len()).fold(DVec3::ZERO, |n, k| {
+        let (a, b) = (at(ids[k]), at(ids[(k + 1) % ids.len()]));
+        n + a.cross(b)
+    });
+    let turn = |a: u32, b: u32, c: u32| (at(b) - at(a)).cross(at(c) - at(b)).dot(normal);
+    let n = ids.len();
+    if n <= 3
+        || normal.length_squared() == 0.0
+        || (0..n).all(|k| turn(ids[k], ids[(k + 1) % n], ids[(k + 2) % n]) >= 0.0)
+    {
+        return fan(ids);
+    }
+    let inside = |p: DVec3, [a, b, c]: [u32; 3]| {
+        let side = |u: u32, v: u32| (at(v) - at(u)).cross(p - at(u)).dot(normal) >= 0.0;
+        side(a, b) && side(b, c) && side(c, a)
+    };
+    let mut rest = ids.to_vec();
+    let mut out = Vec::with_capacity(n - 2);
+    while rest.len() > 3 {
+        let m = rest.len();
+        let ear = (0..m).find(|&k| {
+            let t = [rest[(k + m - 1) % m], rest[k], rest[(k + 1) % m]];
+            turn(t[0], t[1], t[2]) > 0.0
+                && rest
+                    .iter()
+                    .filter(|i| !t.contains(i))
+                    .all(|&i| at(i) == at(t[0]) || at(i) == at(t[2]) || !inside(at(i), t))
+        });
+        // A self-crossing polygon has no ear: what is left is fanned.
+        let Some(k) = ear else {
+            out.extend(fan(&rest));
+            return out;
+        };
+        out.push([rest[(k + m - 1) % m], rest[k], rest[(k + 1) % m]]);
+        rest.remove(k);
+    }
+    out.push([rest[0], rest[1], rest[2]]);
+    out
 }
 
 /// `Kd` as a reflectance; 0.5 grey without a material or `Kd`.
@@ -507,6 +556,31 @@ mod tests {
         assert_eq!(s.len(), 1);
         assert_eq!(s[0].geometry.triangles, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(s[0].geometry.name, "mesh0:unnamed_object");
+    }
+
+    /// An L-shaped face, listed from a corner its fan would not see all of: ear clipping covers
+    /// the L once (the triangles' areas add up to its 3 m², none facing the other way), where
+    /// the fan from its first corner overlaps itself and leaves the L.
+    #[test]
+    fn a_non_convex_face_is_covered_once_and_facing_one_way() {
+        // The L: a 2 × 1 bar along x, a 1 × 1 block on its left end above; listed from (0, 2),
+        // whose fan would pass outside the L to (2, 1).
+        let obj = "v 0 0 0\nv 2 0 0\nv 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nf 6 1 2 3 4 5\n";
+        let s = parse(obj, "").unwrap();
+        let g = &s[0].geometry;
+        let area = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| g.positions[i as usize]);
+            (b - a).cross(c - a).z / 2.0
+        };
+        assert_eq!(g.triangles.len(), 4);
+        assert!(g.triangles.iter().all(|t| area(t) > 0.0), "{:?}", g.triangles);
+        let total: f64 = g.triangles.iter().map(area).sum();
+        assert!((total - 3.0).abs() < 1e-12, "{total}");
+        // Every triangle's centroid lies in the L.
+        for t in &g.triangles {
+            let c = t.iter().map(|&i| g.positions[i as usize]).sum::<DVec3>() / 3.0;
+            assert!(c.x < 1.0 || c.y < 1.0, "a triangle outside the L at {c}");
+        }
     }
 
     #[test]

@@ -23,6 +23,38 @@ struct Edge {
     offset: f64,
 }
 
+/// The contact edge nearest something, as the refinement grades towards it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct NearestEdge {
+    /// Distance (m) to the edge.
+    pub distance: f64,
+    /// Unit direction of the edge (world frame; either way along it).
+    pub direction: DVec3,
+}
+
+impl NearestEdge {
+    fn of(edge: &Edge, distance: f64) -> Self {
+        NearestEdge {
+            distance,
+            direction: (edge.b - edge.a).normalize_or_zero(),
+        }
+    }
+}
+
+/// True when an OBJ triangle (world corners, its unit `normal` the side it lights) lies in one
+/// of the room's planes facing out of the room, as a sofa's underside on the floor or its back
+/// against a wall does: it receives no light and sends none, so the solve leaves it out
+/// (docs/DECISIONS.md "OBJ faces against the room").
+pub(crate) fn faces_out_of_room(room_size: DVec3, corners: &[DVec3; 3], normal: DVec3) -> bool {
+    (0..3).any(|axis| {
+        [(0.0, 1.0), (room_size[axis], -1.0)]
+            .into_iter()
+            .any(|(offset, inward)| {
+                corners.iter().all(|p| (p[axis] - offset).abs() <= ON_PLANE_M) && normal[axis] * inward < 0.0
+            })
+    })
+}
+
 /// The contact edges and triangles of a scene's OBJ meshes.
 #[derive(Debug, Clone)]
 pub(crate) struct MeshContacts {
@@ -81,23 +113,26 @@ impl MeshContacts {
         self.edges.len()
     }
 
-    /// Distance (m) from the flat box `cell` of a room surface in the plane
-    /// `coordinate[axis] = offset` to the nearest contact edge in that plane; `None` when no edge
-    /// lies in it.
-    pub(crate) fn distance_to_cell(&self, axis: usize, offset: f64, cell: &Aabb) -> Option<f64> {
+    /// The nearest contact edge to the flat box `cell` of a room surface in the plane
+    /// `coordinate[axis] = offset`; `None` when no edge lies in it.
+    pub(crate) fn nearest_to_cell(&self, axis: usize, offset: f64, cell: &Aabb) -> Option<NearestEdge> {
         self.edges
             .iter()
             .filter(|e| e.axis == axis && (e.offset - offset).abs() <= ON_PLANE_M)
-            .map(|e| segment_box_distance(e.a, e.b, cell))
-            .min_by(f64::total_cmp)
+            .map(|e| NearestEdge::of(e, segment_box_distance(e.a, e.b, cell)))
+            .min_by(|x, y| x.distance.total_cmp(&y.distance))
     }
 
-    /// Distance (m) from the nearest of `points` to the nearest contact edge.
-    pub(crate) fn distance_to_points(&self, points: &[DVec3]) -> Option<f64> {
+    /// The nearest contact edge to the nearest of `points`.
+    pub(crate) fn nearest_to_points(&self, points: &[DVec3]) -> Option<NearestEdge> {
         self.edges
             .iter()
-            .flat_map(|e| points.iter().map(|&p| point_segment_distance(p, e.a, e.b)))
-            .min_by(f64::total_cmp)
+            .flat_map(|e| {
+                points
+                    .iter()
+                    .map(move |&p| NearestEdge::of(e, point_segment_distance(p, e.a, e.b)))
+            })
+            .min_by(|x, y| x.distance.total_cmp(&y.distance))
     }
 
     /// True when the point `p` of a surface facing the unit `normal` is covered by an OBJ mesh:
@@ -178,10 +213,10 @@ fn ray_triangle(o: DVec3, d: DVec3, [a, b, c]: &[DVec3; 3]) -> Option<f64> {
     ((0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
 }
 
-/// A 4 × 3 × 2.5 m room with an OBJ plinth turned 30° standing on the floor.
+/// A 4 × 3 × 2.5 m room with an OBJ plinth (0.6 × 0.6 × 1 m, closed) turned 30° standing on
+/// the floor.
 #[cfg(test)]
 pub(crate) fn plinth_room() -> Scene {
-    let dir = tempfile::tempdir().expect("a temporary directory");
     let (c, h, turn) = (DVec3::new(2.0, 1.5, 0.0), 0.3, 30f64.to_radians());
     let corner = |sx: f64, sy: f64| {
         let (x, y) = (sx * h, sy * h);
@@ -203,7 +238,16 @@ pub(crate) fn plinth_room() -> Scene {
             obj.push_str(&format!("v {} {} {z}\n", p.x, p.y));
         }
     }
-    obj.push_str("f 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nf 5 6 7 8\n");
+    // Four sides, the top, and the underside on the floor (facing down, out of the room).
+    obj.push_str("f 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nf 5 6 7 8\nf 4 3 2 1\n");
+    obj_room(&obj)
+}
+
+/// A 4 × 3 × 2.5 m room (floor 0.3, walls 0.5, ceiling 0.7) with the OBJ `obj` (z up, metres)
+/// and one light at (1, 1, 2).
+#[cfg(test)]
+pub(crate) fn obj_room(obj: &str) -> Scene {
+    let dir = tempfile::tempdir().expect("a temporary directory");
     std::fs::write(dir.path().join("plinth.obj"), obj).expect("writes");
     crate::scene::load::load_text(
         &dir.path().join("room.toml"),
@@ -254,17 +298,42 @@ mod tests {
             max: centre + DVec3::new(half, half, 0.0),
         };
         let near = contacts
-            .distance_to_cell(2, 0.0, &cell(0.1))
-            .expect("in the floor plane");
+            .nearest_to_cell(2, 0.0, &cell(0.1))
+            .expect("in the floor plane")
+            .distance;
         // The corner (0.1, 0.1) from the centre, to the side facing 30°: 0.3 − 0.1 (cos 30° + sin 30°).
         let (cos, sin) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
         assert!((near - (0.3 - 0.1 * (cos + sin))).abs() < 1e-9, "{near}");
-        assert_eq!(contacts.distance_to_cell(2, 0.0, &cell(0.35)), Some(0.0));
-        assert_eq!(contacts.distance_to_cell(2, 2.5, &cell(0.35)), None);
+        assert_eq!(
+            contacts.nearest_to_cell(2, 0.0, &cell(0.35)).map(|e| e.distance),
+            Some(0.0)
+        );
+        assert_eq!(contacts.nearest_to_cell(2, 2.5, &cell(0.35)), None);
         let d = contacts
-            .distance_to_points(&[centre + DVec3::new(0.0, 0.0, 0.4)])
-            .expect("edges");
+            .nearest_to_points(&[centre + DVec3::new(0.0, 0.0, 0.4)])
+            .expect("edges")
+            .distance;
         assert!((d - (0.3f64.hypot(0.4))).abs() < 1e-9, "{d}");
+    }
+
+    /// Triangles lying in a room plane face out of the room when their normal points through
+    /// it: a plinth's underside on the floor, a cabinet's back on a wall; one facing into the
+    /// room (a rug drawn on the floor) or off the plane is kept.
+    #[test]
+    fn only_triangles_in_a_room_plane_facing_through_it_face_out_of_the_room() {
+        let size = DVec3::new(4.0, 3.0, 2.5);
+        let floor = [
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(2.0, 1.0, 0.0),
+            DVec3::new(1.0, 2.0, 0.0),
+        ];
+        assert!(faces_out_of_room(size, &floor, DVec3::NEG_Z));
+        assert!(!faces_out_of_room(size, &floor, DVec3::Z));
+        let wall = floor.map(|p| DVec3::new(p.x, 3.0, p.y));
+        assert!(faces_out_of_room(size, &wall, DVec3::Y));
+        assert!(!faces_out_of_room(size, &wall, DVec3::NEG_Y));
+        let lifted = floor.map(|p| p + DVec3::Z * 0.01);
+        assert!(!faces_out_of_room(size, &lifted, DVec3::NEG_Z));
     }
 
     #[test]

@@ -38,12 +38,16 @@
 //!   of the slot is lit), the cells are halved across it down to `shadow_min_m`.
 //! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface (its triangles' edges
 //!   lying on a room plane, in any direction), the cells of that surface and the mesh's
-//!   triangles are halved (rectangles across their longer side, triangles 1 → 4) while larger
-//!   than `contact_ratio ×` their distance to a contact edge, down to `contact_min_m`; the room
-//!   surface's cells the mesh covers (the floor under a plinth) are left out of the solve.
+//!   triangles are cut in strips by the boxes' rule ([`strip_cut`]) beside an edge along a
+//!   cell's side or flat to a triangle's plane, and halved across their longer side beside a
+//!   turned or steep one, down to `contact_min_m`; the room surface's cells the mesh covers (the
+//!   floor under a plinth), the mesh's faces against a room surface (its underside) and those
+//!   inside another of its blocks are left out of the solve (docs/DECISIONS.md "OBJ contacts
+//!   graded in strips", "OBJ faces against the room or inside another block").
 //!
 //! Splits are binary and axis-aligned on the room's and boxes' rectangles (so leaves stay
-//! rectangles of one surface) and 1 → 4 by edge midpoints on OBJ triangles (near lights only).
+//! rectangles of one surface); OBJ triangles are split 1 → 4 by edge midpoints near lights and
+//! cut in two or three triangles across a direction beside contacts ([`halve_triangle`]).
 //! Leaves keep the surface of their coarse patch; vertices are shared within a surface where they
 //! coincide (T-junctions are allowed). World frame: metres, z up.
 
@@ -54,7 +58,7 @@ use rayon::prelude::*;
 
 use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Light, Patch, PatchMesh, Scene, SurfaceKind};
-use crate::transport::mesh_contacts::MeshContacts;
+use crate::transport::mesh_contacts::{MeshContacts, faces_out_of_room};
 use crate::transport::occlusion::Occluders;
 use crate::transport::room_edges::{BendingPiece, bending_edge_pieces};
 use crate::transport::visibility::Visibility;
@@ -447,16 +451,49 @@ fn point_box_distance(p: DVec3, b: &Aabb) -> f64 {
     p.distance(p.clamp(b.min, b.max))
 }
 
-/// Pieces of OBJ faces along an OBJ contact edge are split 1 → 4 while their longest edge exceeds
-/// twice this (m): isotropic splits of a triangle touching the edge multiply, and pieces half as
-/// large (3 cm, the rectangles' `contact_min_m` doubled) doubled the OBJ faces' leaves for about
-/// the same errors against the Monte-Carlo reference (docs/DECISIONS.md "OBJ furniture on its
-/// support").
-const MESH_FACE_MIN_M: f64 = 0.06;
+/// An OBJ contact edge within this (1 − cosine) of one of a room cell's sides is graded towards
+/// with strips along it; a turned one with squares.
+const ALIGNED_EDGE_TOLERANCE: f64 = 1e-6;
+
+/// An OBJ contact edge at most 60° to a triangle's plane (the cosine of the angle at least this)
+/// is graded towards with strips along it; a steeper one (a sofa's upright corner against the
+/// wall, seen from its seat) by halving the triangle's longest edge, since the distance to it
+/// grows about radially in the plane.
+const FLAT_EDGE_COSINE: f64 = 0.5;
 
 /// A strip along a contact edge is split along it while longer than this many times the
 /// distance of its far side to the edge (its width, for a strip touching the edge).
 const CONTACT_ASPECT: f64 = 4.0;
+
+/// Which way the strip rule cuts a cell or triangle beside a contact edge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StripCut {
+    /// Across the edge: the piece is wider than `ratio ×` its distance to it.
+    Across,
+    /// Along the edge: the piece is longer than `aspect ×` its far side's distance to it.
+    Along,
+}
+
+/// The strip rule every contact grading shares: a piece `width` across an edge and `length`
+/// along it, `distance` from it (its near side), is cut across while wider than `ratio ×` the
+/// distance, else along while longer than `aspect ×` its far side's distance, never into
+/// pieces narrower (shorter) than `min_m`.
+fn strip_cut(
+    width: f64,
+    length: f64,
+    distance: f64,
+    ratio: f64,
+    min_m: f64,
+    aspect: f64,
+) -> Option<StripCut> {
+    if width > 2.0 * min_m && width > ratio * distance {
+        Some(StripCut::Across)
+    } else if length > 2.0 * min_m && length > aspect * (distance + width) {
+        Some(StripCut::Along)
+    } else {
+        None
+    }
+}
 
 /// A strip along one of the room's own edges is split along it while longer than this many times
 /// the distance of its far side to the edge: the light on a room surface changes along its
@@ -732,15 +769,36 @@ impl Splitter<'_> {
         if matches!(surface.kind, SurfaceKind::Mesh { .. }) || patch.n_vertices != 4 {
             let corners = [0, 1, 2].map(|k| scene.coarse.positions[patch.vertices[k] as usize]);
             let contacts = self.mesh_contacts.as_ref();
-            let (leaves, lamp, by_mesh_contact) =
+            // A face against a room surface, or inside another block of the furniture (the
+            // seat under a sofa's back-rest), is left out whole before any rule splits it, and
+            // so is each piece the rules make that is covered whole.
+            let hidden = contacts.is_some_and(|c| {
+                faces_out_of_room(scene.room_size, &corners, patch.normal)
+                    || triangle_covered(c, &corners, patch.normal)
+            });
+            if hidden {
+                return SplitPatch {
+                    leaves: Leaves::Triangles(Vec::new()),
+                    lamp: None,
+                    by_contact: false,
+                    by_room_edge: false,
+                    by_mesh_contact: false,
+                    covered: 1,
+                };
+            }
+            let (mut leaves, lamp, by_mesh_contact) =
                 split_triangle(scene, self.options, contacts, corners, patch);
+            let before = leaves.len();
+            if let Some(c) = contacts {
+                leaves.retain(|t| !triangle_covered(c, t, patch.normal));
+            }
             return SplitPatch {
+                covered: before - leaves.len(),
                 leaves: Leaves::Triangles(leaves),
                 lamp,
                 by_contact: false,
                 by_room_edge: false,
                 by_mesh_contact,
-                covered: 0,
             };
         }
         let mut split = Split::default();
@@ -819,17 +877,35 @@ impl Splitter<'_> {
             .all(|&(u, v)| contacts.covered(r.point(at(u, 0), at(v, 1)), r.normal()))
     }
 
-    /// The longer side, when an OBJ mesh stands on the cell's plane and the cell is larger than
-    /// `contact_ratio ×` its distance to the mesh's nearest contact edge there.
+    /// The axis to halve a cell of a room surface that an OBJ mesh stands on: beside a contact
+    /// edge along one of the cell's sides (a sofa set square to the walls), by the strip rule
+    /// of box contacts ([`strip_cut`]); beside a turned one, the longer side while the cell is
+    /// larger than `contact_ratio ×` its distance to it (down to `contact_min_m`).
     fn mesh_contact_axis(&self, cell: &Cell) -> Option<usize> {
         let contacts = self.mesh_contacts.as_ref()?;
         let options = self.options;
-        let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
-        if cell.extent(longer) <= 2.0 * options.contact_min_m {
-            return None;
+        let near = contacts.nearest_to_cell(cell.rect.axis, cell.rect.offset, &cell.bounds())?;
+        let [u, v] = AxisRect::in_plane_axes(cell.rect.axis, cell.rect.facing_positive);
+        let along = [u, v]
+            .iter()
+            .position(|&k| near.direction[k].abs() > 1.0 - ALIGNED_EDGE_TOLERANCE);
+        if let Some(along) = along {
+            let across = 1 - along;
+            let (width, length) = (cell.extent(across), cell.extent(along));
+            return strip_cut(
+                width,
+                length,
+                near.distance,
+                options.contact_ratio,
+                options.contact_min_m,
+                CONTACT_ASPECT,
+            )
+            .map(|cut| if cut == StripCut::Across { across } else { along });
         }
-        let distance = contacts.distance_to_cell(cell.rect.axis, cell.rect.offset, &cell.bounds())?;
-        (cell.extent(longer) > options.contact_ratio * distance).then_some(longer)
+        let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
+        (cell.extent(longer) > 2.0 * options.contact_min_m
+            && cell.extent(longer) > options.contact_ratio * near.distance)
+            .then_some(longer)
     }
 
     /// The longer side, when the cell is larger than `lamp_ratio ×` its distance to a light in
@@ -906,9 +982,6 @@ impl Splitter<'_> {
                 Grading::Contact
             };
             let split = |k: usize| Some((k, grading));
-            if width > 2.0 * min_m && width > options.contact_ratio * distance {
-                return split(across);
-            }
             // A strip is kept within `CONTACT_ASPECT` times its far side's distance to the edge
             // along it: what it receives varies along the edge with the light and shadow on the
             // partner surface (a box face at the floor beside a pool that the box's shadow cuts),
@@ -916,8 +989,10 @@ impl Splitter<'_> {
             // makes short (docs/DECISIONS.md "Interreflection", "Contact strips short along the
             // edge").
             let length = cell.extent(1 - across);
-            if length > aspect * (distance + width) && length > 2.0 * min_m {
-                return split(1 - across);
+            match strip_cut(width, length, distance, options.contact_ratio, min_m, aspect) {
+                Some(StripCut::Across) => return split(across),
+                Some(StripCut::Along) => return split(1 - across),
+                None => {}
             }
             // A pool narrower than the piece: the cells beside it are short along the edge too.
             let reach = (seg.max - seg.min).max_element();
@@ -1086,9 +1161,9 @@ impl Splitter<'_> {
 }
 
 /// Splits an OBJ triangle 1 → 4 while its longest edge exceeds `lamp_ratio ×` its distance to a
-/// light in front of it, or `contact_ratio ×` its distance to an OBJ contact edge (down to twice
-/// `contact_min_m`); returns the pieces, the first light that caused a split, and whether the
-/// contact rule split it.
+/// light in front of it, and in halves across a direction ([`mesh_contact_cut`],
+/// [`halve_triangle`]) where the strip rule asks for it beside an OBJ contact edge; returns the pieces, the first light that caused
+/// a split, and whether the contact rule split it.
 fn split_triangle(
     scene: &Scene,
     options: &RefineOptions,
@@ -1113,16 +1188,8 @@ fn split_triangle(
                 })
             })
             .flatten();
-        let contact = near.is_none()
-            && longest > 2.0 * MESH_FACE_MIN_M
-            && contacts
-                .and_then(|c| c.distance_to_points(&t))
-                .is_some_and(|d| longest > options.contact_ratio * d);
         if let Some(i) = near {
             first.get_or_insert(i);
-        }
-        by_contact |= contact;
-        if near.is_some() || contact {
             let m = [(t[0] + t[1]) / 2.0, (t[1] + t[2]) / 2.0, (t[2] + t[0]) / 2.0];
             stack.extend([
                 [t[0], m[0], m[2]],
@@ -1130,11 +1197,109 @@ fn split_triangle(
                 [m[2], m[1], t[2]],
                 [m[0], m[1], m[2]],
             ]);
+        } else if let Some(direction) = contacts.and_then(|c| mesh_contact_cut(c, options, &t, patch.normal))
+        {
+            by_contact = true;
+            halve_triangle(&t, direction, &mut stack);
         } else {
             out.push(t);
         }
     }
     (out, first, by_contact)
+}
+
+/// True when an OBJ mesh covers the triangle `t` (unit `normal`) at its centroid and its corners
+/// (pulled 1 mm towards the centroid): a face of one block of a piece of furniture inside
+/// another (the top of a sofa's seat under its back-rest). A triangle only partly covered is
+/// kept whole: nothing grades towards the outline of a block standing on another, so a piece
+/// across it can be large, and its centroid can lie under the block while most of it is seen
+/// (the top of the bundled sculpture's plinth).
+fn triangle_covered(contacts: &MeshContacts, t: &[DVec3; 3], normal: DVec3) -> bool {
+    let centre = (t[0] + t[1] + t[2]) / 3.0;
+    let inset = |p: DVec3| p + (centre - p).clamp_length_max(1e-3);
+    contacts.covered(centre, normal) && t.iter().all(|&p| contacts.covered(inset(p), normal))
+}
+
+/// The direction (unit, in the plane of the OBJ triangle `t` with unit `normal`) across which to
+/// halve the triangle beside its nearest OBJ contact edge, if any: by the strip rule of box
+/// contacts ([`strip_cut`]: across the contact edge or along it) when the contact edge runs
+/// flat to the triangle's plane (a seat's side standing on the floor, its top above that edge),
+/// else along its longest side while that is longer than `contact_ratio ×` the distance; never
+/// into pieces narrower than `contact_min_m` (docs/DECISIONS.md "OBJ contacts graded in
+/// strips").
+fn mesh_contact_cut(
+    contacts: &MeshContacts,
+    options: &RefineOptions,
+    t: &[DVec3; 3],
+    normal: DVec3,
+) -> Option<DVec3> {
+    let near = contacts.nearest_to_points(t)?;
+    let sides = [t[1] - t[0], t[2] - t[1], t[0] - t[2]];
+    let along = near.direction - normal * near.direction.dot(normal);
+    if along.length() < FLAT_EDGE_COSINE {
+        let longest = sides
+            .iter()
+            .copied()
+            .max_by(|a, b| a.length().total_cmp(&b.length()))?;
+        let length = longest.length();
+        return (length > 2.0 * options.contact_min_m && length > options.contact_ratio * near.distance)
+            .then(|| longest / length);
+    }
+    let along = along.normalize();
+    let across = normal.cross(along);
+    let extent = |direction: DVec3| sides.iter().map(|s| s.dot(direction).abs()).fold(0.0, f64::max);
+    let (width, length) = (extent(across), extent(along));
+    strip_cut(
+        width,
+        length,
+        near.distance,
+        options.contact_ratio,
+        options.contact_min_m,
+        CONTACT_ASPECT,
+    )
+    .map(|cut| if cut == StripCut::Across { across } else { along })
+}
+
+/// Cuts the triangle `t` by the line through the middle of its extent along the in-plane unit
+/// `direction`, pushing the two or three triangles the two halves make (each half's extent
+/// along `direction` is half the triangle's; corners keep their order, so the pieces face as
+/// `t` does).
+fn halve_triangle(t: &[DVec3; 3], direction: DVec3, out: &mut Vec<[DVec3; 3]>) {
+    let s = t.map(|p| p.dot(direction));
+    let (lo, hi) = (
+        s.iter().copied().fold(f64::INFINITY, f64::min),
+        s.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    let middle = 0.5 * (lo + hi);
+    // A corner within rounding of the line lies on it (in both halves, cutting no side).
+    let offset = s.map(|v| {
+        if (v - middle).abs() <= 1e-9 * (hi - lo) {
+            0.0
+        } else {
+            v - middle
+        }
+    });
+    for side in [1.0, -1.0] {
+        // Sutherland–Hodgman against the half-plane side·(s − middle) ≥ 0.
+        let mut polygon: Vec<DVec3> = Vec::with_capacity(4);
+        for k in 0..3 {
+            let (a, b) = (k, (k + 1) % 3);
+            let (da, db) = (side * offset[a], side * offset[b]);
+            if da >= 0.0 {
+                polygon.push(t[a]);
+            }
+            if (da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0) {
+                polygon.push(t[a] + (t[b] - t[a]) * (da / (da - db)));
+            }
+        }
+        match polygon[..] {
+            [a, b, c] => out.push([a, b, c]),
+            // The quad split along its shorter diagonal.
+            [a, b, c, d] if a.distance(c) <= b.distance(d) => out.extend([[a, b, c], [a, c, d]]),
+            [a, b, c, d] => out.extend([[a, b, d], [b, c, d]]),
+            _ => {}
+        }
+    }
 }
 
 /// The edges where a box rests on (or against) a room surface or the top of another box,
@@ -1394,9 +1559,10 @@ solver_patch_size = 0.5
 
     /// An OBJ plinth turned 30° on the floor: no floor leaf is left under it (the covered cells
     /// are left out, so the floor's leaves cover the floor less the footprint, to the strips
-    /// along its edges), the floor leaves touching its footprint are strips of at most twice
-    /// `contact_min_m`, its faces' pieces touching the floor are at most `2 × MESH_FACE_MIN_M`
-    /// long, and the plan says so.
+    /// along its edges), the floor leaves touching its footprint are at most twice
+    /// `contact_min_m` across (its edges are turned, so they are squares), its sides' pieces
+    /// touching the floor are strips at most twice `contact_min_m` high and `CONTACT_ASPECT`
+    /// times that long, its underside on the floor is left out, and the plan says so.
     #[test]
     fn obj_furniture_grades_its_support_and_leaves_out_what_it_covers() {
         let scene = crate::transport::mesh_contacts::plinth_room();
@@ -1422,22 +1588,8 @@ solver_patch_size = 0.5
                 "a leaf under the plinth at {}",
                 p.centroid
             );
-            let corners: Vec<DVec3> = p
-                .vertex_ids()
-                .iter()
-                .map(|&v| solver.mesh.positions[v as usize])
-                .collect();
-            let bounds = corners.iter().fold(
-                Aabb {
-                    min: DVec3::INFINITY,
-                    max: DVec3::NEG_INFINITY,
-                },
-                |b, &q| Aabb {
-                    min: b.min.min(q),
-                    max: b.max.max(q),
-                },
-            );
-            if contacts.distance_to_cell(2, 0.0, &bounds) == Some(0.0) {
+            let bounds = leaf_box(&solver.mesh, p);
+            if contacts.nearest_to_cell(2, 0.0, &bounds).map(|e| e.distance) == Some(0.0) {
                 let longer = (bounds.max - bounds.min).max_element();
                 assert!(
                     longer <= 2.0 * options.contact_min_m + 1e-9,
@@ -1445,33 +1597,152 @@ solver_patch_size = 0.5
                 );
             }
         }
-        let faces = solver
+        let faces: Vec<&Patch> = solver
             .mesh
             .patches
             .iter()
-            .filter(|p| matches!(scene.surfaces[p.surface as usize].kind, SurfaceKind::Mesh { .. }));
+            .filter(|p| matches!(scene.surfaces[p.surface as usize].kind, SurfaceKind::Mesh { .. }))
+            .collect();
         let mut at_floor = 0;
-        for p in faces {
-            let t: Vec<DVec3> = p
-                .vertex_ids()
-                .iter()
-                .map(|&v| solver.mesh.positions[v as usize])
-                .collect();
-            if t.iter().any(|q| q.z.abs() < 1e-9) && p.normal.z.abs() < 0.5 {
+        for p in &faces {
+            let b = leaf_box(&solver.mesh, p);
+            assert!(b.max.z > 1e-9, "a leaf of the underside at {}", p.centroid);
+            if b.min.z.abs() < 1e-9 {
                 at_floor += 1;
-                let longest = (0..3).map(|e| t[e].distance(t[(e + 1) % 3])).fold(0.0, f64::max);
+                let (high, long) = (b.max.z - b.min.z, (b.max - b.min).truncate().length());
                 assert!(
-                    longest <= 2.0 * MESH_FACE_MIN_M + 1e-9,
-                    "a {longest} m piece at the floor"
+                    high <= 2.0 * options.contact_min_m + 1e-9,
+                    "a piece {high} m high at the floor"
+                );
+                assert!(
+                    long <= (CONTACT_ASPECT * high).max(2.0 * options.contact_min_m) + 1e-9,
+                    "a piece {high} m high and {long} m long at the floor"
                 );
             }
         }
-        assert!(at_floor >= 4 * 8, "{at_floor} pieces of the faces at the floor");
+        // 0.6 m sides in pieces at most 4 × 3 cm long.
+        assert!(at_floor >= 4 * 5, "{at_floor} pieces of the faces at the floor");
+        // The sides and the top, whole.
+        let area: f64 = faces.iter().map(|p| p.area).sum();
+        assert!((area - (4.0 * 0.6 + 0.36)).abs() < 1e-9, "{area} m² of faces");
         assert_eq!(solver.mesh_contacts, contacts.len());
-        assert!(solver.covered_leaves > 0);
+        let underside = scene
+            .coarse
+            .patches
+            .iter()
+            .filter(|p| p.normal.z < -0.5 && p.centroid.z.abs() < 1e-9)
+            .count();
+        assert!(
+            underside > 0 && solver.covered_leaves > underside,
+            "{underside}, {}",
+            solver.covered_leaves
+        );
         let notes = solver.notes(&scene).join("\n");
         let said = format!("graded along {} OBJ contact edges", contacts.len());
         assert!(notes.contains(&said), "{notes}");
+    }
+
+    /// A closed OBJ block on the floor set square to the walls, with a second block standing
+    /// on its back half (a seat and its back-rest): the floor leaves along its footprint are
+    /// strips at most twice `contact_min_m` wide and `CONTACT_ASPECT` times as long as far, far
+    /// fewer than the turned plinth's squares; the seat's top under the back-rest, the
+    /// back-rest's underside and both undersides on the floor are left out, and the faces
+    /// left keep their area.
+    #[test]
+    fn obj_furniture_set_square_grades_in_strips_and_leaves_out_its_hidden_faces() {
+        let block = |lo: [f64; 3], hi: [f64; 3], first: usize| {
+            let mut text = String::new();
+            for z in [lo[2], hi[2]] {
+                for (x, y) in [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])] {
+                    text.push_str(&format!("v {x} {y} {z}\n"));
+                }
+            }
+            let f = |i: [usize; 4]| {
+                format!(
+                    "f {} {} {} {}\n",
+                    i[0] + first,
+                    i[1] + first,
+                    i[2] + first,
+                    i[3] + first
+                )
+            };
+            for face in [
+                [0, 1, 5, 4],
+                [1, 2, 6, 5],
+                [2, 3, 7, 6],
+                [3, 0, 4, 7],
+                [4, 5, 6, 7],
+                [3, 2, 1, 0],
+            ] {
+                text.push_str(&f(face));
+            }
+            text
+        };
+        // The seat 1.2 × 0.6 × 0.4 m, the back-rest 1.2 × 0.2 × 0.4 m on its back 0.2 m.
+        let obj = block([1.4, 1.2, 0.0], [2.6, 1.8, 0.4], 1) + &block([1.4, 1.6, 0.4], [2.6, 1.8, 0.8], 9);
+        let scene = crate::transport::mesh_contacts::obj_room(&obj);
+        let options = RefineOptions::default();
+        let solver = refine(&scene, &options);
+        let kind = |p: &Patch| &scene.surfaces[p.surface as usize].kind;
+        let mut strips = 0;
+        for p in solver
+            .mesh
+            .patches
+            .iter()
+            .filter(|p| matches!(kind(p), SurfaceKind::Floor))
+        {
+            let b = leaf_box(&solver.mesh, p);
+            // Touching the footprint's front side y = 1.2 (the floor is not meshed to it).
+            if b.min.y <= 1.2 && b.max.y >= 1.2 && b.max.x > 1.4 + 1e-9 && b.min.x < 2.6 - 1e-9 {
+                strips += 1;
+                let (wide, long) = (b.max.y - b.min.y, b.max.x - b.min.x);
+                assert!(
+                    wide <= 2.0 * options.contact_min_m + 1e-9,
+                    "a strip {wide} m wide"
+                );
+                assert!(
+                    long <= CONTACT_ASPECT * wide + 1e-9 || long <= 2.0 * options.contact_min_m + 1e-9,
+                    "a strip {wide} × {long} m"
+                );
+            }
+        }
+        // 1.2 m in strips at most 4 × 3 cm long, where squares would take 40.
+        assert!((10..40).contains(&strips), "{strips} strips along the front");
+        let faces: Vec<&Patch> = solver
+            .mesh
+            .patches
+            .iter()
+            .filter(|p| matches!(kind(p), SurfaceKind::Mesh { .. }))
+            .collect();
+        for p in &faces {
+            let (c, b) = (p.centroid, leaf_box(&solver.mesh, p));
+            assert!(c.z > 1e-9, "a leaf of an underside on the floor at {c}");
+            let at_seat_top = (c.z - 0.4).abs() < 1e-9 && p.normal.z > 0.5;
+            assert!(
+                !(at_seat_top && b.min.y > 1.6 - 1e-9),
+                "a leaf wholly under the back-rest at {c}"
+            );
+        }
+        // Seen: the seat's four sides and its front 0.4 m of top; the back-rest's sides and top
+        // (1.44 m² of faces hidden). The seat top's pieces across the back-rest's front edge
+        // (0.15 m deep in the coarse mesh) are kept whole, so at most that row is added.
+        let seen = 2.0 * (1.2 + 0.6) * 0.4 + 1.2 * 0.4 + 2.0 * (1.2 + 0.2) * 0.4 + 1.2 * 0.2;
+        let area: f64 = faces.iter().map(|p| p.area).sum();
+        assert!(
+            area > seen - 1e-9 && area < seen + 1.2 * 0.15,
+            "{area} m² of faces against {seen}"
+        );
+        // The seat's top keeps all its seen 0.48 m², whatever the centroids of the pieces
+        // across that edge.
+        let top: f64 = faces
+            .iter()
+            .filter(|p| (p.centroid.z - 0.4).abs() < 1e-9 && p.normal.z > 0.5)
+            .map(|p| p.area)
+            .sum();
+        assert!(
+            top > 1.2 * 0.4 - 1e-9 && top < 1.2 * (0.4 + 0.15),
+            "{top} m² of the seat's top"
+        );
     }
 
     /// A light far from every surface, whose light is smooth next to the room's edges, and no
