@@ -1,19 +1,20 @@
-//! Where OBJ meshes stand on the room's surfaces (docs/DECISIONS.md "Interreflection", "OBJ
-//! furniture on its support"): the edges of OBJ triangles that lie on a room plane (a plinth's
-//! footprint on the floor, a cabinet's back against a wall), which the refinement grades
-//! towards like a box's contact edges, and the test for a point of a room surface covered by a
-//! mesh (the floor under a plinth), whose leaves are left out of the solve. Boxes need neither:
-//! the mesher conforms the room's cells to their edges and drops the cells they cover. World
-//! frame, metres.
+//! Where OBJ meshes stand on the room's surfaces and on boxes (docs/DECISIONS.md
+//! "Interreflection", "OBJ furniture on its support", "OBJ things on a box"): the edges of OBJ
+//! triangles that lie on a room surface or a box face (a plinth's footprint on the floor, a
+//! cabinet's back against a wall, a vase's base on a sideboard), which the refinement grades
+//! towards like a box's contact edges; the test for a point covered by a mesh (the floor under
+//! a plinth), whose leaves are left out of the solve; and the OBJ faces lying on such a surface
+//! facing into it. Boxes need none of this: the mesher conforms the room's cells to their edges
+//! and drops the cells they cover. World frame, metres.
 
 use glam::DVec3;
 
 use crate::scene::{Aabb, Scene, SurfaceKind};
 
-/// How close (m) to a room plane an OBJ vertex counts as lying on it.
+/// How close (m) to a support's plane an OBJ vertex counts as lying on it.
 const ON_PLANE_M: f64 = 1e-3;
 
-/// An OBJ triangle edge lying on a room plane.
+/// An OBJ triangle edge lying on a support (a room surface or a box face).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Edge {
     a: DVec3,
@@ -41,35 +42,73 @@ impl NearestEdge {
     }
 }
 
-/// True when an OBJ triangle (world corners, its unit `normal` the side it lights) lies in one
-/// of the room's planes facing out of the room, as a sofa's underside on the floor or its back
-/// against a wall does: it receives no light and sends none, so the solve leaves it out
-/// (docs/DECISIONS.md "OBJ faces against the room").
-pub(crate) fn faces_out_of_room(room_size: DVec3, corners: &[DVec3; 3], normal: DVec3) -> bool {
-    (0..3).any(|axis| {
-        [(0.0, 1.0), (room_size[axis], -1.0)]
-            .into_iter()
-            .any(|(offset, inward)| {
-                corners.iter().all(|p| (p[axis] - offset).abs() <= ON_PLANE_M) && normal[axis] * inward < 0.0
-            })
-    })
+/// A flat surface OBJ furniture can stand on: a room surface or a box face, the rectangle
+/// `min..max` (world, m; flat along `axis`) in the plane `coordinate[axis] = offset`, its free
+/// side towards `free` (+1 or −1 along `axis`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Support {
+    axis: usize,
+    offset: f64,
+    free: f64,
+    min: DVec3,
+    max: DVec3,
 }
 
-/// The contact edges and triangles of a scene's OBJ meshes.
+impl Support {
+    /// The room's six surfaces and the faces of its boxes.
+    fn of_scene(scene: &Scene) -> Vec<Support> {
+        let room = Aabb {
+            min: DVec3::ZERO,
+            max: scene.room_size,
+        };
+        let mut out = Vec::new();
+        for axis in 0..3 {
+            out.push(Support::face(&room, axis, room.min[axis], 1.0));
+            out.push(Support::face(&room, axis, room.max[axis], -1.0));
+            for b in &scene.boxes {
+                out.push(Support::face(b, axis, b.max[axis], 1.0));
+                out.push(Support::face(b, axis, b.min[axis], -1.0));
+            }
+        }
+        out
+    }
+
+    fn face(b: &Aabb, axis: usize, offset: f64, free: f64) -> Support {
+        let (mut min, mut max) = (b.min, b.max);
+        min[axis] = offset;
+        max[axis] = offset;
+        Support {
+            axis,
+            offset,
+            free,
+            min,
+            max,
+        }
+    }
+
+    /// True when `p` lies on the support (within [`ON_PLANE_M`]).
+    fn holds(&self, p: DVec3) -> bool {
+        p.cmpge(self.min - ON_PLANE_M).all() && p.cmple(self.max + ON_PLANE_M).all()
+    }
+}
+
+/// The contact edges and triangles of a scene's OBJ meshes./// The contact edges and triangles of a scene's OBJ meshes.
 #[derive(Debug, Clone)]
 pub(crate) struct MeshContacts {
     edges: Vec<Edge>,
     /// Every OBJ triangle (world, m) with its unit normal (the lit side), for [`Self::covered`].
     triangles: Vec<([DVec3; 3], DVec3)>,
+    /// The room's surfaces and the boxes' faces.
+    supports: Vec<Support>,
     /// The meshes' bounds.
     bounds: Vec<Aabb>,
 }
 
 impl MeshContacts {
-    /// The OBJ meshes of `scene` whose triangles have an edge on a room plane (the triangle
-    /// itself off it); `None` when there are none.
+    /// The OBJ meshes of `scene` whose triangles have an edge on a support (a room surface or
+    /// a box face; the triangle itself off it); `None` when there are none.
     pub(crate) fn of_scene(scene: &Scene) -> Option<Self> {
-        let size = scene.room_size;
+        let supports = Support::of_scene(scene);
         let mut triangles = Vec::new();
         let mut edges = Vec::new();
         for ([a, b, c], pid) in scene.coarse.triangles() {
@@ -82,21 +121,19 @@ impl MeshContacts {
             }
             let t = [a, b, c].map(|i| scene.coarse.positions[i as usize]);
             triangles.push((t, patch.normal));
-            for axis in 0..3 {
-                for offset in [0.0, size[axis]] {
-                    let on = t.map(|p| (p[axis] - offset).abs() <= ON_PLANE_M);
-                    if on.iter().all(|&o| o) {
-                        continue;
-                    }
-                    for e in 0..3 {
-                        if on[e] && on[(e + 1) % 3] {
-                            edges.push(Edge {
-                                a: t[e],
-                                b: t[(e + 1) % 3],
-                                axis,
-                                offset,
-                            });
-                        }
+            for support in &supports {
+                let on = t.map(|p| support.holds(p));
+                if on.iter().all(|&o| o) {
+                    continue;
+                }
+                for e in 0..3 {
+                    if on[e] && on[(e + 1) % 3] {
+                        edges.push(Edge {
+                            a: t[e],
+                            b: t[(e + 1) % 3],
+                            axis: support.axis,
+                            offset: support.offset,
+                        });
                     }
                 }
             }
@@ -104,8 +141,19 @@ impl MeshContacts {
         (!edges.is_empty()).then(|| MeshContacts {
             edges,
             triangles,
+            supports,
             bounds: scene.mesh_bounds.clone(),
         })
+    }
+
+    /// True when an OBJ triangle (world corners, its unit `normal` the side it lights) lies on
+    /// a support facing into it, as a sofa's underside on the floor, its back against a wall or
+    /// a vase's base on a sideboard does: it receives no light and sends none, so the solve
+    /// leaves it out (docs/DECISIONS.md "OBJ faces against the room or inside another block").
+    pub(crate) fn against_support(&self, corners: &[DVec3; 3], normal: DVec3) -> bool {
+        self.supports
+            .iter()
+            .any(|s| corners.iter().all(|&p| s.holds(p)) && normal[s.axis] * s.free < 0.0)
     }
 
     /// Number of contact edges.
@@ -240,18 +288,18 @@ pub(crate) fn plinth_room() -> Scene {
     }
     // Four sides, the top, and the underside on the floor (facing down, out of the room).
     obj.push_str("f 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nf 5 6 7 8\nf 4 3 2 1\n");
-    obj_room(&obj)
+    obj_room(&obj, "")
 }
 
-/// A 4 × 3 × 2.5 m room (floor 0.3, walls 0.5, ceiling 0.7) with the OBJ `obj` (z up, metres)
-/// and one light at (1, 1, 2).
+/// A 4 × 3 × 2.5 m room (floor 0.3, walls 0.5, ceiling 0.7) with the OBJ `obj` (z up, metres),
+/// one light at (1, 1, 2), and `more` (room-file tables, such as boxes) after them.
 #[cfg(test)]
-pub(crate) fn obj_room(obj: &str) -> Scene {
+pub(crate) fn obj_room(obj: &str, more: &str) -> Scene {
     let dir = tempfile::tempdir().expect("a temporary directory");
     std::fs::write(dir.path().join("plinth.obj"), obj).expect("writes");
     crate::scene::load::load_text(
         &dir.path().join("room.toml"),
-        r#"version = 1
+        (r#"version = 1
 [room]
 size = [4.0, 3.0, 2.5]
 [room.reflectance]
@@ -265,7 +313,10 @@ up = "z"
 name = "l"
 position = [1.0, 1.0, 2.0]
 lid = [[0, 500], [180, 500]]
-"#,
+"#
+        .to_string()
+            + more)
+            .as_str(),
     )
     .expect("the test room is valid")
 }
@@ -316,24 +367,38 @@ mod tests {
         assert!((d - (0.3f64.hypot(0.4))).abs() < 1e-9, "{d}");
     }
 
-    /// Triangles lying in a room plane face out of the room when their normal points through
-    /// it: a plinth's underside on the floor, a cabinet's back on a wall; one facing into the
-    /// room (a rug drawn on the floor) or off the plane is kept.
+    /// Triangles lying on a support face into it when their normal points through it: a
+    /// plinth's underside on the floor, a cabinet's back on a wall, a vase's base on a box; one
+    /// facing away (a rug drawn on the floor), off the plane, or on the box's plane but past
+    /// its face is kept.
     #[test]
-    fn only_triangles_in_a_room_plane_facing_through_it_face_out_of_the_room() {
-        let size = DVec3::new(4.0, 3.0, 2.5);
+    fn only_triangles_on_a_support_facing_into_it_are_against_it() {
+        let mut scene = plinth_room();
+        scene.boxes.push(Aabb {
+            min: DVec3::new(3.0, 0.0, 0.0),
+            max: DVec3::new(4.0, 1.0, 0.8),
+        });
+        let contacts = MeshContacts::of_scene(&scene).expect("the plinth stands on the floor");
         let floor = [
             DVec3::new(1.0, 1.0, 0.0),
             DVec3::new(2.0, 1.0, 0.0),
             DVec3::new(1.0, 2.0, 0.0),
         ];
-        assert!(faces_out_of_room(size, &floor, DVec3::NEG_Z));
-        assert!(!faces_out_of_room(size, &floor, DVec3::Z));
+        assert!(contacts.against_support(&floor, DVec3::NEG_Z));
+        assert!(!contacts.against_support(&floor, DVec3::Z));
         let wall = floor.map(|p| DVec3::new(p.x, 3.0, p.y));
-        assert!(faces_out_of_room(size, &wall, DVec3::Y));
-        assert!(!faces_out_of_room(size, &wall, DVec3::NEG_Y));
+        assert!(contacts.against_support(&wall, DVec3::Y));
+        assert!(!contacts.against_support(&wall, DVec3::NEG_Y));
         let lifted = floor.map(|p| p + DVec3::Z * 0.01);
-        assert!(!faces_out_of_room(size, &lifted, DVec3::NEG_Z));
+        assert!(!contacts.against_support(&lifted, DVec3::NEG_Z));
+        let on_box = [
+            DVec3::new(3.2, 0.2, 0.8),
+            DVec3::new(3.5, 0.2, 0.8),
+            DVec3::new(3.2, 0.5, 0.8),
+        ];
+        assert!(contacts.against_support(&on_box, DVec3::NEG_Z));
+        let past_box = on_box.map(|p| p - DVec3::X * 1.0);
+        assert!(!contacts.against_support(&past_box, DVec3::NEG_Z));
     }
 
     #[test]

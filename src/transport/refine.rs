@@ -36,8 +36,8 @@
 //!   added) and meshed over the slot no coarser than twice the gap; where a light's shadow line
 //!   crosses the slot (the lit band on the wall below the box's top edge, from which the rest
 //!   of the slot is lit), the cells are halved across it down to `shadow_min_m`.
-//! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface (its triangles' edges
-//!   lying on a room plane, in any direction), the cells of that surface and the mesh's
+//! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface or a box (its
+//!   triangles' edges lying on one, in any direction), the cells of that surface and the mesh's
 //!   triangles are cut in strips by the boxes' rule ([`strip_cut`]) beside an edge along a
 //!   cell's side or flat to a triangle's plane, and halved across their longer side beside a
 //!   turned or steep one, down to `contact_min_m`; the room surface's cells the mesh covers (the
@@ -58,7 +58,7 @@ use rayon::prelude::*;
 
 use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Light, Patch, PatchMesh, Scene, SurfaceKind};
-use crate::transport::mesh_contacts::{MeshContacts, faces_out_of_room};
+use crate::transport::mesh_contacts::MeshContacts;
 use crate::transport::occlusion::Occluders;
 use crate::transport::room_edges::{BendingPiece, bending_edge_pieces};
 use crate::transport::visibility::Visibility;
@@ -457,8 +457,8 @@ const ALIGNED_EDGE_TOLERANCE: f64 = 1e-6;
 
 /// An OBJ contact edge at most 60° to a triangle's plane (the cosine of the angle at least this)
 /// is graded towards with strips along it; a steeper one (a sofa's upright corner against the
-/// wall, seen from its seat) by halving the triangle's longest edge, since the distance to it
-/// grows about radially in the plane.
+/// wall, seen from its seat) by cutting the triangle across its longest side, since the
+/// distance to it grows about radially in the plane.
 const FLAT_EDGE_COSINE: f64 = 0.5;
 
 /// A strip along a contact edge is split along it while longer than this many times the
@@ -769,12 +769,11 @@ impl Splitter<'_> {
         if matches!(surface.kind, SurfaceKind::Mesh { .. }) || patch.n_vertices != 4 {
             let corners = [0, 1, 2].map(|k| scene.coarse.positions[patch.vertices[k] as usize]);
             let contacts = self.mesh_contacts.as_ref();
-            // A face against a room surface, or inside another block of the furniture (the
+            // A face against a room surface or a box, or inside another block of the furniture (the
             // seat under a sofa's back-rest), is left out whole before any rule splits it, and
             // so is each piece the rules make that is covered whole.
             let hidden = contacts.is_some_and(|c| {
-                faces_out_of_room(scene.room_size, &corners, patch.normal)
-                    || triangle_covered(c, &corners, patch.normal)
+                c.against_support(&corners, patch.normal) || triangle_covered(c, &corners, patch.normal)
             });
             if hidden {
                 return SplitPatch {
@@ -1162,8 +1161,8 @@ impl Splitter<'_> {
 
 /// Splits an OBJ triangle 1 → 4 while its longest edge exceeds `lamp_ratio ×` its distance to a
 /// light in front of it, and in halves across a direction ([`mesh_contact_cut`],
-/// [`halve_triangle`]) where the strip rule asks for it beside an OBJ contact edge; returns the pieces, the first light that caused
-/// a split, and whether the contact rule split it.
+/// [`halve_triangle`]) where the strip rule asks for it beside an OBJ contact edge; returns the
+/// pieces, the first light that caused a split, and whether the contact rule split it.
 fn split_triangle(
     scene: &Scene,
     options: &RefineOptions,
@@ -1224,7 +1223,7 @@ fn triangle_covered(contacts: &MeshContacts, t: &[DVec3; 3], normal: DVec3) -> b
 /// halve the triangle beside its nearest OBJ contact edge, if any: by the strip rule of box
 /// contacts ([`strip_cut`]: across the contact edge or along it) when the contact edge runs
 /// flat to the triangle's plane (a seat's side standing on the floor, its top above that edge),
-/// else along its longest side while that is longer than `contact_ratio ×` the distance; never
+/// else across its longest side while that is longer than `contact_ratio ×` the distance; never
 /// into pieces narrower than `contact_min_m` (docs/DECISIONS.md "OBJ contacts graded in
 /// strips").
 fn mesh_contact_cut(
@@ -1642,6 +1641,78 @@ solver_patch_size = 0.5
         assert!(notes.contains(&said), "{notes}");
     }
 
+    /// The OBJ text of a closed axis-aligned block `lo..hi` (z up, m) whose first vertex is
+    /// number `first`.
+    fn obj_block(lo: [f64; 3], hi: [f64; 3], first: usize) -> String {
+        let mut text = String::new();
+        for z in [lo[2], hi[2]] {
+            for (x, y) in [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])] {
+                text.push_str(&format!("v {x} {y} {z}\n"));
+            }
+        }
+        for face in [
+            [0, 1, 5, 4],
+            [1, 2, 6, 5],
+            [2, 3, 7, 6],
+            [3, 0, 4, 7],
+            [4, 5, 6, 7],
+            [3, 2, 1, 0],
+        ] {
+            let [a, b, c, d] = face.map(|i| i + first);
+            text.push_str(&format!("f {a} {b} {c} {d}\n"));
+        }
+        text
+    }
+
+    /// An OBJ block standing on a box (a vase on a sideboard) is graded like one on the floor:
+    /// the box top's leaves touching its footprint are strips at most twice `contact_min_m`
+    /// wide, no leaf of the box top lies wholly under it, and its underside on the box is left
+    /// out.
+    #[test]
+    fn obj_furniture_on_a_box_grades_the_box_top_and_leaves_out_its_underside() {
+        let obj = obj_block([1.8, 1.3, 0.8], [2.2, 1.7, 1.1], 1);
+        let boxes = "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [3.0, 2.0, 0.8]\nreflectance = 0.5\n";
+        let scene = crate::transport::mesh_contacts::obj_room(&obj, boxes);
+        let options = RefineOptions::default();
+        let solver = refine(&scene, &options);
+        let kind = |p: &Patch| &scene.surfaces[p.surface as usize].kind;
+        let mut strips = 0;
+        for p in &solver.mesh.patches {
+            let b = leaf_box(&solver.mesh, p);
+            let on_top = matches!(kind(p), SurfaceKind::BoxFace { .. }) && b.min.z > 0.8 - 1e-9;
+            if on_top {
+                let under = b.min.x >= 1.8 - 1e-9
+                    && b.max.x <= 2.2 + 1e-9
+                    && b.min.y >= 1.3 - 1e-9
+                    && b.max.y <= 1.7 + 1e-9;
+                assert!(!under, "a leaf of the box top under the block at {}", p.centroid);
+                // Within 3 cm in front of the footprint's front side y = 1.3, along it (the box
+                // top is not meshed to it, so the strips need not end on it).
+                let distance = (1.3 - b.max.y).max(0.0);
+                if b.min.y < 1.3 && distance < 0.03 && b.max.x > 1.8 + 1e-9 && b.min.x < 2.2 - 1e-9 {
+                    strips += 1;
+                    let (wide, long) = (b.max.y - b.min.y, b.max.x - b.min.x);
+                    assert!(
+                        wide <= 2.0 * options.contact_min_m + 1e-9,
+                        "a strip {wide} m wide"
+                    );
+                    assert!(
+                        long <= CONTACT_ASPECT * (distance + wide) + 1e-9,
+                        "a strip {wide} × {long} m {distance} m from the edge"
+                    );
+                }
+            }
+            if matches!(kind(p), SurfaceKind::Mesh { .. }) {
+                assert!(
+                    p.centroid.z > 0.8 + 1e-9,
+                    "a leaf of the underside at {}",
+                    p.centroid
+                );
+            }
+        }
+        assert!(strips >= 4, "{strips} strips along the front");
+    }
+
     /// A closed OBJ block on the floor set square to the walls, with a second block standing
     /// on its back half (a seat and its back-rest): the floor leaves along its footprint are
     /// strips at most twice `contact_min_m` wide and `CONTACT_ASPECT` times as long as far, far
@@ -1650,37 +1721,10 @@ solver_patch_size = 0.5
     /// left keep their area.
     #[test]
     fn obj_furniture_set_square_grades_in_strips_and_leaves_out_its_hidden_faces() {
-        let block = |lo: [f64; 3], hi: [f64; 3], first: usize| {
-            let mut text = String::new();
-            for z in [lo[2], hi[2]] {
-                for (x, y) in [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])] {
-                    text.push_str(&format!("v {x} {y} {z}\n"));
-                }
-            }
-            let f = |i: [usize; 4]| {
-                format!(
-                    "f {} {} {} {}\n",
-                    i[0] + first,
-                    i[1] + first,
-                    i[2] + first,
-                    i[3] + first
-                )
-            };
-            for face in [
-                [0, 1, 5, 4],
-                [1, 2, 6, 5],
-                [2, 3, 7, 6],
-                [3, 0, 4, 7],
-                [4, 5, 6, 7],
-                [3, 2, 1, 0],
-            ] {
-                text.push_str(&f(face));
-            }
-            text
-        };
         // The seat 1.2 × 0.6 × 0.4 m, the back-rest 1.2 × 0.2 × 0.4 m on its back 0.2 m.
-        let obj = block([1.4, 1.2, 0.0], [2.6, 1.8, 0.4], 1) + &block([1.4, 1.6, 0.4], [2.6, 1.8, 0.8], 9);
-        let scene = crate::transport::mesh_contacts::obj_room(&obj);
+        let obj =
+            obj_block([1.4, 1.2, 0.0], [2.6, 1.8, 0.4], 1) + &obj_block([1.4, 1.6, 0.4], [2.6, 1.8, 0.8], 9);
+        let scene = crate::transport::mesh_contacts::obj_room(&obj, "");
         let options = RefineOptions::default();
         let solver = refine(&scene, &options);
         let kind = |p: &Patch| &scene.surfaces[p.surface as usize].kind;
