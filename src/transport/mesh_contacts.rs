@@ -92,7 +92,7 @@ impl Support {
     }
 }
 
-/// The contact edges and triangles of a scene's OBJ meshes./// The contact edges and triangles of a scene's OBJ meshes.
+/// The contact edges and triangles of a scene's OBJ meshes, and the supports they stand on.
 #[derive(Debug, Clone)]
 pub(crate) struct MeshContacts {
     edges: Vec<Edge>,
