@@ -69,6 +69,24 @@ impl AxisRect {
         }
     }
 
+    /// The face of the box `b` on its `far` (max) or near (min) side along `axis`, facing
+    /// `+axis` when `facing_positive`.
+    pub(crate) fn face_of(b: &Aabb, axis: usize, far: bool, facing_positive: bool) -> Self {
+        let offset = if far { b.max[axis] } else { b.min[axis] };
+        Self::new(axis, offset, facing_positive, b.min, b.max)
+    }
+
+    /// True when the world point `p` lies on the rectangle, within `tolerance` (m) of its
+    /// plane and its edges.
+    pub(crate) fn holds(&self, p: DVec3, tolerance: f64) -> bool {
+        let [u, v] = Self::in_plane_axes(self.axis, self.facing_positive);
+        (p[self.axis] - self.offset).abs() <= tolerance
+            && (0..2).all(|k| {
+                let c = p[[u, v][k]];
+                c >= self.min[k] - tolerance && c <= self.max[k] + tolerance
+            })
+    }
+
     /// The in-plane axes `(u, v)` ordered so that `u × v` is the normal (counter-clockwise
     /// seen from the normal side).
     pub(crate) fn in_plane_axes(axis: usize, facing_positive: bool) -> [usize; 2] {
@@ -154,8 +172,7 @@ pub fn layout(geometry: &Geometry) -> Vec<SurfaceLayout> {
         .chain([("bottom", 2, false), ("top", 2, true)]);
     for (box_index, b) in geometry.boxes.iter().enumerate() {
         for (suffix, axis, facing_positive) in box_faces.clone() {
-            let offset = if facing_positive { b.max[axis] } else { b.min[axis] };
-            let rect = AxisRect::new(axis, offset, facing_positive, b.min, b.max);
+            let rect = AxisRect::face_of(b, axis, facing_positive, facing_positive);
             let lines = grid_lines(geometry, &rect, f64::INFINITY);
             if kept_cells(geometry, &rect, &lines).next().is_some() {
                 surfaces.push(SurfaceLayout {

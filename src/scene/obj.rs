@@ -397,8 +397,8 @@ impl Statements {
     }
 
     /// The group's vertices placed in the world (only those its faces use) and its triangles
-    /// ([`triangulate`]), zero-area triangles dropped; a face whose total area is below [`MIN_FACE_AREA`] or
-    /// not finite is an error.
+    /// ([`triangulate`]), zero-area triangles dropped; a face whose total area is below
+    /// [`MIN_FACE_AREA`] or not finite is an error.
     fn place(
         &self,
         path: &Path,
@@ -419,12 +419,12 @@ impl Statements {
                     })
                 })
                 .collect();
-            let fan = triangulate(&positions, &ids);
+            let pieces = triangulate(&positions, &ids);
             let area = |t: &[u32; 3]| {
                 let [a, b, c] = t.map(|i| positions[i as usize]);
                 0.5 * (b - a).cross(c - a).length()
             };
-            let face_area: f64 = fan.iter().map(area).sum();
+            let face_area: f64 = pieces.iter().map(area).sum();
             if !face_area.is_finite() || face_area < MIN_FACE_AREA {
                 return Err(at(
                     path,
@@ -436,7 +436,7 @@ impl Statements {
                     ),
                 ));
             }
-            triangles.extend(fan.into_iter().filter(|t| area(t) >= MIN_FACE_AREA));
+            triangles.extend(pieces.into_iter().filter(|t| area(t) >= MIN_FACE_AREA));
         }
         Ok((positions, triangles))
     }

@@ -9,6 +9,7 @@
 
 use glam::DVec3;
 
+use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Scene, SurfaceKind};
 
 /// How close (m) to a support's plane an OBJ vertex counts as lying on it.
@@ -42,54 +43,23 @@ impl NearestEdge {
     }
 }
 
-/// A flat surface OBJ furniture can stand on: a room surface or a box face, the rectangle
-/// `min..max` (world, m; flat along `axis`) in the plane `coordinate[axis] = offset`, its free
-/// side towards `free` (+1 or −1 along `axis`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Support {
-    axis: usize,
-    offset: f64,
-    free: f64,
-    min: DVec3,
-    max: DVec3,
-}
-
-impl Support {
-    /// The room's six surfaces and the faces of its boxes.
-    fn of_scene(scene: &Scene) -> Vec<Support> {
-        let room = Aabb {
-            min: DVec3::ZERO,
-            max: scene.room_size,
-        };
-        let mut out = Vec::new();
-        for axis in 0..3 {
-            out.push(Support::face(&room, axis, room.min[axis], 1.0));
-            out.push(Support::face(&room, axis, room.max[axis], -1.0));
-            for b in &scene.boxes {
-                out.push(Support::face(b, axis, b.max[axis], 1.0));
-                out.push(Support::face(b, axis, b.min[axis], -1.0));
-            }
-        }
-        out
-    }
-
-    fn face(b: &Aabb, axis: usize, offset: f64, free: f64) -> Support {
-        let (mut min, mut max) = (b.min, b.max);
-        min[axis] = offset;
-        max[axis] = offset;
-        Support {
-            axis,
-            offset,
-            free,
-            min,
-            max,
+/// The flat surfaces OBJ furniture can stand on, each facing its free side: the room's six
+/// surfaces (facing into the room) and every face of every box (facing out of it).
+fn supports(scene: &Scene) -> Vec<AxisRect> {
+    let room = Aabb {
+        min: DVec3::ZERO,
+        max: scene.room_size,
+    };
+    let mut out = Vec::new();
+    for axis in 0..3 {
+        out.push(AxisRect::face_of(&room, axis, false, true));
+        out.push(AxisRect::face_of(&room, axis, true, false));
+        for b in &scene.boxes {
+            out.push(AxisRect::face_of(b, axis, true, true));
+            out.push(AxisRect::face_of(b, axis, false, false));
         }
     }
-
-    /// True when `p` lies on the support (within [`ON_PLANE_M`]).
-    fn holds(&self, p: DVec3) -> bool {
-        p.cmpge(self.min - ON_PLANE_M).all() && p.cmple(self.max + ON_PLANE_M).all()
-    }
+    out
 }
 
 /// The contact edges and triangles of a scene's OBJ meshes, and the supports they stand on.
@@ -98,8 +68,8 @@ pub(crate) struct MeshContacts {
     edges: Vec<Edge>,
     /// Every OBJ triangle (world, m) with its unit normal (the lit side), for [`Self::covered`].
     triangles: Vec<([DVec3; 3], DVec3)>,
-    /// The room's surfaces and the boxes' faces.
-    supports: Vec<Support>,
+    /// The room's surfaces and the boxes' faces ([`supports`]).
+    supports: Vec<AxisRect>,
     /// The meshes' bounds.
     bounds: Vec<Aabb>,
 }
@@ -108,7 +78,7 @@ impl MeshContacts {
     /// The OBJ meshes of `scene` whose triangles have an edge on a support (a room surface or
     /// a box face; the triangle itself off it); `None` when there are none.
     pub(crate) fn of_scene(scene: &Scene) -> Option<Self> {
-        let supports = Support::of_scene(scene);
+        let supports = supports(scene);
         let mut triangles = Vec::new();
         let mut edges = Vec::new();
         for ([a, b, c], pid) in scene.coarse.triangles() {
@@ -122,7 +92,7 @@ impl MeshContacts {
             let t = [a, b, c].map(|i| scene.coarse.positions[i as usize]);
             triangles.push((t, patch.normal));
             for support in &supports {
-                let on = t.map(|p| support.holds(p));
+                let on = t.map(|p| support.holds(p, ON_PLANE_M));
                 if on.iter().all(|&o| o) {
                     continue;
                 }
@@ -153,7 +123,7 @@ impl MeshContacts {
     pub(crate) fn against_support(&self, corners: &[DVec3; 3], normal: DVec3) -> bool {
         self.supports
             .iter()
-            .any(|s| corners.iter().all(|&p| s.holds(p)) && normal[s.axis] * s.free < 0.0)
+            .any(|s| corners.iter().all(|&p| s.holds(p, ON_PLANE_M)) && normal.dot(s.normal()) < 0.0)
     }
 
     /// Number of contact edges.

@@ -788,7 +788,8 @@ impl Splitter<'_> {
             let (mut leaves, lamp, by_mesh_contact) =
                 split_triangle(scene, self.options, contacts, corners, patch);
             let before = leaves.len();
-            if let Some(c) = contacts {
+            // An unsplit triangle is the coarse one, already found not covered whole.
+            if let Some(c) = contacts.filter(|_| before > 1) {
                 leaves.retain(|t| !triangle_covered(c, t, patch.normal));
             }
             return SplitPatch {
@@ -1664,6 +1665,20 @@ solver_patch_size = 0.5
         text
     }
 
+    /// Asserts that a leaf (bounds `b`) of a horizontal surface, `distance` (m) from a contact
+    /// edge running along x, is a strip by the strip rule ([`strip_cut`]): at most twice
+    /// `contact_min_m` wide across the edge, and along it at most `CONTACT_ASPECT` times its far
+    /// side's distance, or twice `contact_min_m`.
+    fn assert_strip_along_x(b: &Aabb, distance: f64, options: &RefineOptions) {
+        let (wide, long) = (b.max.y - b.min.y, b.max.x - b.min.x);
+        let min = 2.0 * options.contact_min_m;
+        assert!(wide <= min + 1e-9, "a strip {wide} m wide");
+        assert!(
+            long <= (CONTACT_ASPECT * (distance + wide)).max(min) + 1e-9,
+            "a strip {wide} × {long} m, {distance} m from the edge"
+        );
+    }
+
     /// An OBJ block standing on a box (a vase on a sideboard) is graded like one on the floor:
     /// the box top's leaves touching its footprint are strips at most twice `contact_min_m`
     /// wide, no leaf of the box top lies wholly under it, and its underside on the box is left
@@ -1691,15 +1706,7 @@ solver_patch_size = 0.5
                 let distance = (1.3 - b.max.y).max(0.0);
                 if b.min.y < 1.3 && distance < 0.03 && b.max.x > 1.8 + 1e-9 && b.min.x < 2.2 - 1e-9 {
                     strips += 1;
-                    let (wide, long) = (b.max.y - b.min.y, b.max.x - b.min.x);
-                    assert!(
-                        wide <= 2.0 * options.contact_min_m + 1e-9,
-                        "a strip {wide} m wide"
-                    );
-                    assert!(
-                        long <= CONTACT_ASPECT * (distance + wide) + 1e-9,
-                        "a strip {wide} × {long} m {distance} m from the edge"
-                    );
+                    assert_strip_along_x(&b, distance, &options);
                 }
             }
             if matches!(kind(p), SurfaceKind::Mesh { .. }) {
@@ -1739,15 +1746,7 @@ solver_patch_size = 0.5
             // Touching the footprint's front side y = 1.2 (the floor is not meshed to it).
             if b.min.y <= 1.2 && b.max.y >= 1.2 && b.max.x > 1.4 + 1e-9 && b.min.x < 2.6 - 1e-9 {
                 strips += 1;
-                let (wide, long) = (b.max.y - b.min.y, b.max.x - b.min.x);
-                assert!(
-                    wide <= 2.0 * options.contact_min_m + 1e-9,
-                    "a strip {wide} m wide"
-                );
-                assert!(
-                    long <= CONTACT_ASPECT * wide + 1e-9 || long <= 2.0 * options.contact_min_m + 1e-9,
-                    "a strip {wide} × {long} m"
-                );
+                assert_strip_along_x(&b, 0.0, &options);
             }
         }
         // 1.2 m in strips at most 4 × 3 cm long, where squares would take 40.
