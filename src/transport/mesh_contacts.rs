@@ -1,8 +1,9 @@
-//! Where OBJ meshes stand on the room's surfaces and on boxes (docs/DECISIONS.md
-//! "Interreflection", "OBJ furniture on its support", "OBJ things on a box"): the edges of OBJ
-//! triangles that lie on a room surface or a box face (a plinth's footprint on the floor, a
-//! cabinet's back against a wall, a vase's base on a sideboard), which the refinement grades
-//! towards like a box's contact edges; the test for a point covered by a mesh (the floor under
+//! Where OBJ meshes stand on the room's surfaces, on boxes and on each other (docs/DECISIONS.md
+//! "Interreflection", "OBJ furniture on its support", "OBJ things on a box", "OBJ things on OBJ
+//! furniture"): the edges of OBJ triangles that lie on a room surface, a box face or another
+//! OBJ triangle (a plinth's footprint on the floor, a cabinet's back against a wall, a vase's
+//! base on a sideboard, [`edges_on_meshes`]), which the refinement grades towards like a box's
+//! contact edges; the test for a point covered by a mesh (the floor under
 //! a plinth), whose leaves are left out of the solve; and the OBJ faces lying on such a surface
 //! facing into it. Boxes need none of this: the mesher conforms the room's cells to their edges
 //! and drops the cells they cover. World frame, metres.
@@ -11,18 +12,20 @@ use glam::DVec3;
 
 use crate::scene::mesher::AxisRect;
 use crate::scene::{Aabb, Scene, SurfaceKind};
+use crate::transport::mesh_on_mesh::edges_on_meshes;
 
 /// How close (m) to a support's plane an OBJ vertex counts as lying on it.
 const ON_PLANE_M: f64 = 1e-3;
 
-/// An OBJ triangle edge lying on a support (a room surface or a box face).
+/// An OBJ triangle edge lying on a support (a room surface, a box face or another OBJ
+/// triangle).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Edge {
     a: DVec3,
     b: DVec3,
-    /// The plane: `coordinate[axis] = offset`.
-    axis: usize,
-    offset: f64,
+    /// The support's plane, `coordinate[axis] = offset`, when it is a room surface or a box
+    /// face (whose cells the mesher makes); `None` on an OBJ triangle.
+    plane: Option<(usize, f64)>,
 }
 
 /// The contact edge nearest something, as the refinement grades towards it.
@@ -75,8 +78,9 @@ pub(crate) struct MeshContacts {
 }
 
 impl MeshContacts {
-    /// The OBJ meshes of `scene` whose triangles have an edge on a support (a room surface or
-    /// a box face; the triangle itself off it); `None` when there are none.
+    /// The OBJ meshes of `scene` whose triangles have an edge on a support (a room surface, a
+    /// box face, or another OBJ triangle whose lit side it rises into; the triangle itself off
+    /// it); `None` when there are none.
     pub(crate) fn of_scene(scene: &Scene) -> Option<Self> {
         let supports = supports(scene);
         let mut triangles = Vec::new();
@@ -101,13 +105,17 @@ impl MeshContacts {
                         edges.push(Edge {
                             a: t[e],
                             b: t[(e + 1) % 3],
-                            axis: support.axis,
-                            offset: support.offset,
+                            plane: Some((support.axis, support.offset)),
                         });
                     }
                 }
             }
         }
+        edges.extend(
+            edges_on_meshes(&triangles, ON_PLANE_M)
+                .into_iter()
+                .map(|[a, b]| Edge { a, b, plane: None }),
+        );
         (!edges.is_empty()).then(|| MeshContacts {
             edges,
             triangles,
@@ -136,9 +144,38 @@ impl MeshContacts {
     pub(crate) fn nearest_to_cell(&self, axis: usize, offset: f64, cell: &Aabb) -> Option<NearestEdge> {
         self.edges
             .iter()
-            .filter(|e| e.axis == axis && (e.offset - offset).abs() <= ON_PLANE_M)
+            .filter(|e| {
+                e.plane
+                    .is_some_and(|(a, o)| a == axis && (o - offset).abs() <= ON_PLANE_M)
+            })
             .map(|e| NearestEdge::of(e, segment_box_distance(e.a, e.b, cell)))
             .min_by(|x, y| x.distance.total_cmp(&y.distance))
+    }
+
+    /// An OBJ contact edge running along a world axis through the interior of the flat box
+    /// `cell` of a room surface in the plane `coordinate[axis] = offset` (more than 1 mm inside
+    /// it, and overlapping it along its length): the world axis across the edge and the edge's
+    /// coordinate on it. Cut there, the cells on the two sides of a block's footprint or of the
+    /// top of an OBJ sideboard against a wall lie wholly outside or wholly under it.
+    pub(crate) fn line_through(&self, axis: usize, offset: f64, cell: &Aabb) -> Option<(usize, f64)> {
+        const MARGIN_M: f64 = 1e-3;
+        self.edges.iter().find_map(|e| {
+            let (plane_axis, o) = e.plane?;
+            if plane_axis != axis || (o - offset).abs() > ON_PLANE_M {
+                return None;
+            }
+            (0..3).filter(|&w| w != axis).find_map(|along| {
+                let across = 3 - axis - along;
+                let c = e.a[across];
+                let overlap = e.a[along].min(e.b[along]).max(cell.min[along])
+                    < e.a[along].max(e.b[along]).min(cell.max[along]) - 1e-9;
+                ((e.b[across] - c).abs() < 1e-9
+                    && overlap
+                    && c > cell.min[across] + MARGIN_M
+                    && c < cell.max[across] - MARGIN_M)
+                    .then_some((across, c))
+            })
+        })
     }
 
     /// The nearest contact edge to the nearest of `points`.
@@ -303,7 +340,7 @@ mod tests {
         // nothing on the walls or ceiling.
         let length: f64 = contacts.edges.iter().map(|e| e.a.distance(e.b)).sum();
         assert!((length - 4.0 * 0.6).abs() < 1e-9, "{length} m of edges");
-        assert!(contacts.edges.iter().all(|e| e.axis == 2 && e.offset == 0.0));
+        assert!(contacts.edges.iter().all(|e| e.plane == Some((2, 0.0))));
         let centre = DVec3::new(2.0, 1.5, 0.0);
         assert!(contacts.covered(centre, DVec3::Z));
         assert!(contacts.covered(centre + DVec3::new(0.25, 0.0, 0.0), DVec3::Z));

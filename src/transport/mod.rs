@@ -13,6 +13,7 @@ pub mod interpolate;
 pub mod interreflection;
 pub mod links;
 mod mesh_contacts;
+mod mesh_on_mesh;
 pub mod occlusion;
 pub mod patchdirect;
 pub mod plan;

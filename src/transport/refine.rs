@@ -36,14 +36,17 @@
 //!   added) and meshed over the slot no coarser than twice the gap; where a light's shadow line
 //!   crosses the slot (the lit band on the wall below the box's top edge, from which the rest
 //!   of the slot is lit), the cells are halved across it down to `shadow_min_m`.
-//! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface or a box (its
-//!   triangles' edges lying on one, in any direction), the cells of that surface and the mesh's
-//!   triangles are cut in strips by the boxes' rule ([`strip_cut`]) beside an edge along a
-//!   cell's side or flat to a triangle's plane, and halved across their longer side beside a
-//!   turned or steep one, down to `contact_min_m`; the room surface's cells the mesh covers (the
-//!   floor under a plinth), the mesh's faces against a room surface (its underside) and those
-//!   inside another of its blocks are left out of the solve (docs/DECISIONS.md "OBJ contacts
-//!   graded in strips", "OBJ faces against the room or inside another block").
+//! * **Along OBJ contacts**: where an OBJ mesh stands on a room surface, a box or another OBJ
+//!   mesh (its triangles' edges lying on one, in any direction), the cells of that surface and
+//!   the meshes' triangles are cut in strips by the boxes' rule ([`strip_cut`]) beside an edge
+//!   along a cell's side or flat to a triangle's plane, and halved across their longer side
+//!   beside a turned or steep one, down to `contact_min_m`; a cell an edge runs through along
+//!   one of its sides is first cut on it; a strip that a shadow line or a beam's cut-off
+//!   crosses is split across it by the light-edge rule. The room surface's cells the mesh
+//!   covers (the floor under a plinth), the mesh's faces against a room surface (its
+//!   underside) and those inside another of its blocks are left out of the solve
+//!   (docs/DECISIONS.md "OBJ contacts graded in strips", "OBJ faces against the room or inside
+//!   another block", "OBJ things on OBJ furniture").
 //!
 //! Splits are binary and axis-aligned on the room's and boxes' rectangles (so leaves stay
 //! rectangles of one surface); OBJ triangles are split 1 → 4 by edge midpoints near lights and
@@ -431,11 +434,15 @@ impl Cell {
     }
 
     fn halves(&self, k: usize) -> [Cell; 2] {
-        let mid = 0.5 * (self.rect.min[k] + self.rect.max[k]);
+        self.cut(k, 0.5 * (self.rect.min[k] + self.rect.max[k]))
+    }
+
+    /// The two parts of the cell on either side of `at` along its axis `k`.
+    fn cut(&self, k: usize, at: f64) -> [Cell; 2] {
         let mut lo = *self;
         let mut hi = *self;
-        lo.rect.max[k] = mid;
-        hi.rect.min[k] = mid;
+        lo.rect.max[k] = at;
+        hi.rect.min[k] = at;
         [lo, hi]
     }
 }
@@ -592,7 +599,7 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
     let splitter = Splitter {
         scene,
         options,
-        occluders: (!contacts.is_empty() && options.shadow_min_m > 0.0)
+        occluders: ((!contacts.is_empty() || !scene.mesh_bounds.is_empty()) && options.shadow_min_m > 0.0)
             .then(|| Occluders::of_scene(scene))
             .flatten(),
         contacts,
@@ -785,8 +792,7 @@ impl Splitter<'_> {
                     covered: 1,
                 };
             }
-            let (mut leaves, lamp, by_mesh_contact) =
-                split_triangle(scene, self.options, contacts, corners, patch);
+            let (mut leaves, lamp, by_mesh_contact) = split_triangle(self, corners, patch);
             let before = leaves.len();
             // An unsplit triangle is the coarse one, already found not covered whole.
             if let Some(c) = contacts.filter(|_| before > 1) {
@@ -822,6 +828,15 @@ impl Splitter<'_> {
             out.covered += 1;
             return;
         }
+        // A cell an OBJ contact edge runs through is cut on it first (docs/DECISIONS.md "OBJ
+        // things on OBJ furniture").
+        if let Some((k, at)) = self.mesh_contact_line(&cell) {
+            out.by_mesh_contact = true;
+            for part in cell.cut(k, at) {
+                self.split(part, light_edge, out);
+            }
+            return;
+        }
         let mut light_edge = light_edge;
         let axis = self
             .lamp_axis(&cell, &mut out.lamp)
@@ -838,9 +853,10 @@ impl Splitter<'_> {
                 }
             })
             .or_else(|| {
-                let axis = self.mesh_contact_axis(&cell);
-                out.by_mesh_contact |= axis.is_some();
-                axis
+                let by_mesh_contact = self.mesh_contact_axis(&cell);
+                light_edge |= matches!(by_mesh_contact, Some((_, Grading::LightEdge)));
+                out.by_mesh_contact |= by_mesh_contact.is_some();
+                by_mesh_contact.map(|(k, _)| k)
             });
         match axis {
             None if self.covered(&cell, false) => out.covered += 1,
@@ -877,11 +893,21 @@ impl Splitter<'_> {
             .all(|&(u, v)| contacts.covered(r.point(at(u, 0), at(v, 1)), r.normal()))
     }
 
+    /// The cell's axis and coordinate on it of an OBJ contact edge running through it along one
+    /// of its sides ([`MeshContacts::line_through`]).
+    fn mesh_contact_line(&self, cell: &Cell) -> Option<(usize, f64)> {
+        let contacts = self.mesh_contacts.as_ref()?;
+        let (across, at) = contacts.line_through(cell.rect.axis, cell.rect.offset, &cell.bounds())?;
+        let [u, v] = AxisRect::in_plane_axes(cell.rect.axis, cell.rect.facing_positive);
+        let k = [u, v].iter().position(|&w| w == across)?;
+        Some((k, at))
+    }
+
     /// The axis to halve a cell of a room surface that an OBJ mesh stands on: beside a contact
     /// edge along one of the cell's sides (a sofa set square to the walls), by the strip rule
     /// of box contacts ([`strip_cut`]); beside a turned one, the longer side while the cell is
     /// larger than `contact_ratio ×` its distance to it (down to `contact_min_m`).
-    fn mesh_contact_axis(&self, cell: &Cell) -> Option<usize> {
+    fn mesh_contact_axis(&self, cell: &Cell) -> Option<(usize, Grading)> {
         let contacts = self.mesh_contacts.as_ref()?;
         let options = self.options;
         let near = contacts.nearest_to_cell(cell.rect.axis, cell.rect.offset, &cell.bounds())?;
@@ -892,7 +918,7 @@ impl Splitter<'_> {
         if let Some(along) = along {
             let across = 1 - along;
             let (width, length) = (cell.extent(across), cell.extent(along));
-            return strip_cut(
+            let strip = strip_cut(
                 width,
                 length,
                 near.distance,
@@ -900,12 +926,19 @@ impl Splitter<'_> {
                 options.contact_min_m,
                 CONTACT_ASPECT,
             )
-            .map(|cut| if cut == StripCut::Across { across } else { along });
+            .map(|cut| {
+                (
+                    if cut == StripCut::Across { across } else { along },
+                    Grading::Contact,
+                )
+            });
+            return strip
+                .or_else(|| self.light_edge_axis(cell, across, near.distance, true, &mut None, &mut None));
         }
         let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
         (cell.extent(longer) > 2.0 * options.contact_min_m
             && cell.extent(longer) > options.contact_ratio * near.distance)
-            .then_some(longer)
+            .then_some((longer, Grading::Contact))
     }
 
     /// The longer side, when the cell is larger than `lamp_ratio ×` its distance to a light in
@@ -1006,23 +1039,63 @@ impl Splitter<'_> {
             // cut-off crosses is halved along the edge too while longer than
             // `LIGHT_EDGE_LENGTH ×` its far side's distance to it (docs/DECISIONS.md "Light
             // edges beside contacts").
-            if contact.kind == EdgeKind::Box && options.shadow_min_m > 0.0 {
-                let min_m = 2.0 * options.shadow_min_m;
-                if width > min_m
-                    && distance <= SHADOW_REACH * width
-                    && *edge_across[across].get_or_insert_with(|| self.light_edge_across(cell, across))
-                {
-                    return Some((across, Grading::LightEdge));
-                }
-                if length > min_m
-                    && length > LIGHT_EDGE_LENGTH * (distance + width)
-                    && *beam_edge.get_or_insert_with(|| self.beam_edge_crosses(cell))
-                {
-                    return Some((1 - across, Grading::LightEdge));
+            if contact.kind == EdgeKind::Box {
+                let cut = self.light_edge_axis(
+                    cell,
+                    across,
+                    distance,
+                    false,
+                    &mut edge_across[across],
+                    &mut beam_edge,
+                );
+                if cut.is_some() {
+                    return cut;
                 }
             }
         }
         None
+    }
+
+    /// The light-edge rule beside a contact edge running along a cell's side (`across`: the axis
+    /// across it; `distance` (m) to it): the axis across the edge when a shadow line or a beam's
+    /// cut-off runs through the cell parallel to it and the cell is within `SHADOW_REACH` of its
+    /// widths of the edge and wider than twice `shadow_min_m`; else the axis along the edge when
+    /// a beam's cut-off (with `shadows_along`, any light edge) crosses the cell that way and it
+    /// is longer than `LIGHT_EDGE_LENGTH ×` its far side's distance. The tests run once per cell
+    /// (`edge_across`, `beam_edge` keep them). Beside an OBJ contact the shadows count along
+    /// the edge too: nothing conforms the cells to an OBJ's outline, so a strip along its contact
+    /// can run from the shadow a block casts into the light beside it (docs/DECISIONS.md "OBJ
+    /// things on OBJ furniture").
+    fn light_edge_axis(
+        &self,
+        cell: &Cell,
+        across: usize,
+        distance: f64,
+        shadows_along: bool,
+        edge_across: &mut Option<bool>,
+        beam_edge: &mut Option<bool>,
+    ) -> Option<(usize, Grading)> {
+        if self.options.shadow_min_m <= 0.0 {
+            return None;
+        }
+        let min_m = 2.0 * self.options.shadow_min_m;
+        let (width, length) = (cell.extent(across), cell.extent(1 - across));
+        if width > min_m
+            && distance <= SHADOW_REACH * width
+            && *edge_across.get_or_insert_with(|| self.light_edge_across(cell, across))
+        {
+            return Some((across, Grading::LightEdge));
+        }
+        (length > min_m
+            && length > LIGHT_EDGE_LENGTH * (distance + width)
+            && *beam_edge.get_or_insert_with(|| {
+                if shadows_along {
+                    self.light_edge_across(cell, 1 - across)
+                } else {
+                    self.beam_edge_crosses(cell)
+                }
+            }))
+        .then_some((1 - across, Grading::LightEdge))
     }
 
     /// The longer side, when the cell lies in a slot (on either side) and is longer than twice
@@ -1110,9 +1183,24 @@ impl Splitter<'_> {
     /// there (docs/DECISIONS.md "Light edges beside contacts"). `None` when no light reaches
     /// any of the points.
     fn lit_points(&self, cell: &Cell, points: &[DVec3], occluded: bool) -> Option<Vec<bool>> {
-        let normal = cell.rect.normal();
         let bounds = cell.bounds();
-        let centre = 0.5 * (bounds.min + bounds.max);
+        self.lit_points_at(
+            cell.rect.normal(),
+            0.5 * (bounds.min + bounds.max),
+            points,
+            occluded,
+        )
+    }
+
+    /// [`Self::lit_points`] for points of any flat piece of unit `normal` whose centre is
+    /// `centre` (an OBJ triangle's).
+    fn lit_points_at(
+        &self,
+        normal: DVec3,
+        centre: DVec3,
+        points: &[DVec3],
+        occluded: bool,
+    ) -> Option<Vec<bool>> {
         let intensity = |light: &Light, to_light: DVec3| {
             let gamma = light.aim.dot(-to_light.normalize()).clamp(-1.0, 1.0).acos();
             light.curve.eval_rad(gamma)
@@ -1165,12 +1253,11 @@ impl Splitter<'_> {
 /// [`halve_triangle`]) where the strip rule asks for it beside an OBJ contact edge; returns the
 /// pieces, the first light that caused a split, and whether the contact rule split it.
 fn split_triangle(
-    scene: &Scene,
-    options: &RefineOptions,
-    contacts: Option<&MeshContacts>,
+    splitter: &Splitter,
     corners: [DVec3; 3],
     patch: &Patch,
 ) -> (Vec<[DVec3; 3]>, Option<usize>, bool) {
+    let (scene, options) = (splitter.scene, splitter.options);
     let mut out = Vec::new();
     let mut first = None;
     let mut by_contact = false;
@@ -1197,8 +1284,7 @@ fn split_triangle(
                 [m[2], m[1], t[2]],
                 [m[0], m[1], m[2]],
             ]);
-        } else if let Some(direction) = contacts.and_then(|c| mesh_contact_cut(c, options, &t, patch.normal))
-        {
+        } else if let Some(direction) = mesh_contact_cut(splitter, &t, patch.normal) {
             by_contact = true;
             halve_triangle(&t, direction, &mut stack);
         } else {
@@ -1227,13 +1313,9 @@ fn triangle_covered(contacts: &MeshContacts, t: &[DVec3; 3], normal: DVec3) -> b
 /// else across its longest side while that is longer than `contact_ratio ×` the distance; never
 /// into pieces narrower than `contact_min_m` (docs/DECISIONS.md "OBJ contacts graded in
 /// strips").
-fn mesh_contact_cut(
-    contacts: &MeshContacts,
-    options: &RefineOptions,
-    t: &[DVec3; 3],
-    normal: DVec3,
-) -> Option<DVec3> {
-    let near = contacts.nearest_to_points(t)?;
+fn mesh_contact_cut(splitter: &Splitter, t: &[DVec3; 3], normal: DVec3) -> Option<DVec3> {
+    let options = splitter.options;
+    let near = splitter.mesh_contacts.as_ref()?.nearest_to_points(t)?;
     let sides = [t[1] - t[0], t[2] - t[1], t[0] - t[2]];
     let along = near.direction - normal * near.direction.dot(normal);
     if along.length() < FLAT_EDGE_COSINE {
@@ -1258,6 +1340,73 @@ fn mesh_contact_cut(
         CONTACT_ASPECT,
     )
     .map(|cut| if cut == StripCut::Across { across } else { along })
+    .or_else(|| triangle_light_edge_cut(splitter, t, normal, [across, along], near.distance))
+}
+
+/// The light-edge rule of contacts ([`Splitter::light_edge_axis`]) for an OBJ triangle `t` (unit
+/// `normal`) beside a contact edge flat to its plane (`directions`: unit, across the edge and
+/// along it; `distance` (m) to it): where a shadow line or a beam's cut-off runs through the
+/// triangle (some of its corners, side middles and centre lit and others not,
+/// [`Splitter::lit_points_at`]), the direction of the two that best separates the lit points
+/// from the dark ones — across the edge while the triangle is within `SHADOW_REACH` of its
+/// widths of the edge, along it while longer than `LIGHT_EDGE_LENGTH ×` its far side's
+/// distance; never into pieces under twice `shadow_min_m` (docs/DECISIONS.md "OBJ things on OBJ
+/// furniture"). A strip along a contact may run through the shadow a block beside it casts
+/// (the slot between a block of books and the wall behind it), which the strip rule alone
+/// would leave lit on average.
+fn triangle_light_edge_cut(
+    splitter: &Splitter,
+    t: &[DVec3; 3],
+    normal: DVec3,
+    directions: [DVec3; 2],
+    distance: f64,
+) -> Option<DVec3> {
+    let min_m = 2.0 * splitter.options.shadow_min_m;
+    if min_m <= 0.0 {
+        return None;
+    }
+    let centre = (t[0] + t[1] + t[2]) / 3.0;
+    let extent = |d: DVec3| {
+        let s = t.map(|p| p.dot(d));
+        s.iter().copied().fold(f64::NEG_INFINITY, f64::max) - s.iter().copied().fold(f64::INFINITY, f64::min)
+    };
+    let [width, length] = directions.map(extent);
+    let may_cut = [
+        width > min_m && distance <= SHADOW_REACH * width,
+        length > min_m && length > LIGHT_EDGE_LENGTH * (distance + width),
+    ];
+    if !may_cut.contains(&true) {
+        return None;
+    }
+    // The corners (1 mm inside), the sides' middles and the centre, just off the face.
+    let inset = |p: DVec3| p + (centre - p).clamp_length_max(1e-3);
+    let points: Vec<DVec3> = (0..3)
+        .flat_map(|k| [inset(t[k]), (t[k] + t[(k + 1) % 3]) / 2.0])
+        .chain([centre])
+        .map(|p| p + normal * 1e-6)
+        .collect();
+    let lit = splitter.lit_points_at(normal, centre, &points, true)?;
+    if !(lit.contains(&true) && lit.contains(&false)) {
+        return None;
+    }
+    // How far apart the lit and the dark points lie along a direction, in its extents.
+    let separation = |d: DVec3, size: f64| {
+        let mean = |want: bool| {
+            let (sum, n) = points
+                .iter()
+                .zip(&lit)
+                .filter(|(_, l)| **l == want)
+                .fold((0.0, 0.0), |(sum, n), (p, _)| (sum + p.dot(d), n + 1.0));
+            sum / n
+        };
+        (mean(true) - mean(false)).abs() / size.max(f64::MIN_POSITIVE)
+    };
+    let best = if separation(directions[0], width) >= separation(directions[1], length) {
+        0
+    } else {
+        1
+    };
+    may_cut[best].then_some(directions[best])
 }
 
 /// Cuts the triangle `t` by the line through the middle of its extent along the in-plane unit
@@ -1665,6 +1814,21 @@ solver_patch_size = 0.5
         text
     }
 
+    /// The test room with two OBJ blocks (`lo`–`hi` corners, one OBJ file), its default
+    /// refinement options and its solver mesh.
+    fn two_blocks_refined(
+        lo: [f64; 3],
+        hi: [f64; 3],
+        lo2: [f64; 3],
+        hi2: [f64; 3],
+    ) -> (Scene, RefineOptions, SolverMesh) {
+        let obj = obj_block(lo, hi, 1) + &obj_block(lo2, hi2, 9);
+        let scene = crate::transport::mesh_contacts::obj_room(&obj, "");
+        let options = RefineOptions::default();
+        let solver = refine(&scene, &options);
+        (scene, options, solver)
+    }
+
     /// Asserts that a leaf (bounds `b`) of a horizontal surface, `distance` (m) from a contact
     /// edge running along x, is a strip by the strip rule ([`strip_cut`]): at most twice
     /// `contact_min_m` wide across the edge, and along it at most `CONTACT_ASPECT` times its far
@@ -1720,6 +1884,62 @@ solver_patch_size = 0.5
         assert!(strips >= 4, "{strips} strips along the front");
     }
 
+    /// An OBJ block standing on an OBJ sideboard against a wall (books on it): the sideboard's
+    /// top is graded in strips towards the block's foot and keeps no leaf wholly under it, the
+    /// block's underside is left out, and no leaf of the wall behind the sideboard reaches both
+    /// above and below its top (the wall's cells are cut on that contact edge).
+    #[test]
+    fn obj_furniture_on_obj_furniture_grades_the_lower_top_and_cuts_the_wall_on_its_edge() {
+        let (scene, options, solver) =
+            two_blocks_refined([1.0, 0.0, 0.0], [3.0, 0.5, 0.8], [1.8, 0.1, 0.8], [2.2, 0.4, 1.1]);
+        let kind = |p: &Patch| &scene.surfaces[p.surface as usize].kind;
+        let mut strips = 0;
+        for p in &solver.mesh.patches {
+            let b = leaf_box(&solver.mesh, p);
+            match kind(p) {
+                SurfaceKind::Mesh { .. } if p.normal.z > 0.5 && b.max.z < 0.8 + 1e-9 => {
+                    let under = b.min.x >= 1.8 - 1e-9
+                        && b.max.x <= 2.2 + 1e-9
+                        && b.min.y >= 0.1 - 1e-9
+                        && b.max.y <= 0.4 + 1e-9;
+                    assert!(
+                        !under,
+                        "a leaf of the sideboard's top under the block at {}",
+                        p.centroid
+                    );
+                    // Touching the block's front side y = 0.4 from in front, along it.
+                    if b.min.y < 0.4 + 1e-9
+                        && b.max.y > 0.4 + 1e-9
+                        && b.max.x > 1.8 + 1e-9
+                        && b.min.x < 2.2 - 1e-9
+                    {
+                        strips += 1;
+                        let wide = b.max.y - b.min.y;
+                        assert!(
+                            wide <= 2.0 * options.contact_min_m + 1e-9,
+                            "a piece {wide} m wide at {}",
+                            p.centroid
+                        );
+                    }
+                }
+                SurfaceKind::Mesh { .. } => {
+                    let underside = p.normal.z < -0.5 && (p.centroid.z - 0.8).abs() < 1e-9;
+                    assert!(!underside, "a leaf of the block's underside at {}", p.centroid);
+                }
+                SurfaceKind::Wall if b.max.y < 1e-9 && b.max.x > 1.0 + 1e-9 && b.min.x < 3.0 - 1e-9 => {
+                    assert!(
+                        b.min.z >= 0.8 - 1e-9 || b.max.z <= 0.8 + 1e-9,
+                        "a wall leaf across the sideboard's top: z {}..{}",
+                        b.min.z,
+                        b.max.z
+                    );
+                }
+                _ => {}
+            }
+        }
+        assert!(strips >= 4, "{strips} pieces along the block's front");
+    }
+
     /// A closed OBJ block on the floor set square to the walls, with a second block standing
     /// on its back half (a seat and its back-rest): the floor leaves along its footprint are
     /// strips at most twice `contact_min_m` wide and `CONTACT_ASPECT` times as long as far, far
@@ -1729,11 +1949,8 @@ solver_patch_size = 0.5
     #[test]
     fn obj_furniture_set_square_grades_in_strips_and_leaves_out_its_hidden_faces() {
         // The seat 1.2 × 0.6 × 0.4 m, the back-rest 1.2 × 0.2 × 0.4 m on its back 0.2 m.
-        let obj =
-            obj_block([1.4, 1.2, 0.0], [2.6, 1.8, 0.4], 1) + &obj_block([1.4, 1.6, 0.4], [2.6, 1.8, 0.8], 9);
-        let scene = crate::transport::mesh_contacts::obj_room(&obj, "");
-        let options = RefineOptions::default();
-        let solver = refine(&scene, &options);
+        let (scene, options, solver) =
+            two_blocks_refined([1.4, 1.2, 0.0], [2.6, 1.8, 0.4], [1.4, 1.6, 0.4], [2.6, 1.8, 0.8]);
         let kind = |p: &Patch| &scene.surfaces[p.surface as usize].kind;
         let mut strips = 0;
         for p in solver
