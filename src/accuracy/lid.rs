@@ -51,8 +51,12 @@ pub struct LidReport {
     pub peak_cd: f64,
     /// Max relative deviation of a C-plane from the axial average (0 for inline curves).
     pub asymmetry: f64,
-    /// The order chosen for `LID_TARGET_REL_L2`.
+    /// The order chosen for `LID_TARGET_REL_L2`: the lowest that meets it, or
+    /// `LID_MAX_AUTO_ORDER` when none up to that cap does.
     pub order: usize,
+    /// Exact relative L2 error of the unwindowed series at `order`; above `LID_TARGET_REL_L2`
+    /// when the cap was reached first (a hard-edged curve).
+    pub order_rel_l2_error: f64,
     /// Legendre weights w_0..w_N (cd), unwindowed.
     pub weights: Vec<f64>,
     /// One row per order 0..=N.
@@ -98,12 +102,13 @@ pub fn report(curve: &Curve, asymmetry: f64, max_order: Option<usize>, window: O
             let mut editor = IncrementalWeights::new(curve.clone(), order);
             let peak = curve.intensities_cd()[edit_point];
             let mut toggle = false;
+            // Lowered, not raised, so the edit stays valid at the top of the intensity range.
             let edit_us = median_us(|| {
                 toggle = !toggle;
-                let value = if toggle { peak * 1.01 } else { peak };
+                let value = if toggle { peak * 0.99 } else { peak };
                 editor
                     .set_intensity(edit_point, value)
-                    .expect("a positive finite intensity is valid");
+                    .expect("a fraction of a valid intensity is valid");
             });
             OrderRow {
                 order,
@@ -127,6 +132,13 @@ pub fn report(curve: &Curve, asymmetry: f64, max_order: Option<usize>, window: O
         peak_cd: curve.peak_cd(),
         asymmetry,
         order: chosen,
+        order_rel_l2_error: truncation_stats(
+            curve,
+            &ZonalWeights::exact(curve, chosen),
+            chosen,
+            Window::None,
+        )
+        .rel_l2_error,
         weights: full.w,
         orders,
     }

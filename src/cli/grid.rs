@@ -43,7 +43,26 @@ pub fn run(
     limit: &MemoryLimit,
 ) -> Result<()> {
     let scene = scene::load(room)?;
-    let plane = WorkPlane::new(&scene, height_m, spacing_m, margin_m.unwrap_or(spacing_m / 2.0))?;
+    let margin_m = match margin_m {
+        Some(margin_m) => margin_m,
+        None => {
+            // The default margin is half the spacing: too wide a spacing leaves no room, and it
+            // is the spacing the user wrote.
+            let narrowest = scene.room_size.x.min(scene.room_size.y);
+            if spacing_m.is_finite() && spacing_m >= narrowest {
+                return Err(Error::input(
+                    "--spacing",
+                    "",
+                    format!(
+                        "{spacing_m:?} m is not below the room's narrowest side ({narrowest:?} m), so \
+                         its default margin (half the spacing) leaves no room for a grid"
+                    ),
+                ));
+            }
+            spacing_m / 2.0
+        }
+    };
+    let plane = WorkPlane::new(&scene, height_m, spacing_m, margin_m)?;
     if plane.receivers.is_empty() {
         return Err(Error::input(room, "", "every grid point lies inside furniture"));
     }

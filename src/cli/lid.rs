@@ -7,14 +7,25 @@ use crate::photometry::Window;
 
 /// Formats the report as text tables.
 pub(crate) fn format_text(source: &str, r: &LidReport) -> String {
+    let target = LID_TARGET_REL_L2 * 100.0;
+    let error = r.order_rel_l2_error * 100.0;
+    let order = if r.order_rel_l2_error <= LID_TARGET_REL_L2 {
+        format!(
+            "chosen order {} (relative L2 {error:.1} % ≤ {target:.0} %)",
+            r.order
+        )
+    } else {
+        format!(
+            "order capped at {}: relative L2 {error:.1} % misses the {target:.0} % target (a hard-edged curve)",
+            r.order
+        )
+    };
     let mut s = format!(
-        "{}\nflux {:.1} lm   peak {:.1} cd   asymmetry {:.3}   chosen order {} (relative L2 ≤ {:.0} %)\n\n",
+        "{}\nflux {:.1} lm   peak {:.1} cd   asymmetry {:.3}   {order}\n\n",
         printable(source),
         r.flux_lm,
         r.peak_cd,
         r.asymmetry,
-        r.order,
-        LID_TARGET_REL_L2 * 100.0
     );
     s.push_str(
         "order  window   rel L2    max |err| cd   min cd     overshoot  exact µs  rect µs   edit µs\n",
@@ -45,11 +56,13 @@ pub fn run(source: &str, order: Option<usize>, window: Option<Window>, json: boo
     let r = report(&curve, asymmetry, order, window);
     check_finite(
         "lid: a result",
-        [r.flux_lm, r.peak_cd, r.asymmetry].into_iter().chain(
-            r.orders
-                .iter()
-                .flat_map(|row| [row.rel_l2_error, row.max_abs_error_cd, row.min_cd, row.overshoot]),
-        ),
+        [r.flux_lm, r.peak_cd, r.asymmetry, r.order_rel_l2_error]
+            .into_iter()
+            .chain(
+                r.orders
+                    .iter()
+                    .flat_map(|row| [row.rel_l2_error, row.max_abs_error_cd, row.min_cd, row.overshoot]),
+            ),
     )?;
     if json {
         println!(

@@ -29,7 +29,7 @@ pub fn run(
     limit: &MemoryLimit,
 ) -> Result<()> {
     let scene = scene::load(room)?;
-    let receivers = scene::points::read_points(points)?;
+    let receivers = scene::points::read_points(points, scene.room_size)?;
     let mut session = open_session(scene, !direct_only, limit)?;
     let lux = session.illuminance_at(&receivers, direct_only, mode)?;
     check_finite("probe: an illuminance", lux.iter().copied())?;

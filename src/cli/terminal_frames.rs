@@ -11,6 +11,7 @@ use crate::cli::open_session;
 use crate::error::{Error, Result};
 use crate::scene;
 use crate::session::budget::MemoryLimit;
+use crate::session::frame::MAX_SIDE_PX;
 use crate::tui::frame_budget::DEFAULT_BUDGET;
 use crate::tui::frame_cost::{FrameCost, FrameCosts, measure, preview_cells};
 use crate::tui::multiplexer::Protocol;
@@ -70,7 +71,21 @@ pub fn run(
 ) -> Result<()> {
     let cells = parse_pair("--cells", cells)?;
     let font = parse_pair("--font", font)?;
-    preview_cells(cells)?;
+    let preview = preview_cells(cells)?;
+    let preview_px = (
+        u32::from(preview.width) * u32::from(font.0),
+        u32::from(preview.height) * u32::from(font.1),
+    );
+    if Protocol::from(terminal) != Protocol::Halfblocks && preview_px.0.max(preview_px.1) > MAX_SIDE_PX {
+        return Err(Error::input(
+            "--font",
+            "",
+            format!(
+                "{}x{} px cells make the {}x{}-cell preview {}x{} pixels, more than {MAX_SIDE_PX} a side",
+                font.0, font.1, preview.width, preview.height, preview_px.0, preview_px.1
+            ),
+        ));
+    }
     let scene = scene::load(room)?;
     let mut session = open_session(scene.clone(), true, limit)?;
     session.relight();

@@ -46,21 +46,21 @@ impl WorkPlane {
             return Err(Error::input(
                 "--height",
                 "",
-                format!("{height_m} m is not inside the room (0 to {} m)", size.z),
+                format!("{height_m:?} m is not inside the room (0 to {:?} m)", size.z),
             ));
         }
         if !(spacing_m > 0.0 && spacing_m.is_finite()) {
             return Err(Error::input(
                 "--spacing",
                 "",
-                format!("{spacing_m} m must be a positive number"),
+                format!("{spacing_m:?} m must be a positive number"),
             ));
         }
         if !(margin_m >= 0.0 && 2.0 * margin_m < size.x.min(size.y)) {
             return Err(Error::input(
                 "--margin",
                 "",
-                format!("{margin_m} m leaves no room for a grid"),
+                format!("{margin_m:?} m leaves no room for a grid"),
             ));
         }
         // Counted in f64 (a spacing of 1e-9 m gives 4e9 points per axis; their product would
@@ -73,7 +73,7 @@ impl WorkPlane {
                 "--spacing",
                 "",
                 format!(
-                    "{spacing_m} m gives {:.3e} points, more than {MAX_POINTS}: choose a spacing of at least {:.3} m",
+                    "{spacing_m:?} m gives {:.3e} points, more than {MAX_POINTS}: choose a spacing of at least {:.3} m",
                     points,
                     min_spacing(size.x - 2.0 * margin_m, size.y - 2.0 * margin_m)
                 ),

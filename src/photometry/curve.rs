@@ -23,6 +23,12 @@ pub enum CurveError {
     },
     /// More than two points share one angle (a step needs exactly two).
     TripleAngle { index: usize, gamma_deg: f64 },
+    /// Two angles differ by less than [`MIN_GAMMA_GAP_DEG`] without being equal.
+    GammaTooClose {
+        index: usize,
+        gamma_deg: f64,
+        previous_deg: f64,
+    },
     /// The intensity is NaN, infinite, negative or above [`MAX_INTENSITY_CD`].
     BadIntensity { index: usize, candela: f64 },
 }
@@ -50,6 +56,15 @@ impl fmt::Display for CurveError {
                 f,
                 "point {index}: a third point at {gamma_deg}° (a step is exactly two points at one angle)"
             ),
+            CurveError::GammaTooClose {
+                index,
+                gamma_deg,
+                previous_deg,
+            } => write!(
+                f,
+                "point {index}: angle {gamma_deg:?}° is within {MIN_GAMMA_GAP_DEG:e}° of the previous \
+                 point's {previous_deg:?}° (write the same angle twice for a step)"
+            ),
             CurveError::BadIntensity { index, candela } => write!(
                 f,
                 "point {index}: intensity {candela:?} cd is not a number from 0 to {MAX_INTENSITY_CD:e} cd"
@@ -64,6 +79,11 @@ impl std::error::Error for CurveError {}
 /// enough that `‖I‖²` sums and the products with dimmer, colour and `1/r²` downstream stay far
 /// from overflow (docs/DECISIONS.md, "Bad input").
 pub const MAX_INTENSITY_CD: f64 = 1e9;
+
+/// The smallest difference between two control-point angles that are not equal, in degrees: far
+/// below any measured grid (0.1° at the finest), and far above the gaps whose hat-function
+/// moments lose every digit to cancellation (docs/DECISIONS.md, "Bad input").
+pub const MIN_GAMMA_GAP_DEG: f64 = 1e-6;
 
 /// A validated piecewise-linear intensity curve.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,6 +124,13 @@ impl Curve {
                 }
                 if index > 1 && gamma_deg == previous_deg && gamma_deg == self.gamma_deg[index - 2] {
                     return Err(CurveError::TripleAngle { index, gamma_deg });
+                }
+                if gamma_deg != previous_deg && gamma_deg - previous_deg < MIN_GAMMA_GAP_DEG {
+                    return Err(CurveError::GammaTooClose {
+                        index,
+                        gamma_deg,
+                        previous_deg,
+                    });
                 }
             }
         }

@@ -17,6 +17,7 @@ use crate::fsio::{self, FileKind};
 use crate::photometry::lidfile::MAX_ANGLES;
 use crate::photometry::{Curve, LuminousShape, read_lid_file};
 use crate::scene::design::Design;
+use crate::scene::enclosure::Neighbourhood;
 use crate::scene::mesher::{self, Geometry, Shape, TriangleSurface};
 use crate::scene::model::{
     Aabb, AimSpec, Camera, DirectMode, EngineChoice, LidSource, Light, Reflectance, Scene, Settings, Surface,
@@ -369,6 +370,19 @@ impl Loader<'_> {
             obj_surfaces.extend(surfaces);
             mesh_bounds.push(bounds);
         }
+        if let Some((earlier, later, corners)) = obj::first_repeated_triangle(&obj_surfaces) {
+            let copy = if earlier == later {
+                "twice in that mesh".to_string()
+            } else {
+                format!("in mesh[{earlier}] too")
+            };
+            let message = format!(
+                "the triangle {:?} appears {copy}, facing the same way: coincident faces reflect \
+                 each other's light without end; remove the copy",
+                corners.map(|c| c.to_array())
+            );
+            return Err(self.error(&file.meshes[later].span(), &format!("mesh[{later}]"), message));
+        }
         let solids = Solids {
             room_size,
             boxes: &boxes,
@@ -706,6 +720,12 @@ impl Loader<'_> {
             format!("the light is inside box[{b}]")
         } else if let Some(m) = solids.inside_mesh(position) {
             format!("the light is inside mesh[{m}]")
+        } else if solids.encloses(position) {
+            format!(
+                "the light at {:?} lies between pieces of furniture that close it in on every \
+                 side (a face shared by two boxes or meshes); move it onto a free face",
+                position.to_array()
+            )
         } else {
             return Ok(position);
         };
@@ -869,8 +889,35 @@ impl Solids<'_> {
             if triangles().any(|t| on_triangle(p, t, tolerance)) {
                 return None;
             }
-            (obj::winding_number(p, triangles()).abs() > 0.5).then_some(m)
+            self.wound_by(m, p).then_some(m)
         })
+    }
+
+    /// Whether mesh `m` winds around `p` (`|w| > ½`, see [`Solids::inside_mesh`]).
+    fn wound_by(&self, m: usize, p: DVec3) -> bool {
+        let triangles = self
+            .obj_surfaces
+            .iter()
+            .filter(|s| s.geometry.mesh_index == m)
+            .flat_map(|s| {
+                let g = &s.geometry;
+                g.triangles.iter().map(|t| t.map(|i| g.positions[i as usize]))
+            });
+        obj::winding_number(p, triangles).abs() > 0.5
+    }
+
+    /// Whether boxes and meshes close `p` in on every side although it is inside none of them
+    /// (see [`Neighbourhood::closed_in`]; a mesh holds a probe it winds around).
+    fn encloses(&self, p: DVec3) -> bool {
+        let around = Neighbourhood::new(p, self.room_size);
+        let boxes: Vec<&Aabb> = self.boxes.iter().filter(|b| around.touches(b)).collect();
+        let meshes: Vec<usize> = (0..self.mesh_bounds.len())
+            .filter(|&m| around.touches(&self.mesh_bounds[m]))
+            .collect();
+        (!boxes.is_empty() || !meshes.is_empty())
+            && around.closed_in(|q| {
+                boxes.iter().any(|b| b.contains_strictly(q)) || meshes.iter().any(|&m| self.wound_by(m, q))
+            })
     }
 }
 

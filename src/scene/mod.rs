@@ -2,6 +2,7 @@
 
 pub mod calc_spec;
 pub mod design;
+pub mod enclosure;
 pub mod light_tables;
 pub mod load;
 pub mod mesher;

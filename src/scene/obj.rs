@@ -511,6 +511,32 @@ fn material_reflectance(obj: &Path, material: Option<&Material>) -> Result<Refle
     Ok(Reflectance(*kd))
 }
 
+/// The first triangle that appears twice facing the same way among `surfaces` (world frame):
+/// the `[[mesh]]` indices of its first and second appearance and its corners (m). Coincident
+/// faces each reflect the light the other also reflects, so their interreflection has no
+/// bounded solution (docs/DECISIONS.md "Coincident OBJ faces"). Corners are compared exactly:
+/// a mesh listed twice, or a face written twice, repeats them bit for bit. The same face facing
+/// the other way (a two-sided sheet) is not a repeat.
+pub fn first_repeated_triangle(surfaces: &[ObjSurface]) -> Option<(usize, usize, [DVec3; 3])> {
+    let mut seen: HashMap<[[u64; 3]; 3], usize> = HashMap::new();
+    for surface in surfaces {
+        let g = &surface.geometry;
+        for triangle in &g.triangles {
+            let corners = triangle.map(|i| g.positions[i as usize]);
+            // `+ 0.0` turns −0 into +0; the rotation starting at the smallest corner keeps the
+            // turn of the triangle and so the side it faces.
+            let bits = corners.map(|c| (c + DVec3::ZERO).to_array().map(f64::to_bits));
+            let first = (0..3).min_by_key(|&k| bits[k]).unwrap_or(0);
+            let key = [bits[first], bits[(first + 1) % 3], bits[(first + 2) % 3]];
+            if let Some(&earlier) = seen.get(&key) {
+                return Some((earlier, g.mesh_index, corners));
+            }
+            seen.insert(key, g.mesh_index);
+        }
+    }
+    None
+}
+
 /// The generalized winding number of the triangles around `p` (Jacobson et al. 2013):
 /// `Σ Ω / 4π` over their signed solid angles seen from `p`; ±1 inside a closed mesh (the sign
 /// from its faces' turn), 0 outside, between for an open one.
@@ -549,6 +575,25 @@ mod tests {
     }
 
     const SQUARE: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+
+    #[test]
+    fn a_face_written_twice_the_same_way_is_found_but_a_two_sided_sheet_is_not() {
+        let two_sided = parse(&format!("{SQUARE}f 1 2 3\nf 3 2 1\n"), "").unwrap();
+        assert_eq!(first_repeated_triangle(&two_sided), None);
+        // The copy starts at another corner but turns the same way.
+        let twice = parse(&format!("{SQUARE}f 1 2 3 4\nf 2 3 1\n"), "").unwrap();
+        let corners = [DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 0.0), DVec3::ZERO];
+        assert_eq!(first_repeated_triangle(&twice), Some((0, 0, corners)));
+        // A mesh listed twice.
+        let mut meshes = parse(&format!("{SQUARE}f 1 2 3\n"), "").unwrap();
+        let mut copy = meshes.clone();
+        copy[0].geometry.mesh_index = 1;
+        meshes.extend(copy);
+        assert_eq!(
+            first_repeated_triangle(&meshes),
+            Some((0, 1, [DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0)]))
+        );
+    }
 
     #[test]
     fn polygons_become_fans_and_relative_indices_count_back() {

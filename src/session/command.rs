@@ -7,6 +7,7 @@
 use glam::DVec3;
 
 use crate::photometry::{Curve, CurveError, LuminousShape};
+use crate::scene::enclosure::Neighbourhood;
 use crate::scene::{Aabb, AimSpec, Camera, LidSource, Scene};
 use crate::session::light::{LightEdit, MAX_ORDER, WindowChoice};
 
@@ -28,12 +29,17 @@ impl RoomBounds {
         }
     }
 
-    /// True when `position` is finite, inside the room (walls included) and outside furniture.
+    /// True when `position` is finite, inside the room (walls included), outside furniture and
+    /// not closed in by it on every side (on a face two obstacles share).
     pub fn admits(&self, position: DVec3) -> bool {
-        position.is_finite()
+        if !(position.is_finite()
             && position.cmpge(DVec3::ZERO).all()
             && position.cmple(self.size).all()
-            && !self.obstacles.iter().any(|b| b.contains_strictly(position))
+            && !self.obstacles.iter().any(|b| b.contains_strictly(position)))
+        {
+            return false;
+        }
+        !Neighbourhood::new(position, self.size).closed_in_by_boxes(&self.obstacles)
     }
 }
 
@@ -566,10 +572,17 @@ mod tests {
     fn room() -> RoomBounds {
         RoomBounds {
             size: DVec3::new(4.0, 3.0, 2.7),
-            obstacles: vec![Aabb {
-                min: DVec3::new(3.0, 2.0, 0.0),
-                max: DVec3::new(4.0, 3.0, 1.0),
-            }],
+            obstacles: vec![
+                Aabb {
+                    min: DVec3::new(3.0, 2.0, 0.0),
+                    max: DVec3::new(4.0, 3.0, 1.0),
+                },
+                // A cabinet beside it, touching it at x = 3.
+                Aabb {
+                    min: DVec3::new(2.0, 2.0, 0.0),
+                    max: DVec3::new(3.0, 3.0, 1.0),
+                },
+            ],
         }
     }
 
@@ -687,6 +700,17 @@ mod tests {
 
     /// Refused commands name the reason and change nothing.
     #[test]
+    fn lights_stand_on_free_faces_of_furniture_but_not_between_touching_pieces() {
+        let bounds = room();
+        // On the cabinets' tops over the face they share, and on the front of one.
+        assert!(bounds.admits(DVec3::new(3.0, 2.5, 1.0)));
+        assert!(bounds.admits(DVec3::new(2.5, 2.0, 0.5)));
+        // On the shared face itself, and on its edge with the floor.
+        assert!(!bounds.admits(DVec3::new(3.0, 2.5, 0.5)));
+        assert!(!bounds.admits(DVec3::new(3.0, 2.5, 0.0)));
+    }
+
+    #[test]
     fn refused_commands_change_nothing() {
         let refused = [
             (
@@ -738,6 +762,14 @@ mod tests {
                 Command::Move {
                     light: 0,
                     position: DVec3::new(3.5, 2.5, 0.5),
+                },
+                "inside furniture",
+            ),
+            (
+                // On the face the two cabinets share: inside neither, closed in by both.
+                Command::Move {
+                    light: 0,
+                    position: DVec3::new(3.0, 2.5, 0.5),
                 },
                 "inside furniture",
             ),

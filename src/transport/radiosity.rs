@@ -206,7 +206,9 @@ pub fn solve_from<T: Transfer + ?Sized>(
         .fold(0.0, f64::max);
     if contraction >= 1.0 {
         return Err(Error::internal(format!(
-            "interreflection: ρ·(form-factor row sum) reaches {contraction:.4} ≥ 1, the solve cannot be certified"
+            "interreflection: ρ·(form-factor row sum) reaches {contraction:.4} ≥ 1, the solve cannot be \
+             certified; surfaces that overlap (OBJ faces lying on one another, facing the same \
+             way) do this"
         )));
     }
     let params = Params {

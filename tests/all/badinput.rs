@@ -573,7 +573,15 @@ fn an_obj_too_large_for_any_patch_size_is_told_to_simplify() {
         }
     }
     write(dir.path(), "grid.obj", &obj);
-    let meshes = "[[mesh]]\nfile = \"grid.obj\"\nup = \"z\"\n".repeat(9);
+    // Stacked 0.1 m apart (the same faces twice would be refused as coincident).
+    let meshes: String = (0..9)
+        .map(|k| {
+            format!(
+                "[[mesh]]\nfile = \"grid.obj\"\nup = \"z\"\ntranslate = [0, 0, {}]\n",
+                0.1 * f64::from(k)
+            )
+        })
+        .collect();
     write(
         dir.path(),
         "room.toml",
@@ -655,9 +663,16 @@ fn lights_on_box_tops_and_obj_faces_are_mounted() {
 fn points_files_have_a_row_limit() {
     let mut text = String::from("x,y,z,nx,ny,nz\n");
     text.push_str(&"1,1,1,0,0,1\n".repeat(MAX_POINTS));
-    assert_eq!(parse_points(&text, Path::new("p.csv")).unwrap().len(), MAX_POINTS);
+    assert_eq!(
+        parse_points(&text, Path::new("p.csv"), DVec3::splat(3.0))
+            .unwrap()
+            .len(),
+        MAX_POINTS
+    );
     text.push_str("1,1,1,0,0,1\n");
-    let e = parse_points(&text, Path::new("p.csv")).unwrap_err().to_string();
+    let e = parse_points(&text, Path::new("p.csv"), DVec3::splat(3.0))
+        .unwrap_err()
+        .to_string();
     assert_eq!(
         e,
         format!(
@@ -1047,4 +1062,277 @@ fn a_small_room_runs_within_a_given_budget_and_not_within_a_tiny_one() {
         "{}",
         run.stderr
     );
+}
+
+/// Two closed unit cubes stacked at x, y 1..2: z 0.2..1.2 and 1.2..2.2, faces turned out.
+const STACKED_CUBES: &str = "\
+o a\nv 1 1 0.2\nv 2 1 0.2\nv 2 2 0.2\nv 1 2 0.2\nv 1 1 1.2\nv 2 1 1.2\nv 2 2 1.2\nv 1 2 1.2\n\
+f 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nf 5 6 7 8\n\
+o b\nv 1 1 1.2\nv 2 1 1.2\nv 2 2 1.2\nv 1 2 1.2\nv 1 1 2.2\nv 2 1 2.2\nv 2 2 2.2\nv 1 2 2.2\n\
+f 9 12 11 10\nf 9 10 14 13\nf 10 11 15 14\nf 11 12 16 15\nf 12 9 13 16\nf 13 14 15 16\n";
+
+#[test]
+fn lights_closed_in_by_furniture_are_refused_and_lights_on_free_faces_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Two boxes side by side, touching at x = 2; the light on the face they share.
+    let boxes = |gap: f64| {
+        format!(
+            "[[box]]\nmin = [1.5, 1.5, 0.0]\nmax = [2.0, 2.5, 1.0]\nreflectance = 0.4\n\
+             [[box]]\nmin = [{}, 1.5, 0.0]\nmax = [2.5, 2.5, 1.0]\nreflectance = 0.4\n[[light]]",
+            2.0 + gap
+        )
+    };
+    let between = room_with("position = [2.0, 2.0, 2.5]", "position = [2.0, 2.0, 0.5]");
+    write(d, "room.toml", &between.replacen("[[light]]", &boxes(0.0), 1));
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_bad_input(
+        &run,
+        "room.toml",
+        &["light[0].position", "close it in on every side", "line 18"],
+    );
+    // 1 mm apart the light stands in a free slot; on the top face of one box it is mounted.
+    write(d, "room.toml", &between.replacen("[[light]]", &boxes(0.001), 1));
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let on_top = room_with("position = [2.0, 2.0, 2.5]", "position = [2.0, 2.0, 1.0]");
+    write(d, "room.toml", &on_top.replacen("[[light]]", &boxes(0.0), 1));
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    // Two closed OBJ cubes stacked: on the face they share it is refused (it lit the cubes'
+    // outer faces from within), on the upper cube's top it is kept.
+    write(d, "m.obj", STACKED_CUBES);
+    let cubes = |z: f64| {
+        room_with(
+            "position = [2.0, 2.0, 2.5]",
+            &format!("position = [1.5, 1.5, {z}]"),
+        )
+        .replacen(
+            "[settings]",
+            "[[mesh]]\nfile = \"m.obj\"\nup = \"z\"\n[settings]",
+            1,
+        )
+    };
+    write(d, "room.toml", &cubes(1.2));
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_bad_input(
+        &run,
+        "room.toml",
+        &["light[0].position", "close it in on every side"],
+    );
+    write(d, "room.toml", &cubes(2.2));
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+}
+
+#[test]
+fn obj_faces_given_twice_the_same_way_are_refused_naming_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let square = "v 1 1 1\nv 3 1 1\nv 3 3 1\nv 1 3 1\n";
+    let run = obj_room(d, &format!("{square}f 1 2 3 4\nf 1 2 3 4\n"), "");
+    assert_bad_input(
+        &run,
+        "room.toml",
+        &["mesh[0]", "appears twice in that mesh", "remove the copy"],
+    );
+    // The same OBJ listed twice.
+    write(d, "m.obj", &format!("{square}f 1 2 3 4\n"));
+    let mesh = "[[mesh]]\nfile = \"m.obj\"\nup = \"z\"\n";
+    write(
+        d,
+        "room.toml",
+        &room_with("[settings]", &format!("{mesh}{mesh}[settings]")),
+    );
+    let run = haiko(d, &["plan", "room.toml"]);
+    assert_bad_input(&run, "room.toml", &["mesh[1]", "in mesh[0] too"]);
+    // A two-sided sheet (the same face turned both ways) is no copy, and its interreflection
+    // solves: with black walls, the ceiling above a 0.5 grey sheet under the light gets the
+    // light its top reflects, as from the one-sided sheet (the underside faces the black floor).
+    write(
+        d,
+        "m.obj",
+        &format!("mtllib m.mtl\nusemtl a\n{square}f 1 2 3 4\nf 4 3 2 1\n"),
+    );
+    write(d, "m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n");
+    write(d, "p.csv", "x,y,z,nx,ny,nz\n2,2,3,0,0,-1\n");
+    write(
+        d,
+        "room.toml",
+        &room_with("[settings]", &format!("{mesh}[settings]")),
+    );
+    let run = haiko(d, &["probe", "room.toml", "--points", "p.csv"]);
+    write(
+        d,
+        "m.obj",
+        &format!("mtllib m.mtl\nusemtl a\n{square}f 1 2 3 4\n"),
+    );
+    let run_single = haiko(d, &["probe", "room.toml", "--points", "p.csv"]);
+    for run in [&run, &run_single] {
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+    }
+    let lux = |run: &Run| -> f64 {
+        let row = run.stdout.lines().nth(1).expect("a row");
+        row.rsplit(',').next().unwrap().parse().unwrap()
+    };
+    assert!(lux(&run) > 1.0, "{}", run.stdout);
+    assert!(
+        (lux(&run) / lux(&run_single) - 1.0).abs() < 1e-3,
+        "{} against {}",
+        run.stdout,
+        run_single.stdout
+    );
+}
+
+#[test]
+fn probe_points_outside_the_room_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", ROOM);
+    write(d, "p.csv", "x,y,z,nx,ny,nz\n2,2,0,0,0,1\n-500,-500,-500,0,0,1\n");
+    let run = haiko(d, &["probe", "room.toml", "--points", "p.csv", "--direct-only"]);
+    assert_bad_input(
+        &run,
+        "p.csv",
+        &[
+            "line 3",
+            "[-500.0, -500.0, -500.0] is outside the room",
+            "[4.0, 4.0, 3.0]",
+        ],
+    );
+}
+
+#[test]
+fn command_line_numbers_are_named_as_written_and_printed_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "room.toml", ROOM);
+    // No --margin given: the spacing is the culprit.
+    let run = haiko(d, &["grid", "room.toml", "--height", "0.8", "--spacing", "5"]);
+    assert_bad_input(&run, "--spacing", &["5.0 m", "4.0 m", "default margin"]);
+    assert!(!run.stderr.contains("--margin"), "{}", run.stderr);
+    for (flag, value) in [("--height", "1e308"), ("--spacing", "1e-320")] {
+        let mut args = vec!["grid", "room.toml", "--height", "0.8", "--spacing", "0.5"];
+        let at = args.iter().position(|a| *a == flag).unwrap() + 1;
+        args[at] = value;
+        let run = haiko(d, &args);
+        assert_bad_input(&run, flag, &[value]);
+        assert!(run.stderr.len() < 160, "{}", run.stderr);
+    }
+    // Cells far too large for an image: --font is named, with the size they make.
+    let run = haiko(
+        d,
+        &[
+            "render",
+            "room.toml",
+            "--terminal",
+            "sixel",
+            "--font",
+            "1000x1000",
+        ],
+    );
+    assert_bad_input(&run, "--font", &["1000x1000 px cells", "more than 8192 a side"]);
+}
+
+#[test]
+fn lid_reports_the_brightest_curves_and_refuses_angles_closer_than_a_micro_degree() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "room.toml",
+        &room_with("lid = [[0, 1000], [180, 1000]]", "lid = [[0, 1e9], [90, 0]]"),
+    );
+    let run = haiko(d, &["lid", "room.toml#iso", "--json"]);
+    assert_eq!(run.code, Some(0), "{}", run.stderr);
+    let report: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
+    assert_eq!(report["peak_cd"].as_f64(), Some(1e9));
+    // Φ of a linear fall from I₀ at 0° to 0 at 90°: 2π I₀ ∫₀^{π/2} (1 − 2γ/π) sin γ dγ
+    // = 2π I₀ (1 − 2/π).
+    let flux = 2.0 * std::f64::consts::PI * 1e9 * (1.0 - 2.0 / std::f64::consts::PI);
+    assert!((report["flux_lm"].as_f64().unwrap() / flux - 1.0).abs() < 1e-12);
+    write(
+        d,
+        "room.toml",
+        &room_with("lid = [[0, 1000], [180, 1000]]", "lid = [[0, 1000], [1e-320, 0]]"),
+    );
+    for command in ["lid", "plan"] {
+        let source = if command == "lid" {
+            "room.toml#iso"
+        } else {
+            "room.toml"
+        };
+        let run = haiko(d, &[command, source]);
+        assert_bad_input(
+            &run,
+            "room.toml",
+            &[
+                "light[0].lid",
+                "point 1: angle 1e-320° is within 1e-6° of",
+                "same angle twice",
+            ],
+        );
+    }
+}
+
+#[test]
+fn lid_says_when_no_order_up_to_its_cap_meets_the_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A 500 cd spot cut off hard at 30°, and the same curve falling off over 30–60°.
+    for (lid, capped) in [
+        ("[[0, 500], [30, 500], [30, 0], [90, 0]]", true),
+        ("[[0, 500], [30, 500], [60, 0]]", false),
+    ] {
+        write(
+            d,
+            "room.toml",
+            &room_with("lid = [[0, 1000], [180, 1000]]", &format!("lid = {lid}")),
+        );
+        let run = haiko(
+            d,
+            &[
+                "lid",
+                "room.toml#iso",
+                "--window",
+                "none",
+                "--order",
+                "60",
+                "--json",
+            ],
+        );
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+        let report: serde_json::Value = serde_json::from_str(&run.stdout).unwrap();
+        let order = report["order"].as_u64().unwrap() as usize;
+        let error = report["order_rel_l2_error"].as_f64().unwrap();
+        let row = &report["orders"][order];
+        let tabulated = row["rel_l2_error"].as_f64().unwrap();
+        assert!(
+            (tabulated / error - 1.0).abs() < 1e-9,
+            "row {order}: {tabulated} against {error}"
+        );
+        let above = |n: usize| report["orders"][n]["rel_l2_error"].as_f64().unwrap() > 0.05;
+        if capped {
+            assert_eq!(order, 60);
+            assert!(error > 0.05, "{error}");
+        } else {
+            assert!(
+                order < 60 && error <= 0.05 && above(order - 1),
+                "{order}: {error}"
+            );
+        }
+        let run = haiko(d, &["lid", "room.toml#iso", "--order", "2"]);
+        assert_eq!(run.code, Some(0), "{}", run.stderr);
+        let heading = run.stdout.lines().nth(1).unwrap().to_string();
+        let percent = format!("relative L2 {:.1} %", error * 100.0);
+        let expected = if capped {
+            format!("order capped at 60: {percent} misses the 5 % target")
+        } else {
+            format!("chosen order {order} ({percent} ≤ 5 %)")
+        };
+        assert!(
+            heading.ends_with(&expected) || heading.contains(&expected),
+            "{heading}"
+        );
+    }
 }

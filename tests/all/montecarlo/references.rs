@@ -39,7 +39,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 31] = [
+pub const ROOMS: [&str; 32] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -71,6 +71,7 @@ pub const ROOMS: [&str; 31] = [
     "sofa-corner",
     "obj-on-box",
     "obj-on-obj",
+    "table-things",
 ];
 
 /// The environment variable that regenerates the references.
@@ -728,6 +729,35 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
             pts.add_beside_mesh(DVec3::new(1.5, 0.0, z + 0.04), DVec3::Y);
         }
     }
+    if name == "table-things" {
+        // The table's top around the box and the turned block and between them, the box's
+        // faces just above the top, the top's underside beside a leg and in its middle, a leg's
+        // face from the floor up, and the floor under the table and beside it.
+        for (x, y) in [
+            (1.42, 1.3),
+            (1.4, 1.3),
+            (1.6, 1.17),
+            (1.6, 1.48),
+            (1.9, 1.45),
+            (2.3, 1.45),
+            (1.3, 1.15),
+        ] {
+            pts.add_beside_mesh(DVec3::new(x, y, 0.76), DVec3::Z);
+        }
+        for z in [0.77, 0.8] {
+            pts.add_beside_mesh(DVec3::new(1.45, 1.3, z), DVec3::NEG_X);
+            pts.add_beside_mesh(DVec3::new(1.6, 1.2, z), DVec3::NEG_Y);
+        }
+        for (x, y) in [(1.35, 1.1), (1.8, 1.4)] {
+            pts.add_beside_mesh(DVec3::new(x, y, 0.72), DVec3::NEG_Z);
+        }
+        for z in [0.02, 0.3, 0.7] {
+            pts.add_beside_mesh(DVec3::new(1.3, 1.075, z), DVec3::X);
+        }
+        for (x, y) in [(1.8, 1.4), (1.35, 1.075), (1.32, 1.2), (2.5, 1.4), (1.1, 1.4)] {
+            pts.add_beside_mesh(DVec3::new(x, y, 0.0), DVec3::Z);
+        }
+    }
     if name == "sofa-corner" {
         // The floor in the L's inner corner around the up-light, the sofa's inner faces there,
         // the wall y = 0 above the sofa's back, and the seat under the reading light.
@@ -1123,7 +1153,10 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 /// since; docs/DECISIONS.md "OBJ things on OBJ furniture"); that took `obj-on-box` 2.0 → 2.6 %
 /// (the same slot; traced again with 6 points it had lost the same way), `sofa-corner` 1.8 →
 /// 2.0 %, `mesh-lamps` 1.6 → 1.8 % (both traced again with the 15 and 8 points they had lost).
-const ENGINE_BOUNDS: [(&str, f64, f64); 31] = [
+/// The `table-things` room (twenty-fifth round: a box and a turned block on an OBJ table top on
+/// four OBJ legs, a pendant 0.5 m above) came in at 2.0 % with no change, but grades to 15 380
+/// leaves (docs/BENCHMARKS.md "A table of OBJ things: what it costs").
+const ENGINE_BOUNDS: [(&str, f64, f64); 32] = [
     ("hotspot-box", 0.005, 0.020),
     ("lamp-near-box", 0.005, 0.030),
     ("wall-washers", 0.005, 0.020),
@@ -1155,6 +1188,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 31] = [
     ("sofa-corner", 0.005, 0.024),
     ("obj-on-box", 0.005, 0.029),
     ("obj-on-obj", 0.005, 0.029),
+    ("table-things", 0.005, 0.025),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
