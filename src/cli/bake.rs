@@ -8,7 +8,7 @@ use std::time::Instant;
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::scene;
-use crate::session::budget::{Estimate, LimitSource, MemoryLimit};
+use crate::session::budget::{EngineKind, Estimate, LimitSource, MemoryLimit};
 use crate::transport::bake::{Bake, Progress};
 use crate::transport::indirect::{EditCosts, IndirectStats};
 use crate::transport::plan::{Plan, PlanOptions, plan};
@@ -101,8 +101,10 @@ pub(crate) fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<(
             "estimate_bytes": estimate.bytes(),
             "form_factor_bytes": estimate.form_factor_bytes,
             "basis_bytes": estimate.basis_bytes,
+            "engine_bytes": estimate.engine_bytes,
             "relight_bytes": estimate.relight_bytes,
             "rays": estimate.rays,
+            "max_links": (estimate.engine == EngineKind::Hierarchical).then(|| estimate.max_links(limit)),
             "limit_bytes": limit.bytes,
             "limit_from": match limit.source {
                 LimitSource::Option => "--max-memory",
@@ -125,7 +127,15 @@ pub(crate) fn format_budget(estimate: &Estimate, limit: &MemoryLimit) -> String 
     } else {
         "ABOVE (the commands that simulate will refuse)"
     };
-    format!("budget: {estimate}; {verdict} the limit of {limit}")
+    let links = if estimate.engine == EngineKind::Hierarchical && estimate.bytes() <= limit.bytes {
+        format!(
+            ", which leaves room for {:.2e} links",
+            estimate.max_links(limit) as f64
+        )
+    } else {
+        String::new()
+    };
+    format!("budget: {estimate}; {verdict} the limit of {limit}{links}")
 }
 
 /// A progress reporter for the command line: a redrawn bar on a terminal, stage lines otherwise.

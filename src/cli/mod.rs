@@ -523,6 +523,7 @@ pub(crate) fn open_session(scene: Scene, indirect: bool, limit: &MemoryLimit) ->
     budget::check_scene(&scene, PlanOptions::default(), indirect, limit)?;
     let options = SessionOptions {
         indirect,
+        memory_limit: Some(*limit),
         ..SessionOptions::with_user_cache()
     };
     let session = Session::new(scene, options, &mut bake::progress_printer())?;

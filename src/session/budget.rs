@@ -13,6 +13,7 @@ use std::str::FromStr;
 
 use crate::error::{Error, Result};
 use crate::scene::Scene;
+use crate::transport::indirect::DIRECT_CACHE_BUDGET_BYTES;
 use crate::transport::plan::{Plan, PlanOptions, plan};
 
 /// The share of the memory available to the process that a session may plan to use.
@@ -30,57 +31,129 @@ const RELIGHT_BYTES_PER_VERTEX_AND_LIGHT: u64 = 64;
 /// most four coarse → fine interpolation terms (16 B each).
 const RELIGHT_BYTES_PER_VERTEX: u64 = 88;
 
+/// Per leaf of the hierarchical engine: its node geometry and neighbours (about 450 B measured on
+/// the open-plan floor and in small rooms; docs/DECISIONS.md "Resource budget").
+const ENGINE_BYTES_PER_LEAF: u64 = 512;
+
+/// Per leaf and light of the hierarchical engine: the light's direct-light sample cache (up to
+/// 4.3 kB per leaf measured in a small room with a lamp near the ceiling), all lights' caches
+/// together held within [`DIRECT_CACHE_BUDGET_BYTES`].
+const DIRECT_CACHE_BYTES_PER_LEAF_AND_LIGHT: u64 = 4608;
+
+/// Per leaf and light of the hierarchical engine: its radiosity and indirect light (f32, up to
+/// three channels each).
+const SOLVE_BYTES_PER_LEAF_AND_LIGHT: u64 = 24;
+
+/// The most memory a link takes while the links are built: 28 B in its task's list and 16 B for
+/// its two directed entries in the operator, both held while the operator is made, and slack.
+/// Measured: 43.6 B per link at the peak for 28.7 M links, 45 B for 19.2 M and for 5.3 M
+/// (docs/BENCHMARKS.md "Links within the memory limit").
+pub const LINK_PEAK_BYTES: u64 = 48;
+
+/// Which engine an [`Estimate`] is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EngineKind {
+    /// Direct light only: nothing is baked.
+    None,
+    /// The SH basis bake on the dense form factors.
+    Basis,
+    /// The hierarchical engine: its links are counted against the limit while they are made.
+    Hierarchical,
+}
+
 /// What a session on a planned scene needs: memory in bytes, and visibility rays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Estimate {
-    /// The dense form-factor matrix (f32), 0 without interreflection.
+    /// The engine the parts are for.
+    pub engine: EngineKind,
+    /// The dense form-factor matrix (f32); 0 unless the SH basis is baked.
     pub form_factor_bytes: u64,
-    /// The stored basis (f32 direct and indirect per coarse patch and column).
+    /// The stored basis (f32 direct and indirect per coarse patch and column); 0 unless the SH
+    /// basis is baked.
     pub basis_bytes: u64,
+    /// The hierarchical engine without its links: per leaf its geometry, per leaf and light its
+    /// direct-light cache (within [`DIRECT_CACHE_BUDGET_BYTES`]) and solved values; 0 for the
+    /// other engines.
+    pub engine_bytes: u64,
     /// Relight state per fine vertex.
     pub relight_bytes: u64,
-    /// Visibility rays cast for the form factors (an upper bound).
+    /// Visibility rays cast for the dense form factors (an upper bound; the hierarchical
+    /// engine's are counted as its links are made).
     pub rays: u64,
 }
 
 impl Estimate {
     /// The estimate for `plan`; `indirect` false for direct light only (no bake).
     pub fn of(plan: &Plan, indirect: bool) -> Self {
-        let per_vertex =
-            RELIGHT_BYTES_PER_VERTEX_AND_LIGHT * plan.lights.len() as u64 + RELIGHT_BYTES_PER_VERTEX;
+        let lights = plan.lights.len() as u64;
+        let per_vertex = RELIGHT_BYTES_PER_VERTEX_AND_LIGHT * lights + RELIGHT_BYTES_PER_VERTEX;
+        let engine = if !indirect || !plan.interreflection.on {
+            EngineKind::None
+        } else if plan.hierarchical.on {
+            EngineKind::Hierarchical
+        } else {
+            EngineKind::Basis
+        };
+        let basis = engine == EngineKind::Basis;
+        let leaves = plan.leaves as u64;
+        let engine_bytes = if engine == EngineKind::Hierarchical {
+            let caches = (leaves * lights * DIRECT_CACHE_BYTES_PER_LEAF_AND_LIGHT)
+                .min(DIRECT_CACHE_BUDGET_BYTES as u64);
+            leaves * ENGINE_BYTES_PER_LEAF + caches + leaves * lights * SOLVE_BYTES_PER_LEAF_AND_LIGHT
+        } else {
+            0
+        };
         Estimate {
-            form_factor_bytes: if indirect {
-                plan.form_factor_bytes as u64
-            } else {
-                0
-            },
-            basis_bytes: if indirect { plan.basis_bytes as u64 } else { 0 },
+            engine,
+            form_factor_bytes: if basis { plan.form_factor_bytes as u64 } else { 0 },
+            basis_bytes: if basis { plan.basis_bytes as u64 } else { 0 },
+            engine_bytes,
             relight_bytes: per_vertex.saturating_mul(plan.fine_vertices as u64),
-            rays: if indirect { plan.form_factor_rays as u64 } else { 0 },
+            rays: if basis { plan.form_factor_rays as u64 } else { 0 },
         }
     }
 
-    /// All the memory, bytes.
+    /// All the memory, bytes, without the hierarchical engine's links.
     pub fn bytes(&self) -> u64 {
         self.form_factor_bytes
             .saturating_add(self.basis_bytes)
+            .saturating_add(self.engine_bytes)
             .saturating_add(self.relight_bytes)
+    }
+
+    /// The most links the hierarchical engine may make within `limit`: what the other parts
+    /// leave, at [`LINK_PEAK_BYTES`] each.
+    pub fn max_links(&self, limit: &MemoryLimit) -> usize {
+        let left = limit.bytes.saturating_sub(self.bytes()) / LINK_PEAK_BYTES;
+        usize::try_from(left).unwrap_or(usize::MAX)
     }
 }
 
 impl fmt::Display for Estimate {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "about {} of memory (form factors {}, basis {}, relight {}; ",
-            Bytes(self.bytes()),
-            Bytes(self.form_factor_bytes),
-            Bytes(self.basis_bytes),
-            Bytes(self.relight_bytes),
-        )?;
-        match self.rays {
-            0 => write!(f, "no visibility rays)"),
-            rays => write!(f, "{:.1e} visibility rays)", rays as f64),
+        match self.engine {
+            EngineKind::Hierarchical => write!(
+                f,
+                "about {} of memory before the links (engine {}, relight {}) and {LINK_PEAK_BYTES} B \
+                 per link while they are made",
+                Bytes(self.bytes()),
+                Bytes(self.engine_bytes),
+                Bytes(self.relight_bytes),
+            ),
+            EngineKind::Basis | EngineKind::None => {
+                write!(
+                    f,
+                    "about {} of memory (form factors {}, basis {}, relight {}; ",
+                    Bytes(self.bytes()),
+                    Bytes(self.form_factor_bytes),
+                    Bytes(self.basis_bytes),
+                    Bytes(self.relight_bytes),
+                )?;
+                match self.rays {
+                    0 => write!(f, "no visibility rays)"),
+                    rays => write!(f, "{:.1e} visibility rays)", rays as f64),
+                }
+            }
         }
     }
 }
@@ -324,8 +397,10 @@ mod tests {
     #[test]
     fn estimates_above_the_limit_are_refused_naming_both() {
         let estimate = Estimate {
+            engine: EngineKind::Basis,
             form_factor_bytes: 11_300_000_000,
             basis_bytes: 200_000_000,
+            engine_bytes: 0,
             relight_bytes: 1_200_000_000,
             rays: 45_000_000_000,
         };

@@ -94,9 +94,10 @@ impl RegradeJob {
     /// Builds the engine for the scene on its graded mesh `solver` ([`Interreflection::regrade`])
     /// and solves every light.
     ///
-    /// Errors: the solve failing (internal).
+    /// Errors: more links than the memory limit allows (bad input), the solve failing
+    /// (internal).
     pub(super) fn build(&self, solver: SolverMesh) -> Result<HierarchicalIndirect> {
-        let engine = self.engine.rebuilt(&self.scene, solver);
+        let engine = self.engine.rebuilt(&self.scene, solver)?;
         HierarchicalIndirect::on_engine(
             Arc::new(engine),
             &self.scene,

@@ -77,6 +77,9 @@ pub struct SessionOptions {
     /// new one.
     /// False (the CLI): every query waits for its solves.
     pub background_solves: bool,
+    /// The memory limit the hierarchical engine's links are made within (what the plan's
+    /// estimate leaves of it, [`budget::Estimate::max_links`]); `None`: no limit.
+    pub memory_limit: Option<budget::MemoryLimit>,
 }
 
 impl Default for SessionOptions {
@@ -85,6 +88,7 @@ impl Default for SessionOptions {
             bake: BakeOptions::default(),
             indirect: true,
             background_solves: false,
+            memory_limit: None,
         }
     }
 }
@@ -111,8 +115,7 @@ impl SessionOptions {
                 cache: Some(BakeCache::user()),
                 ..BakeOptions::default()
             },
-            indirect: true,
-            background_solves: false,
+            ..SessionOptions::default()
         }
     }
 }
@@ -269,7 +272,8 @@ impl Session {
     /// the SH basis (from the cache when valid), reporting progress. The relighter is built on
     /// first need.
     ///
-    /// Errors: the interreflection solve failing (internal).
+    /// Errors: more links than `options.memory_limit` leaves room for (bad input), the
+    /// interreflection solve failing (internal).
     pub fn new(scene: Scene, options: SessionOptions, progress: &mut dyn FnMut(Progress)) -> Result<Session> {
         let t = std::time::Instant::now();
         let (planned, graded) = crate::transport::plan::plan_graded(&scene, options.bake.plan);
@@ -284,7 +288,12 @@ impl Session {
             });
             // The engine is built on the plan's graded mesh (the default refinement, which the
             // engine's options keep) instead of refining the room again.
-            let engine_options = InterreflectionOptions::for_leaves(planned.leaves);
+            let engine_options = InterreflectionOptions {
+                max_links: options
+                    .memory_limit
+                    .map(|limit| budget::Estimate::of(&planned, true).max_links(&limit)),
+                ..InterreflectionOptions::for_leaves(planned.leaves)
+            };
             let solver = graded.unwrap_or_else(|| refine(&scene, &engine_options.refine));
             let (engine, notices) = Interreflection::build_cached(
                 &scene,
@@ -293,7 +302,7 @@ impl Session {
                 planned.visibility.on,
                 &engine_options,
                 options.bake.cache.as_ref(),
-            );
+            )?;
             bake.notices.extend(notices);
             let (mut engine, notices) = HierarchicalIndirect::on_engine_cached(
                 Arc::new(engine),

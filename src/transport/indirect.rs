@@ -302,7 +302,7 @@ impl HierarchicalIndirect {
         tolerance: f64,
         options: &InterreflectionOptions,
     ) -> Result<Self> {
-        let engine = Interreflection::build(scene, channels, visibility, options);
+        let engine = Interreflection::build(scene, channels, visibility, options)?;
         Self::on_engine(
             Arc::new(engine),
             scene,
@@ -827,8 +827,8 @@ impl HierarchicalIndirect {
             } = self;
             drop((lights, interp));
             let engine = match Arc::try_unwrap(engine) {
-                Ok(engine) => engine.into_rebuilt(&moved_scene, solver),
-                Err(shared) => shared.rebuilt(&moved_scene, solver),
+                Ok(engine) => engine.into_rebuilt(&moved_scene, solver)?,
+                Err(shared) => shared.rebuilt(&moved_scene, solver)?,
             };
             let rebuilt = Self::on_engine(
                 Arc::new(engine),
@@ -1603,7 +1603,8 @@ solver_patch_size = 0.5
         // Built with the cache, so that it has a key to file its lights under.
         let options = InterreflectionOptions::default();
         let solver = crate::transport::refine::refine(&scene, &options.refine);
-        let (engine, _) = Interreflection::build_cached(&scene, solver, 1, false, &options, Some(&cache));
+        let (engine, _) =
+            Interreflection::build_cached(&scene, solver, 1, false, &options, Some(&cache)).unwrap();
         let engine = Arc::new(engine);
         let open = |scene: &Scene| {
             HierarchicalIndirect::on_engine_cached(

@@ -16,7 +16,7 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::fsio::Fnv64;
 use crate::photometry::LightState;
 use crate::scene::{Light, Scene, SurfaceKind};
@@ -80,6 +80,9 @@ pub struct InterreflectionOptions {
     /// Gather from a linear radiosity on each leaf near the receiver
     /// ([`crate::transport::slopes`]) instead of a constant one. Default true.
     pub linear_gather: bool,
+    /// The most links a build may make (the memory budget's share for them, docs/DECISIONS.md
+    /// "Resource budget"); more is an error naming the room. Default `None`: no limit.
+    pub max_links: Option<usize>,
 }
 
 impl Default for InterreflectionOptions {
@@ -93,6 +96,7 @@ impl Default for InterreflectionOptions {
             gather_uniformity: 0.5,
             gather_doubt: GATHER_DOUBT,
             linear_gather: true,
+            max_links: None,
         }
     }
 }
@@ -311,7 +315,9 @@ impl Interreflection {
 
     /// This engine built again for `scene` on its new graded mesh `solver` ([`Self::regrade`]),
     /// with the same channels, visibility and options.
-    pub fn rebuilt(&self, scene: &Scene, solver: SolverMesh) -> Self {
+    ///
+    /// Errors: more links than `options.max_links` (bad input naming the room).
+    pub fn rebuilt(&self, scene: &Scene, solver: SolverMesh) -> Result<Self> {
         Self::build_graded(
             scene,
             solver,
@@ -323,7 +329,9 @@ impl Interreflection {
 
     /// [`Self::rebuilt`], this engine dropped first (its operator freed before the new one is
     /// built).
-    pub fn into_rebuilt(self, scene: &Scene, solver: SolverMesh) -> Self {
+    ///
+    /// Errors: as [`Self::rebuilt`].
+    pub fn into_rebuilt(self, scene: &Scene, solver: SolverMesh) -> Result<Self> {
         let (channels, visibility, options) = (self.channels(), self.occluders.is_some(), self.options);
         drop(self);
         Self::build_graded(scene, solver, channels, visibility, &options)
@@ -331,31 +339,42 @@ impl Interreflection {
 
     /// Builds the engine for `scene`: `channels` reflectance channels (1 or 3), visibility rays
     /// only when `visibility` (an empty convex room needs none).
-    pub fn build(scene: &Scene, channels: usize, visibility: bool, options: &InterreflectionOptions) -> Self {
+    ///
+    /// Errors: as [`Self::rebuilt`].
+    pub fn build(
+        scene: &Scene,
+        channels: usize,
+        visibility: bool,
+        options: &InterreflectionOptions,
+    ) -> Result<Self> {
         let t = Instant::now();
         let solver = refine(scene, &options.refine);
         let refine_s = t.elapsed().as_secs_f64();
-        let mut engine = Self::build_graded(scene, solver, channels, visibility, options);
+        let mut engine = Self::build_graded(scene, solver, channels, visibility, options)?;
         engine.stats.refine_s = refine_s;
-        engine
+        Ok(engine)
     }
 
     /// [`Self::build`] on `solver`, the graded mesh already made for `scene` with
     /// `options.refine` (by the plan or [`Self::regrade`]); its refinement time counts as 0.
+    ///
+    /// Errors: as [`Self::rebuilt`].
     pub fn build_graded(
         scene: &Scene,
         solver: SolverMesh,
         channels: usize,
         visibility: bool,
         options: &InterreflectionOptions,
-    ) -> Self {
-        Self::build_cached(scene, solver, channels, visibility, options, None).0
+    ) -> Result<Self> {
+        Ok(Self::build_cached(scene, solver, channels, visibility, options, None)?.0)
     }
 
     /// [`Self::build_graded`], with the operator (links and balancing, the bulk of the build)
     /// read from `cache` when it holds the one these leaves, occluders and link options make,
     /// else built and written there (docs/DECISIONS.md "Bake cache"). With the notices to show
     /// (an invalid entry rebuilt, a write that failed).
+    ///
+    /// Errors: as [`Self::rebuilt`] (a cached operator is read whatever its links).
     pub fn build_cached(
         scene: &Scene,
         solver: SolverMesh,
@@ -363,7 +382,7 @@ impl Interreflection {
         visibility: bool,
         options: &InterreflectionOptions,
         cache: Option<&BakeCache>,
-    ) -> (Self, Vec<String>) {
+    ) -> Result<(Self, Vec<String>)> {
         let occluders =
             visibility.then(|| Occluders::of_scene(scene).unwrap_or_else(|| Occluders::from_parts(&[], &[])));
         // Every point of a closed room sees surfaces in every direction: rows sum to 1. Open
@@ -408,7 +427,21 @@ impl Interreflection {
                     &geometry,
                     occluders.as_ref(),
                     options.links,
-                );
+                    options.max_links.unwrap_or(usize::MAX),
+                )
+                .map_err(|too_many| {
+                    Error::input(
+                        &scene.path,
+                        "",
+                        format!(
+                            "the interreflection engine needs more than {} links on its {} leaves, \
+                             more than the memory limit leaves room for: raise \
+                             `settings.solver_patch_size`, or give a larger `--max-memory`",
+                            too_many.max_links,
+                            solver.mesh.patches.len()
+                        ),
+                    )
+                })?;
                 let links_s = t.elapsed().as_secs_f64();
                 let t = Instant::now();
                 let mut operator = Operator::new(tree, &links);
@@ -483,7 +516,7 @@ impl Interreflection {
             operator_key: key,
             stats,
         };
-        (engine, notices)
+        Ok((engine, notices))
     }
 
     /// The knobs it was built with.
@@ -1017,7 +1050,7 @@ solver_patch_size = {solver}
             options.links.eta = eta;
             options.links.near_m = RELAXED_NEAR_M;
             options.links.eta_far = eta_far;
-            let engine = Interreflection::build(&s, 1, false, &options);
+            let engine = Interreflection::build(&s, 1, false, &options).unwrap();
             assert_eq!(engine.n_leaves(), n);
             for r in engine.operator.row_sums() {
                 assert!((r - 1.0).abs() < 1e-8, "row sum {r}");
@@ -1078,6 +1111,7 @@ solver_patch_size = {solver}
         };
         let build = |s: &Scene, options: &InterreflectionOptions| {
             Interreflection::build_cached(s, refine(s, &options.refine), 1, true, options, Some(&cache))
+                .unwrap()
         };
         let options = InterreflectionOptions::default();
         let s = boxed(0.3, 0.5);
@@ -1129,19 +1163,54 @@ solver_patch_size = {solver}
         assert_eq!(cache.entries().len(), 3);
     }
 
+    /// A build allowed exactly the links it makes makes them all, the same operator; one link
+    /// fewer is an error naming the room, the budget and the leaves.
+    #[test]
+    fn the_links_stop_at_their_budget() {
+        let s = room("", 0.5);
+        let free = Interreflection::build(&s, 1, true, &InterreflectionOptions::default()).unwrap();
+        let n = free.stats.links;
+        assert!(n > 100, "{n}");
+        let exact = InterreflectionOptions {
+            max_links: Some(n),
+            ..InterreflectionOptions::default()
+        };
+        let engine = Interreflection::build(&s, 1, true, &exact).unwrap();
+        let x = values(engine.n_leaves());
+        assert_eq!(
+            engine.operator.apply_block(&x, 1),
+            free.operator.apply_block(&x, 1)
+        );
+        let short = InterreflectionOptions {
+            max_links: Some(n - 1),
+            ..InterreflectionOptions::default()
+        };
+        let Err(e) = Interreflection::build(&s, 1, true, &short) else {
+            panic!("one link short");
+        };
+        assert_eq!(e.exit_code(), 2);
+        let leaves = free.n_leaves();
+        assert!(
+            e.to_string()
+                .contains(&format!("needs more than {} links on its {leaves} leaves", n - 1)),
+            "{e}"
+        );
+    }
+
     /// An operator's entry read for other leaves, or with a source node that does not exist, is
     /// refused instead of applied; read for its own leaves it is the operator written.
     #[test]
     fn an_operator_entry_that_does_not_fit_the_tree_is_refused() {
         let s = room("", 0.5);
-        let engine = Interreflection::build(&s, 1, false, &InterreflectionOptions::default());
+        let engine = Interreflection::build(&s, 1, false, &InterreflectionOptions::default()).unwrap();
         let mut bytes: Vec<u8> = Vec::new();
         engine.operator.write_to(&mut bytes);
         let tree = || Tree::build(&engine.solver.mesh, &engine.solver.alone);
         let x = values(engine.n_leaves());
         let back = Operator::read_from(tree(), &mut &bytes[..]).expect("its own leaves");
         assert_eq!(back.apply_block(&x, 1), engine.operator.apply_block(&x, 1));
-        let other = Interreflection::build(&room("", 0.25), 1, false, &InterreflectionOptions::default());
+        let other =
+            Interreflection::build(&room("", 0.25), 1, false, &InterreflectionOptions::default()).unwrap();
         let other_tree = Tree::build(&other.solver.mesh, &other.solver.alone);
         assert!(Operator::read_from(other_tree, &mut &bytes[..]).is_none());
         // The first source (after the node counts' length and values, then the sources' length).
@@ -1159,7 +1228,7 @@ solver_patch_size = {solver}
             "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 1.8, 0.9]\nreflectance = 0.5\n",
             0.5,
         );
-        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default());
+        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default()).unwrap();
         let n = engine.n_leaves();
         let x = values(n);
         let y: Vec<f64> = values(n + 7)[7..].to_vec();
@@ -1179,7 +1248,7 @@ solver_patch_size = {solver}
             "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 1.8, 0.9]\nreflectance = 0.5\n",
             0.5,
         );
-        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default());
+        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default()).unwrap();
         let x = values(engine.n_leaves());
         let single = engine.operator.apply_block(&x, 1);
         let block: Vec<f64> = x.iter().flat_map(|&v| [2.0 * v, v]).collect();
@@ -1205,7 +1274,7 @@ solver_patch_size = {solver}
             "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 1.8, 0.9]\nreflectance = 0.5\n",
             0.5,
         );
-        let mut engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default());
+        let mut engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default()).unwrap();
         assert!(engine.regrade(&s).is_none(), "the engine's own room");
         engine.solver.beam_edge[0] = !engine.solver.beam_edge[0];
         let graded = engine.regrade(&s).expect("a flag differs");
@@ -1256,7 +1325,7 @@ lid = [[0, 100], [180, 100]]
 solver_patch_size = 0.5
 "#,
         );
-        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default());
+        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default()).unwrap();
         assert!(engine.n_leaves() > s.coarse.patches.len(), "refined");
         let n = engine.n_leaves();
         let emission = PatchColumns {
@@ -1279,7 +1348,7 @@ solver_patch_size = 0.5
             "[[box]]\nmin = [1.0, 1.0, 0.0]\nmax = [2.0, 1.8, 0.9]\nreflectance = 0.5\n",
             0.5,
         );
-        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default());
+        let engine = Interreflection::build(&s, 1, true, &InterreflectionOptions::default()).unwrap();
         let b = vec![[7.0; 3]; engine.n_leaves()];
         let receivers = [
             Receiver {
@@ -1355,7 +1424,7 @@ solver_patch_size = 0.5
                 linear_gather,
                 ..no_refinement()
             };
-            let engine = Interreflection::build(&s, 1, false, &options);
+            let engine = Interreflection::build(&s, 1, false, &options).unwrap();
             let b: Vec<[f64; 3]> = engine
                 .solver
                 .mesh
@@ -1455,7 +1524,7 @@ solver_patch_size = 0.5
             linear_gather: false,
             ..InterreflectionOptions::default()
         };
-        let engine = Interreflection::build(&s, 1, true, &options);
+        let engine = Interreflection::build(&s, 1, true, &options).unwrap();
         let b = engine.scene_radiosity(&s, 1e-6).expect("solves");
         let receivers: Vec<Receiver> = [0.4, 0.45, 0.5, 0.55, 0.6, 0.7]
             .into_iter()
@@ -1509,7 +1578,7 @@ solver_patch_size = 0.5
                 gather_doubt,
                 ..InterreflectionOptions::default()
             };
-            let engine = Interreflection::build(&s, 1, true, &options);
+            let engine = Interreflection::build(&s, 1, true, &options).unwrap();
             let b = engine.scene_radiosity(&s, 1e-6).expect("solves");
             let receivers: Vec<Receiver> = (0..7)
                 .flat_map(|k| {

@@ -19,9 +19,11 @@
 //!   slot) is refined (split the larger node); between two leaves a partial result is
 //!   re-estimated with 64 rays (8 × 8 points each), so shadow lines are resolved where they
 //!   matter.
+//! * A budget: at most `max_links` links are made; past it every task stops and the build
+//!   reports [`TooManyLinks`] instead of links (docs/DECISIONS.md "Resource budget").
 
 use std::f64::consts::PI;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -87,13 +89,20 @@ impl Default for LinkOptions {
 /// The links and what making them cost.
 #[derive(Debug, Clone, Default)]
 pub struct Links {
-    /// The links, in runs (one per pair of tree roots; kept apart so that no flat copy doubles
-    /// their memory: 16 M links, 450 MB, on the open-plan floor).
+    /// The links, in lists (one or more per tree root, in the order they were made; kept apart
+    /// so that no flat copy doubles their memory: 16 M links, 450 MB, on the open-plan floor).
     pub links: Vec<Vec<Link>>,
     /// Visibility rays cast.
     pub rays: u64,
     /// Links between two leaves with the exact contour formula.
     pub near: usize,
+}
+
+/// The build stopped: the links would be more than `max_links`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TooManyLinks {
+    /// The budget that was reached.
+    pub max_links: usize,
 }
 
 /// Up to four (area, centroid) pieces of a node for the far-field midpoint rule.
@@ -217,11 +226,32 @@ impl NodeGeometry {
 }
 
 /// A task's links, and the spread points of its shadow rays (kept to save an allocation per
-/// link).
+/// link). Links go into `links`; the lists of the tasks a task splits into are moved after it in
+/// `lists`, never copied into one list: copying the halves of a large pair of roots into a list
+/// growing by doubling took up to six times their size at once (937 MB at the peak for 5.3 M
+/// links of 28 B).
 #[derive(Default)]
 struct Run {
+    lists: Vec<Vec<Link>>,
     links: Vec<Link>,
     points: [Vec<DVec3>; 2],
+}
+
+impl Run {
+    /// Ends the current list (shrunk to its links: it grew by doubling) after the others.
+    fn close_list(&mut self) {
+        if !self.links.is_empty() {
+            let mut list = std::mem::take(&mut self.links);
+            list.shrink_to_fit();
+            self.lists.push(list);
+        }
+    }
+
+    /// The task's lists, in order.
+    fn into_lists(mut self) -> Vec<Vec<Link>> {
+        self.close_list();
+        self.lists
+    }
 }
 
 struct Context<'a> {
@@ -232,18 +262,25 @@ struct Context<'a> {
     occluders: Option<&'a Occluders>,
     options: LinkOptions,
     rays: AtomicU64,
+    /// Links made so far, the budget, and whether it was passed (every task then stops).
+    made: AtomicUsize,
+    max_links: usize,
+    over: AtomicBool,
 }
 
 /// Makes the links of `tree`, whose leaf polygons and pieces are `geometry` and whose leaves
 /// `in_slot` lie in slots, with visibility against `occluders` where given (in parallel;
 /// deterministic output order).
+///
+/// Errors: more than `max_links` links (the build stops soon after passing it).
 pub fn build(
     tree: &Tree,
     in_slot: &[bool],
     geometry: &NodeGeometry,
     occluders: Option<&Occluders>,
     options: LinkOptions,
-) -> Links {
+    max_links: usize,
+) -> Result<Links, TooManyLinks> {
     debug_assert_eq!(in_slot.len(), tree.leaf_node.len(), "one slot flag per leaf");
     let ctx = Context {
         tree,
@@ -252,31 +289,38 @@ pub fn build(
         occluders,
         options,
         rays: AtomicU64::new(0),
+        made: AtomicUsize::new(0),
+        max_links,
+        over: AtomicBool::new(false),
     };
+    // One task per root, refining it against every later root: a non-planar OBJ surface makes
+    // a root of each of its leaves, so the pairs of roots can be millions, and a list (and
+    // allocation) per pair once took more memory than the links.
     let roots = &tree.roots;
-    let pairs: Vec<(u32, u32)> = (0..roots.len())
-        .flat_map(|i| (i + 1..roots.len()).map(move |j| (roots[i], roots[j])))
-        .collect();
-    let per_pair: Vec<Vec<Link>> = pairs
-        .par_iter()
-        .map(|&(r, s)| {
+    let per_root: Vec<Vec<Vec<Link>>> = (0..roots.len())
+        .into_par_iter()
+        .map(|i| {
             let mut run = Run::default();
-            ctx.refine(r, s, &mut run);
-            run.links.shrink_to_fit(); // a run grows by doubling: up to twice its links otherwise
-            run.links
+            for &s in &roots[i + 1..] {
+                ctx.refine(roots[i], s, &mut run);
+            }
+            run.into_lists()
         })
         .collect();
-    let links = per_pair;
+    if ctx.over.load(Ordering::Relaxed) {
+        return Err(TooManyLinks { max_links });
+    }
+    let links: Vec<Vec<Link>> = per_root.into_iter().flatten().collect();
     let near = links
         .iter()
         .flatten()
         .filter(|l| tree.nodes[l.a as usize].is_leaf() && tree.nodes[l.b as usize].is_leaf())
         .count();
-    Links {
+    Ok(Links {
         links,
         rays: ctx.rays.load(Ordering::Relaxed),
         near,
-    }
+    })
 }
 
 /// The pieces of a node: its grandchildren (children that are leaves count as themselves), or
@@ -352,6 +396,9 @@ impl Context<'_> {
     }
 
     fn refine(&self, r: u32, s: u32, out: &mut Run) {
+        if self.over.load(Ordering::Relaxed) {
+            return;
+        }
         let (nr, ns) = (self.node(r), self.node(s));
         if !in_front(ns, nr) || !in_front(nr, ns) {
             return;
@@ -394,6 +441,10 @@ impl Context<'_> {
                 v
             };
             if v > 0.0 {
+                if self.made.fetch_add(1, Ordering::Relaxed) >= self.max_links {
+                    self.over.store(true, Ordering::Relaxed);
+                    return;
+                }
                 out.links.push(Link {
                     a: r,
                     b: s,
@@ -424,8 +475,9 @@ impl Context<'_> {
                 || self.refine(c0, other, &mut a),
                 || self.refine(c1, other, &mut b),
             );
-            out.links.append(&mut a.links);
-            out.links.append(&mut b.links);
+            out.close_list();
+            out.lists.extend(a.into_lists());
+            out.lists.extend(b.into_lists());
         } else {
             self.refine(c0, other, out);
             self.refine(c1, other, out);

@@ -193,7 +193,10 @@ impl App {
         }
         let (sender, events) = mpsc::channel();
         spawn_input_reader(sender.clone());
-        let engine_options = SessionOptions::with_user_cache().interactive();
+        let engine_options = SessionOptions {
+            memory_limit: Some(limit),
+            ..SessionOptions::with_user_cache().interactive()
+        };
         let engine = spawn_engine(scene, engine_options, sender.clone());
         let encode_jobs = spawn_encode_worker(setup, sender.clone());
         let pending = PendingEdits::default();
@@ -477,7 +480,10 @@ impl App {
         self.model = fresh;
         self.loaded = loaded;
         self.edits_changed = true;
-        let engine_options = SessionOptions::with_user_cache().interactive();
+        let engine_options = SessionOptions {
+            memory_limit: Some(self.limit),
+            ..SessionOptions::with_user_cache().interactive()
+        };
         self.engine = spawn_engine(scene, engine_options, self.sender.clone());
         self.frame_changed = true;
     }

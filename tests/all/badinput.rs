@@ -911,8 +911,10 @@ fn a_fifo_named_like_a_cache_file_is_never_opened() {
     assert!(run.stderr.contains("FIFO"), "{}", run.stderr);
 }
 
-/// An 80 × 80 × 4 m hall with grey surfaces and the default patch sizes: about 53 000 solver
-/// patches, so the dense form factors alone take about 11 GB.
+/// An 80 × 80 × 4 m hall with grey surfaces and 0.15 m solver patches: about 580 000, more leaves
+/// than the hierarchical engine takes (250 000), so the SH basis is baked and its dense form
+/// factors alone would take 1.6 TB. (At the default 0.5 m it is 56 000 leaves for the
+/// hierarchical engine, about 0.3 GB before its links.)
 const HALL: &str = r#"version = 1
 [room]
 size = [80.0, 80.0, 4.0]
@@ -924,6 +926,8 @@ ceiling = 0.7
 name = "high bay"
 position = [40.0, 40.0, 3.9]
 lid = [[0, 10000], [90, 0]]
+[settings]
+solver_patch_size = 0.15
 "#;
 
 #[test]
@@ -945,7 +949,7 @@ fn a_hall_too_large_for_memory_is_refused_before_allocating() {
         "hall.toml",
         &[
             "needs about 1",
-            " GB of memory (form factors ",
+            " TB of memory (form factors ",
             "more than the limit of 2.15 GB (half the memory available to Haiko",
             "`settings.solver_patch_size`",
             "`--max-memory`",
@@ -1046,15 +1050,42 @@ fn a_small_room_runs_within_a_given_budget_and_not_within_a_tiny_one() {
     assert_eq!(budget["limit_bytes"], 1024);
     assert_eq!(budget["limit_from"], "--max-memory");
     assert_eq!(budget["within"], false);
-    let parts = ["form_factor_bytes", "basis_bytes", "relight_bytes"].map(|k| budget[k].as_u64().unwrap());
+    let parts = [
+        "form_factor_bytes",
+        "basis_bytes",
+        "engine_bytes",
+        "relight_bytes",
+    ]
+    .map(|k| budget[k].as_u64().unwrap());
     assert_eq!(
         budget["estimate_bytes"].as_u64().unwrap(),
         parts.iter().sum::<u64>()
     );
-    // The dense form factors of n solver patches: n² × 4 bytes.
-    let n = plan["coarse_patches"].as_u64().unwrap();
-    assert!(n > 0);
-    assert_eq!(parts[0], n * n * 4);
+    // The hierarchical engine: no dense form factors and no basis; per leaf 512 B of geometry,
+    // per leaf and light a direct-light cache of 4 608 B and 24 B of solved values; the links
+    // get what is left of the limit, 48 B each (none of 1 kB here).
+    assert_eq!(plan["hierarchical"]["on"], true);
+    let leaves = plan["leaves"].as_u64().unwrap();
+    assert!(leaves > 0);
+    assert_eq!(parts[..2], [0, 0]);
+    assert_eq!(parts[2], leaves * (512 + 4608 + 24));
+    assert_eq!(budget["max_links"], 0);
+    // With room for 100 links, the engine stops building at the 101st and says so (a cached
+    // operator would be read whatever its links: the cache goes first).
+    fs::remove_dir_all(d.join(".cache")).unwrap();
+    let limit = format!("{}", parts.iter().sum::<u64>() + 100 * 48);
+    let run = haiko(
+        d,
+        &["probe", "room.toml", "--points", "p.csv", "--max-memory", &limit],
+    );
+    assert_eq!(run.code, Some(2), "{}", run.stderr);
+    let last = run.stderr.trim_end().lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("haiko: room.toml: the interreflection engine needs more than 100 links on its")
+            && last.contains("raise `settings.solver_patch_size`"),
+        "after the progress line: {}",
+        run.stderr
+    );
     let run = haiko(d, &["bake", "room.toml", "--max-memory", "12Q"]);
     assert_eq!(run.code, Some(2), "{}", run.stderr);
     assert!(

@@ -24,7 +24,7 @@ const TOUCHING_BOX: &str = "[2.001, 1.4, 0.5]";
 
 /// The engine of `scene` with visibility (the room has a box) and one grey channel.
 fn engine(scene: &Scene) -> Interreflection {
-    Interreflection::build(scene, 1, true, &InterreflectionOptions::default())
+    Interreflection::build(scene, 1, true, &InterreflectionOptions::default()).unwrap()
 }
 
 /// `Σ A·H` over the engine's leaves (lm) for the scene's only light.

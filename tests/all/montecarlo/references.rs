@@ -1079,7 +1079,7 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
     let refs = read(name);
     let receivers: Vec<Receiver> = refs.iter().map(Reference::receiver).collect();
     let p = plan(&scene, PlanOptions::default());
-    let engine = Interreflection::build(&scene, p.channels, p.visibility.on, options);
+    let engine = Interreflection::build(&scene, p.channels, p.visibility.on, options).unwrap();
     let b = engine
         .scene_radiosity(&scene, 1e-5)
         .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -1393,7 +1393,7 @@ fn print_engine_variant() {
         let scene = room(name);
         let p = plan(&scene, PlanOptions::default());
         let t = std::time::Instant::now();
-        let engine = Interreflection::build(&scene, p.channels, p.visibility.on, &options);
+        let engine = Interreflection::build(&scene, p.channels, p.visibility.on, &options).unwrap();
         println!(
             "{name}: {} coarse → {} leaves, {} links, build {:.2} s",
             engine.stats.coarse_patches,
@@ -1421,7 +1421,7 @@ fn print_open_plan_costs() {
     );
     let options = engine_options_from_env();
     let t = std::time::Instant::now();
-    let engine = Interreflection::build(&scene, 1, true, &options);
+    let engine = Interreflection::build(&scene, 1, true, &options).unwrap();
     println!("build {:.2} s: {:?}", t.elapsed().as_secs_f64(), engine.stats);
     let t = std::time::Instant::now();
     // One light's cache (all 48 took the resident memory to 11 GB; the session keeps 256 MiB).
@@ -1539,7 +1539,8 @@ fn print_engine_edit_costs() {
             p.channels,
             p.visibility.on,
             &InterreflectionOptions::default(),
-        );
+        )
+        .unwrap();
         let build_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let caches: Vec<_> = scene.lights.iter().map(|l| engine.direct_cache(l)).collect();
