@@ -277,6 +277,56 @@ struct Contact {
     max_length: f64,
 }
 
+/// Contact edges or slots filed by the axis planes they lie in, for the few near a cell: a room
+/// of many boxes has thousands of contacts and slots on its floor, and every floor cell looked
+/// at each of them.
+#[derive(Default)]
+struct PlaneIndex {
+    /// Per axis `a`: `(the plane's coordinate on a, the item's low end on (a + 1) % 3, index)`,
+    /// sorted.
+    planes: [Vec<(f64, f64, u32)>; 3],
+    /// Per axis `a`: the largest extent along `(a + 1) % 3` of an item filed there.
+    longest: [f64; 3],
+}
+
+impl PlaneIndex {
+    /// Files item `index` in the plane `axis` = `offset`, spanning `lo`–`hi` (m).
+    fn file(&mut self, axis: usize, offset: f64, lo: &DVec3, hi: &DVec3, index: usize) {
+        let b = (axis + 1) % 3;
+        self.planes[axis].push((offset, lo[b], index as u32));
+        self.longest[axis] = self.longest[axis].max(hi[b] - lo[b]);
+    }
+
+    /// Sorts what was filed; call before [`Self::near`].
+    fn sorted(mut self) -> Self {
+        for list in &mut self.planes {
+            list.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)));
+        }
+        self
+    }
+
+    /// Appends to `out` the items filed in the plane `axis` = `offset` (within 1e-9 m, the
+    /// tolerance of the tests that use them) that reach within `reach` (m) of `bounds` along
+    /// `(axis + 1) % 3` (an item may come twice if filed twice).
+    fn near(&self, axis: usize, offset: f64, bounds: &Aabb, reach: f64, out: &mut Vec<usize>) {
+        let list = &self.planes[axis];
+        let b = (axis + 1) % 3;
+        let (from, to) = (bounds.min[b] - reach - self.longest[axis], bounds.max[b] + reach);
+        let start = list.partition_point(|e| e.0 < offset - 1e-9);
+        let end = list.partition_point(|e| e.0 <= offset + 1e-9);
+        // One run per distinct coordinate in the range (almost always one), sorted along b.
+        let mut run = start;
+        while run < end {
+            let at = list[run].0;
+            let run_end = run + list[run..end].partition_point(|e| e.0 == at);
+            let lo = run + list[run..run_end].partition_point(|e| e.1 < from);
+            let hi = run + list[run..run_end].partition_point(|e| e.1 <= to);
+            out.extend(list[lo..hi].iter().map(|e| e.2 as usize));
+            run = run_end;
+        }
+    }
+}
+
 /// What a [`Contact`] edge is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum EdgeKind {
@@ -313,14 +363,20 @@ impl Slot {
         (self.box_side - self.room_side).abs()
     }
 
-    /// Whether `p` lies in the slot (between the box face and the room surface, within the
-    /// face's outline, boundaries included).
-    fn contains(&self, p: DVec3) -> bool {
+    /// The box between the box face and the room surface, within the face's outline.
+    fn volume(&self) -> Aabb {
         let mut lo = self.bounds.min;
         let mut hi = self.bounds.max;
         lo[self.axis] = self.room_side.min(self.box_side);
         hi[self.axis] = self.room_side.max(self.box_side);
-        (p.cmpge(lo - 1e-9) & p.cmple(hi + 1e-9)).all()
+        Aabb { min: lo, max: hi }
+    }
+
+    /// Whether `p` lies in the slot (between the box face and the room surface, within the
+    /// face's outline, boundaries included).
+    fn contains(&self, p: DVec3) -> bool {
+        let v = self.volume();
+        (p.cmpge(v.min - 1e-9) & p.cmple(v.max + 1e-9)).all()
     }
 
     /// Whether `cell` lies on either side of the slot and overlaps it.
@@ -578,9 +634,95 @@ struct Splitter<'a> {
     scene: &'a Scene,
     options: &'a RefineOptions,
     contacts: Vec<Contact>,
+    /// The contacts by the planes their segments lie in, and those graded within their own
+    /// length whatever a cell's size (finite `max_length`).
+    contact_index: PlaneIndex,
+    contacts_anywhere: Vec<usize>,
     slots: Vec<Slot>,
+    /// The slots by the planes of their two sides, and by where their volumes start along x.
+    slot_index: PlaneIndex,
+    slots_by_x: SlotsByX,
     occluders: Option<Occluders>,
     mesh_contacts: Option<MeshContacts>,
+}
+
+/// The indices `near` (below `len`) each once, ascending: sorted when few, else through a bit
+/// per index (sorting hundreds of candidates per cell cost more than testing them).
+fn in_order(mut near: Vec<usize>, len: usize) -> Vec<usize> {
+    if near.len() * 16 < len.max(64) {
+        near.sort_unstable();
+        near.dedup();
+        return near;
+    }
+    let mut bits = vec![0u64; len.div_ceil(64)];
+    for &i in &near {
+        bits[i / 64] |= 1 << (i % 64);
+    }
+    near.clear();
+    for (w, &word) in bits.iter().enumerate() {
+        near.extend((0..64).filter(|b| word & (1 << b) != 0).map(|b| w * 64 + b));
+    }
+    near
+}
+
+/// The slots sorted by where their volumes start along x, for the slots that may hold a point
+/// (a slot per gap between boxes; every leaf asks).
+struct SlotsByX {
+    /// `(volume's low x, index)`, sorted.
+    starts: Vec<(f64, u32)>,
+    /// The widest volume along x (m).
+    widest: f64,
+}
+
+impl SlotsByX {
+    fn new(slots: &[Slot]) -> Self {
+        let mut starts: Vec<(f64, u32)> = slots
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (s.volume().min.x, i as u32))
+            .collect();
+        starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let widest = slots
+            .iter()
+            .map(|s| {
+                let v = s.volume();
+                v.max.x - v.min.x
+            })
+            .fold(0.0, f64::max);
+        SlotsByX { starts, widest }
+    }
+
+    /// Whether any of `slots` ([`Slot::contains`]) holds `p`.
+    fn any_contains(&self, slots: &[Slot], p: DVec3) -> bool {
+        let from = self.starts.partition_point(|e| e.0 < p.x - self.widest - 1e-9);
+        let to = self.starts.partition_point(|e| e.0 <= p.x + 1e-9);
+        self.starts[from..to]
+            .iter()
+            .any(|&(_, i)| slots[i as usize].contains(p))
+    }
+}
+
+/// The contacts by the planes their segments lie in (each segment lies in two).
+fn contact_index(contacts: &[Contact]) -> PlaneIndex {
+    let mut index = PlaneIndex::default();
+    for (i, c) in contacts.iter().enumerate() {
+        let seg = &c.segment;
+        for a in (0..3).filter(|&a| seg.max[a] - seg.min[a] <= 2e-9) {
+            index.file(a, seg.min[a], &seg.min, &seg.max, i);
+        }
+    }
+    index.sorted()
+}
+
+/// The slots by the planes of their two sides (the cells [`Slot::holds`] lie in one).
+fn slot_index(slots: &[Slot]) -> PlaneIndex {
+    let mut index = PlaneIndex::default();
+    for (i, slot) in slots.iter().enumerate() {
+        for side in [slot.room_side, slot.box_side] {
+            index.file(slot.axis, side, &slot.bounds.min, &slot.bounds.max, i);
+        }
+    }
+    index.sorted()
 }
 
 /// Refines the coarse mesh of `scene`.
@@ -602,7 +744,13 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
         occluders: ((!contacts.is_empty() || !scene.mesh_bounds.is_empty()) && options.shadow_min_m > 0.0)
             .then(|| Occluders::of_scene(scene))
             .flatten(),
+        contact_index: contact_index(&contacts),
+        contacts_anywhere: (0..contacts.len())
+            .filter(|&i| contacts[i].max_length.is_finite())
+            .collect(),
         contacts,
+        slot_index: slot_index(&slots),
+        slots_by_x: SlotsByX::new(&slots),
         slots,
         mesh_contacts: (options.contact_ratio > 0.0)
             .then(|| MeshContacts::of_scene(scene))
@@ -644,7 +792,7 @@ pub fn refine(scene: &Scene, options: &RefineOptions) -> SolverMesh {
                 for (leaf, beam_edge) in &leaves {
                     let bounds = leaf.bounds();
                     let centre = (bounds.min + bounds.max) / 2.0;
-                    let in_slot = splitter.slots.iter().any(|s| s.contains(centre));
+                    let in_slot = splitter.slots_by_x.any_contains(&splitter.slots, centre);
                     out.rect(patch, index, leaf, near_lamp, in_slot, *beam_edge);
                 }
             }
@@ -978,7 +1126,22 @@ impl Splitter<'_> {
         // The light-edge tests, once per cell (per axis across) whatever the contacts near it.
         let mut edge_across: [Option<bool>; 2] = [None; 2];
         let mut beam_edge: Option<bool> = None;
-        for contact in &self.contacts {
+        // The farthest a rule below reaches from a cell this large: across while wider than
+        // `contact_ratio ×` the distance, a light edge within `SHADOW_REACH` widths, along
+        // while longer than the distance (`LIGHT_EDGE_LENGTH`; the strip rule's aspects reach
+        // less); the pool rule, within a contact's own length, is the index's `anywhere`.
+        let extent = cell.extent(0).max(cell.extent(1));
+        let reach = extent
+            * (1.0 / options.contact_ratio)
+                .max(SHADOW_REACH)
+                .max(1.0 / LIGHT_EDGE_LENGTH);
+        let mut near = self.contacts_anywhere.clone();
+        self.contact_index
+            .near(cell.rect.axis, cell.rect.offset, &bounds, reach, &mut near);
+        for contact in in_order(near, self.contacts.len())
+            .into_iter()
+            .map(|i| &self.contacts[i])
+        {
             let seg = &contact.segment;
             // The contact must lie in the cell's plane.
             let a = cell.rect.axis;
@@ -1106,7 +1269,14 @@ impl Splitter<'_> {
     fn slot_axis(&self, cell: &Cell) -> Option<usize> {
         let longer = if cell.extent(0) >= cell.extent(1) { 0 } else { 1 };
         let extent = cell.extent(longer);
-        let mut slots = self.slots.iter().filter(|s| s.holds(cell)).peekable();
+        let mut near = Vec::new();
+        self.slot_index
+            .near(cell.rect.axis, cell.rect.offset, &cell.bounds(), 0.0, &mut near);
+        let mut slots = in_order(near, self.slots.len())
+            .into_iter()
+            .map(|i| &self.slots[i])
+            .filter(|s| s.holds(cell))
+            .peekable();
         slots.peek()?;
         if extent > 2.0 * self.options.contact_min_m && slots.any(|s| extent > 2.0 * s.gap()) {
             return Some(longer);
@@ -1643,6 +1813,50 @@ impl Builder {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    #[test]
+    fn candidates_come_once_and_in_order_however_many() {
+        assert_eq!(in_order(vec![7, 3, 7, 1], 1000), vec![1, 3, 7]);
+        // Many against the count: through the bits, the same answer.
+        let many: Vec<usize> = (0..200).rev().flat_map(|i| [3 * i, 3 * i]).collect();
+        let expected: Vec<usize> = (0..200).map(|i| 3 * i).collect();
+        assert_eq!(in_order(many, 600), expected);
+    }
+
+    #[test]
+    fn a_plane_index_finds_what_lies_in_a_plane_near_a_box() {
+        let mut index = PlaneIndex::default();
+        // Along x in the floor (z = 0): segments from x = 0, 1, 2, 3 m, 0.5 m long.
+        for i in 0..4 {
+            let x = f64::from(i);
+            index.file(
+                2,
+                0.0,
+                &DVec3::new(x, 1.0, 0.0),
+                &DVec3::new(x + 0.5, 1.0, 0.0),
+                i as usize,
+            );
+        }
+        // One on the ceiling (z = 3) above the first.
+        index.file(2, 3.0, &DVec3::new(0.0, 1.0, 3.0), &DVec3::new(0.5, 1.0, 3.0), 4);
+        let index = index.sorted();
+        let cell = Aabb {
+            min: DVec3::new(1.7, 0.0, 0.0),
+            max: DVec3::new(1.9, 2.0, 0.0),
+        };
+        let near = |offset: f64, reach: f64| {
+            let mut out = Vec::new();
+            index.near(2, offset, &cell, reach, &mut out);
+            in_order(out, 5)
+        };
+        // Within 0.2 m along x: the segments from 1 (ends at 1.5) and 2 m; not 0 or 3.
+        assert_eq!(near(0.0, 0.2), vec![1, 2]);
+        // Touching only: the segment from 1 m ends 0.2 m short of the box.
+        assert_eq!(near(0.0, 0.0), Vec::<usize>::new());
+        assert_eq!(near(1e-10, 5.0), vec![0, 1, 2, 3]);
+        assert_eq!(near(3.0, 5.0), vec![4]);
+        assert_eq!(near(1.0, 5.0), Vec::<usize>::new());
+    }
 
     /// A coarser grading than the default (ratios 1, 6 cm strips; room edges as by default),
     /// whose leaves the tests below state exactly.
