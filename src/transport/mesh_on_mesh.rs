@@ -8,11 +8,38 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-/// A uniform grid over triangles' bounds, for the triangles near a box.
+/// A uniform grid over triangles' bounds, for the triangles near a box; each cell's list in
+/// the order of the triangles' planes ([`plane_groups`]).
 struct TriangleGrid {
     /// Side (m) of a cell.
     cell: f64,
     cells: HashMap<[i64; 3], Vec<u32>>,
+}
+
+/// Per triangle, a group of triangles lying in one plane to well within `tolerance` (m): the
+/// same unit normal and offset, each rounded so that a corner of one lies within `tolerance /
+/// 2` of another's plane (normal steps of `tolerance / (4√3 (1 + the largest coordinate))`,
+/// offset steps of `tolerance / 4`). Two triangles of a group can make no contact (one would
+/// have to rise more than `tolerance` from the other's plane). A fan of one large convex face
+/// is one group: its thousands of slivers all meet at its first corner, so every cell there
+/// lists all of them.
+fn plane_groups(triangles: &[([DVec3; 3], DVec3)], tolerance: f64) -> Vec<u32> {
+    let largest = triangles
+        .iter()
+        .flat_map(|(t, _)| t.iter().map(|p| p.abs().max_element()))
+        .fold(0.0, f64::max);
+    let normal_step = tolerance / (4.0 * 3f64.sqrt() * (1.0 + largest));
+    let offset_step = tolerance / 4.0;
+    let mut ids: HashMap<[i64; 4], u32> = HashMap::new();
+    triangles
+        .iter()
+        .map(|(t, normal)| {
+            let n = (*normal / normal_step).round().as_i64vec3();
+            let key = [n.x, n.y, n.z, (normal.dot(t[0]) / offset_step).round() as i64];
+            let next = ids.len() as u32;
+            *ids.entry(key).or_insert(next)
+        })
+        .collect()
 }
 
 /// Most cells a grid of triangles may have per axis across the meshes' bounds: bounds a huge
@@ -21,8 +48,8 @@ const GRID_CELLS_PER_AXIS: f64 = 512.0;
 
 impl TriangleGrid {
     /// The grid over `triangles`' bounds grown by `margin` (m), its cells as large as nine in
-    /// ten triangles' largest extent.
-    fn new(triangles: &[([DVec3; 3], DVec3)], margin: f64) -> Self {
+    /// ten triangles' largest extent, each cell's list ordered by `groups` (then index).
+    fn new(triangles: &[([DVec3; 3], DVec3)], margin: f64, groups: &[u32]) -> Self {
         let bounds: Vec<(DVec3, DVec3)> = triangles
             .iter()
             .map(|(t, _)| {
@@ -51,6 +78,9 @@ impl TriangleGrid {
                 grid.cells.entry(key).or_default().push(i as u32);
             });
         }
+        for list in grid.cells.values_mut() {
+            list.sort_unstable_by_key(|&i| (groups[i as usize], i));
+        }
         grid
     }
 
@@ -64,6 +94,32 @@ impl TriangleGrid {
             for y in a[1]..=b[1] {
                 for z in a[2]..=b[2] {
                     f(self, [x, y, z]);
+                }
+            }
+        }
+    }
+
+    /// [`Self::near`] without the triangles of plane group `group` (`groups` as the grid was
+    /// made with), skipped a cell's run at a time; the rest of a cell in the triangles' order,
+    /// as [`Self::near`] gives them (the order the contact edges are found in counts: the
+    /// grading takes the first that applies).
+    fn near_off_plane(&self, lo: DVec3, hi: DVec3, groups: &[u32], group: u32, mut f: impl FnMut(usize)) {
+        let (a, b) = (self.key(lo), self.key(hi));
+        let mut rest: Vec<u32> = Vec::new();
+        for x in a[0]..=b[0] {
+            for y in a[1]..=b[1] {
+                for z in a[2]..=b[2] {
+                    let Some(list) = self.cells.get(&[x, y, z]) else {
+                        continue;
+                    };
+                    let start = list.partition_point(|&i| groups[i as usize] < group);
+                    let end = start + list[start..].partition_point(|&i| groups[i as usize] == group);
+                    rest.clear();
+                    rest.extend(list[..start].iter().chain(&list[end..]));
+                    rest.sort_unstable();
+                    for &i in &rest {
+                        f(i as usize);
+                    }
                 }
             }
         }
@@ -92,7 +148,8 @@ impl TriangleGrid {
 /// by `tolerance`), when longer than `tolerance` and when `t` is seen in front of `u` there
 /// ([`seen_in_front`]).
 pub(crate) fn edges_on_meshes(triangles: &[([DVec3; 3], DVec3)], tolerance: f64) -> Vec<[DVec3; 2]> {
-    let grid = TriangleGrid::new(triangles, tolerance);
+    let groups = plane_groups(triangles, tolerance);
+    let grid = TriangleGrid::new(triangles, tolerance, &groups);
     let mut seen = vec![usize::MAX; triangles.len()];
     let mut out = Vec::new();
     for (ti, (t, normal)) in triangles.iter().enumerate() {
@@ -100,7 +157,7 @@ pub(crate) fn edges_on_meshes(triangles: &[([DVec3; 3], DVec3)], tolerance: f64)
             t[0].min(t[1]).min(t[2]) - tolerance,
             t[0].max(t[1]).max(t[2]) + tolerance,
         );
-        grid.near(lo, hi, |ui| {
+        grid.near_off_plane(lo, hi, &groups, groups[ti], |ui| {
             if ui == ti || seen[ui] == ti {
                 return;
             }
@@ -239,6 +296,68 @@ mod tests {
         assert!(
             (total - expected).abs() < 0.01,
             "{total} m of edges, {expected} m expected"
+        );
+    }
+
+    /// A round table top as one convex face of 200 corners, fanned into slivers that all meet
+    /// at its first corner (one plane group, so no sliver is tested against another), with a
+    /// 0.4 × 0.3 m block standing on it: every point of the block's foot lies on an edge found,
+    /// and every edge on the foot. (With thousands of corners the slivers under the foot get
+    /// narrower than the 1 mm tolerance, and pieces that short are dropped.)
+    #[test]
+    fn a_block_on_a_fanned_round_top_has_its_foot_on_it() {
+        let n = 200;
+        let rim: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+                DVec3::new(1.5 + 0.6 * a.cos(), 1.0 + 0.6 * a.sin(), 0.75)
+            })
+            .collect();
+        let mut triangles: Vec<([DVec3; 3], DVec3)> = (1..rim.len() - 1)
+            .map(|k| ([rim[0], rim[k], rim[k + 1]], DVec3::Z))
+            .collect();
+        let groups = plane_groups(&triangles, 1e-3);
+        assert!(groups.iter().all(|&g| g == groups[0]), "one plane");
+        triangles.extend(block(DVec3::new(1.3, 0.85, 0.75), DVec3::new(1.7, 1.15, 1.0)));
+        let groups = plane_groups(&triangles, 1e-3);
+        assert_ne!(
+            groups[0],
+            groups[triangles.len() - 1],
+            "the block's top is another plane"
+        );
+        let edges = edges_on_meshes(&triangles, 1e-3);
+        let on_foot = |p: DVec3| {
+            (p.z - 0.75).abs() < 1e-12
+                && ((p.x - 1.3).abs() < 1e-9
+                    || (p.x - 1.7).abs() < 1e-9
+                    || (p.y - 0.85).abs() < 1e-9
+                    || (p.y - 1.15).abs() < 1e-9)
+        };
+        assert!(edges.iter().flatten().all(|&p| on_foot(p)), "{edges:?}");
+        let corners = [(1.3, 0.85), (1.7, 0.85), (1.7, 1.15), (1.3, 1.15), (1.3, 0.85)];
+        let mut missed = Vec::new();
+        for side in corners.windows(2) {
+            let (a, b) = (
+                DVec3::new(side[0].0, side[0].1, 0.75),
+                DVec3::new(side[1].0, side[1].1, 0.75),
+            );
+            for k in 0..=100 {
+                let p = a.lerp(b, f64::from(k) / 100.0);
+                let covered = edges.iter().any(|[s, e]| {
+                    let t = ((p - *s).dot(*e - *s) / (*e - *s).length_squared()).clamp(0.0, 1.0);
+                    p.distance(s.lerp(*e, t)) < 1e-9
+                });
+                if !covered {
+                    missed.push(p);
+                }
+            }
+        }
+        // A piece whose test point beside it ([`seen_in_front`]) falls off its narrow sliver is
+        // not kept: 4 of the 404 points, within 8 mm of two corners, lie in such gaps.
+        assert!(
+            missed.len() <= 4,
+            "{} points on no edge: {missed:?}",
+            missed.len()
         );
     }
 
