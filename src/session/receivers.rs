@@ -20,7 +20,7 @@ use crate::transport::bake::{BakedLight, patch_reflectance};
 use crate::transport::direct::{DirectCache, Receiver, luminance_weight};
 use crate::transport::gather::{GatherOperator, light_patch_irradiance};
 use crate::transport::indirect::LeafRadiosity;
-use crate::transport::interreflection::Interreflection;
+use crate::transport::interreflection::{Interreflection, NearField};
 use crate::transport::occlusion::Occluders;
 use crate::transport::visibility::Visibility;
 
@@ -53,6 +53,10 @@ struct SetLight {
     /// Irradiance of every coarse patch (lx, linear RGB, colour applied) for the basis gather;
     /// empty otherwise (the leaves' gather reads each light's radiosity from the engine).
     irradiance: Vec<[f64; 3]>,
+    /// The geometry of the leaves' near-field pieces ([`NearField::points`]) seen from the
+    /// light, and its direct illuminance there (lx, colour not applied); empty without them.
+    near_cache: DirectCache,
+    near_direct: Vec<f64>,
 }
 
 /// Where a receiver set's indirect light comes from.
@@ -70,7 +74,30 @@ pub enum IndirectSource {
 #[derive(Debug, Clone)]
 enum Gather {
     Coarse(GatherOperator),
-    Leaves(Arc<Interreflection>),
+    /// The engine's leaves, with the pieces of leaves large for their distance to a receiver
+    /// (empty when the direct light comes from the SH series).
+    Leaves(Arc<Interreflection>, NearField),
+}
+
+impl Gather {
+    /// The leaves' gather at `receivers` from `engine`, its near field resolved with exact
+    /// direct light (docs/DECISIONS.md "Receivers beside a large leaf") unless `mode` takes
+    /// the direct light from the SH series.
+    fn leaves(engine: Arc<Interreflection>, receivers: &[Receiver], mode: DirectMode) -> Self {
+        let near = match mode {
+            DirectMode::Exact => engine.near_field(receivers),
+            DirectMode::Basis => NearField::default(),
+        };
+        Gather::Leaves(engine, near)
+    }
+
+    /// The near-field pieces' points (none for the coarse gather).
+    fn near_points(&self) -> &[Receiver] {
+        match self {
+            Gather::Leaves(_, near) => &near.points,
+            Gather::Coarse(_) => &[],
+        }
+    }
 }
 
 /// Illuminance at fixed receivers for the lights' current states.
@@ -111,7 +138,7 @@ impl ReceiverSet {
             IndirectSource::Basis => Some(Gather::Coarse(GatherOperator::build(
                 scene, occluders, &receivers,
             ))),
-            IndirectSource::Leaves(engine) => Some(Gather::Leaves(engine)),
+            IndirectSource::Leaves(engine) => Some(Gather::leaves(engine, &receivers, mode)),
         };
         let reflectance = if matches!(gather, Some(Gather::Coarse(_))) {
             [0, 1, 2].map(|ch| patch_reflectance(scene, &scene.coarse, ch))
@@ -149,8 +176,8 @@ impl ReceiverSet {
     /// The hierarchical engine was rebuilt (its leaves changed): gather from `engine` from now
     /// on; every light is recomputed at the next update.
     pub fn use_engine(&mut self, engine: Arc<Interreflection>) {
-        if matches!(self.gather, Some(Gather::Leaves(_))) {
-            self.gather = Some(Gather::Leaves(engine));
+        if matches!(self.gather, Some(Gather::Leaves(..))) {
+            self.gather = Some(Gather::leaves(engine, &self.receivers, self.mode));
             self.lights.iter_mut().for_each(|l| *l = None);
             self.stale = true;
         }
@@ -179,12 +206,18 @@ impl ReceiverSet {
                 continue;
             }
             let light = input.light;
-            let reuse = slot
-                .take()
-                .filter(|s| s.position == light.position && s.radius_m == light.radius_m);
-            let cache = match reuse {
-                Some(s) => s.cache,
-                None => DirectCache::build(light.position, light.radius_m, &self.receivers, vis),
+            let near_points = self.gather.as_ref().map_or(&[][..], Gather::near_points);
+            let reuse = slot.take().filter(|s| {
+                s.position == light.position
+                    && s.radius_m == light.radius_m
+                    && s.near_cache.n_receivers() == near_points.len()
+            });
+            let (cache, near_cache) = match reuse {
+                Some(s) => (s.cache, s.near_cache),
+                None => (
+                    DirectCache::build(light.position, light.radius_m, &self.receivers, vis),
+                    DirectCache::build(light.position, light.radius_m, near_points, vis),
+                ),
             };
             let mut computed = SetLight {
                 version: input.version,
@@ -193,10 +226,13 @@ impl ReceiverSet {
                 cache,
                 direct: vec![0.0; self.receivers.len()],
                 irradiance: Vec::new(),
+                near_direct: vec![0.0; near_points.len()],
+                near_cache,
             };
             compute_light(
                 &mut computed,
                 &self.receivers,
+                near_points,
                 input,
                 self.mode,
                 self.gather.as_ref(),
@@ -225,7 +261,7 @@ impl ReceiverSet {
                 return;
             }
             Some(Gather::Coarse(_)) => self.reflectance[0].len(),
-            Some(Gather::Leaves(engine)) => engine.n_leaves(),
+            Some(Gather::Leaves(engine, _)) => engine.n_leaves(),
         };
         // Summed irradiance per coarse patch (times ρ below), or summed leaf radiosity.
         let mut radiosity = vec![[0.0; 3]; n_patches];
@@ -234,7 +270,7 @@ impl ReceiverSet {
                 (0..3).for_each(|ch| b[ch] += h[ch]);
             }
         }
-        if matches!(self.gather, Some(Gather::Leaves(_))) {
+        if matches!(self.gather, Some(Gather::Leaves(..))) {
             for leaves in inputs.iter().filter_map(|input| input.radiosity) {
                 leaves.add_to(&mut radiosity);
             }
@@ -246,7 +282,18 @@ impl ReceiverSet {
                 }
                 gather.apply(&radiosity)
             }
-            Some(Gather::Leaves(engine)) => engine.gather(&radiosity, &self.receivers),
+            Some(Gather::Leaves(engine, near)) => {
+                // Every light's direct irradiance at the near field's pieces, colour applied.
+                let mut direct = vec![[0.0; 3]; near.len()];
+                for (light, input) in self.lights.iter().zip(inputs) {
+                    let Some(light) = light else { continue };
+                    let color = input.light.color;
+                    for (d, e) in direct.iter_mut().zip(&light.near_direct) {
+                        (0..3).for_each(|ch| d[ch] += color[ch] * e);
+                    }
+                }
+                engine.gather_near(&radiosity, &self.receivers, near, &direct)
+            }
             None => return,
         };
         for ((total, indirect), e) in self.total.iter_mut().zip(&mut self.indirect).zip(gathered) {
@@ -256,11 +303,12 @@ impl ReceiverSet {
     }
 }
 
-/// Fills `out.direct` at `receivers` (those its cache was built for) and, with the gather,
-/// `out.irradiance`, for the light's current state.
+/// Fills `out.direct` at `receivers` and `out.near_direct` at `near_points` (those its caches
+/// were built for) and, with the basis gather, `out.irradiance`, for the light's current state.
 fn compute_light(
     out: &mut SetLight,
     receivers: &[Receiver],
+    near_points: &[Receiver],
     input: &LightInput<'_>,
     mode: DirectMode,
     gather: Option<&Gather>,
@@ -303,6 +351,13 @@ fn compute_light(
     if weight != 1.0 {
         out.direct.iter_mut().for_each(|e| *e *= weight);
     }
+    out.near_cache.illuminance_into(
+        near_points,
+        &light.curve,
+        light.aim,
+        light.dimmer,
+        &mut out.near_direct,
+    );
     if let (Some(Gather::Coarse(_)), Some((_, coeffs, baked))) = (gather, &series) {
         light_patch_irradiance(baked, coeffs, light.color, &mut out.irradiance);
     }

@@ -430,17 +430,44 @@ pub fn lights_direct_at(
             scene
                 .lights
                 .iter()
-                .map(|l| {
-                    let scale = match dimmers {
-                        Dimmers::AsSet => l.dimmer,
-                        Dimmers::Full => 1.0,
-                    };
-                    luminance_weight(l.color)
-                        * illuminance_at(l.position, l.radius, &l.curve, l.aim, scale, rx, vis)
-                })
+                .map(|l| luminance_weight(l.color) * light_direct_at(l, rx, vis, dimmers))
                 .sum()
         })
         .collect()
+}
+
+/// [`lights_direct_at`] per channel: the direct irradiance (lx, linear RGB, the lights'
+/// colours applied) of all of a scene's lights at `receivers`.
+pub fn lights_direct_rgb_at(
+    scene: &crate::scene::Scene,
+    occluders: Option<&crate::transport::occlusion::Occluders>,
+    receivers: &[Receiver],
+    dimmers: Dimmers,
+) -> Vec<[f64; 3]> {
+    let vis = occluders.map(|o| o as &dyn Visibility);
+    receivers
+        .par_iter()
+        .map(|rx| {
+            scene.lights.iter().fold([0.0; 3], |sum, l| {
+                let e = light_direct_at(l, rx, vis, dimmers);
+                std::array::from_fn(|ch| sum[ch] + l.color[ch] * e)
+            })
+        })
+        .collect()
+}
+
+/// The direct illuminance (lx, colour not applied) of light `l` at `rx`.
+fn light_direct_at(
+    l: &crate::scene::Light,
+    rx: &Receiver,
+    vis: Option<&dyn Visibility>,
+    dimmers: Dimmers,
+) -> f64 {
+    let scale = match dimmers {
+        Dimmers::AsSet => l.dimmer,
+        Dimmers::Full => 1.0,
+    };
+    illuminance_at(l.position, l.radius, &l.curve, l.aim, scale, rx, vis)
 }
 
 #[cfg(test)]

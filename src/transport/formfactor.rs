@@ -216,27 +216,45 @@ impl TargetPatch {
     /// is already that small for its distance (the kernel's first-order change over it,
     /// [`kernel_gradient`], then gives the moment).
     pub fn near_moment(&self, p: DVec3, n: DVec3, scratch: &mut Vec<DVec3>) -> Option<DVec3> {
-        let whole = Piece {
-            corners: self.corners,
-            n: self.n_corners,
-        };
-        if whole.accepted(p) {
+        if self.accepted_from(p, MOMENT_ACCEPT) {
             return None;
         }
         if self.normal.dot(p - self.centroid) <= 0.0 {
             return Some(DVec3::ZERO);
         }
         let mut moment = DVec3::ZERO;
-        let mut stack = vec![(whole, 0u32)];
-        while let Some((piece, depth)) = stack.pop() {
-            if depth < MOMENT_DEPTH && !piece.accepted(p) {
-                stack.extend(piece.quarters().map(|q| (q, depth + 1)));
+        self.pieces_toward(p, MOMENT_ACCEPT, MOMENT_DEPTH, |corners, centroid| {
+            let f = contour_form_factor(p, n, corners, scratch);
+            moment += f * (centroid - self.centroid);
+        });
+        Some(moment)
+    }
+
+    /// True when the whole patch is at most `accept` times its distance to `p` in size.
+    pub fn accepted_from(&self, p: DVec3, accept: f64) -> bool {
+        self.whole().accepted(p, accept)
+    }
+
+    /// Cuts the patch into pieces, each split in four at its edge midpoints until its size is
+    /// at most `accept` times the distance from `p` to its centroid (at most `depth` times),
+    /// and calls `each` with every piece's corners and centroid (world, m): fine where `p` is
+    /// close, coarse where it is far.
+    pub fn pieces_toward(&self, p: DVec3, accept: f64, depth: u32, mut each: impl FnMut(&[DVec3], DVec3)) {
+        let mut stack = vec![(self.whole(), 0u32)];
+        while let Some((piece, level)) = stack.pop() {
+            if level < depth && !piece.accepted(p, accept) {
+                stack.extend(piece.quarters().map(|q| (q, level + 1)));
                 continue;
             }
-            let f = contour_form_factor(p, n, piece.corners(), scratch);
-            moment += f * (piece.centroid() - self.centroid);
+            each(piece.corners(), piece.centroid());
         }
-        Some(moment)
+    }
+
+    fn whole(&self) -> Piece {
+        Piece {
+            corners: self.corners,
+            n: self.n_corners,
+        }
     }
 
     /// The second moment of area `∫ (x − c)(x − c)ᵀ dA` about the centroid `c` (m⁴, world
@@ -328,15 +346,15 @@ impl Piece {
         self.corners().iter().sum::<DVec3>() / self.n as f64
     }
 
-    /// Small enough for its distance to `p`.
-    fn accepted(&self, p: DVec3) -> bool {
+    /// At most `accept` times its distance to `p` in size.
+    fn accepted(&self, p: DVec3, accept: f64) -> bool {
         let c = self.corners();
         let size = c
             .iter()
             .flat_map(|a| c.iter().map(move |b| a.distance_squared(*b)))
             .fold(0.0, f64::max)
             .sqrt();
-        size <= MOMENT_ACCEPT * p.distance(self.centroid())
+        size <= accept * p.distance(self.centroid())
     }
 
     /// The four pieces of a split at the edge midpoints (and the centre of a quad).

@@ -68,6 +68,18 @@ impl Node {
     pub fn is_leaf(&self) -> bool {
         self.leaf != NONE
     }
+
+    /// True when the (planar) node faces the point `p` (unit normal `n`) and some of it lies
+    /// in front of `p`'s tangent plane: it can send `p` light.
+    pub fn seen_from(&self, p: DVec3, n: DVec3) -> bool {
+        if self.normal.dot(p - self.centroid) <= 0.0 {
+            return false;
+        }
+        let top = (0..3)
+            .map(|k| (n[k] * self.lo[k]).max(n[k] * self.hi[k]))
+            .sum::<f64>();
+        top - n.dot(p) > 0.0
+    }
 }
 
 /// The cluster trees of all surfaces. Nodes are stored in preorder (a parent before its

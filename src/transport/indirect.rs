@@ -1089,8 +1089,9 @@ fn same_state(a: &Light, b: &Light) -> bool {
 }
 
 /// Bumped whenever a light's solve makes something else of the same engine and state: the
-/// lights' solved values are cached under keys made with it.
-const SOLUTION_FORMAT: u64 = 2;
+/// lights' solved values are cached under keys made with it (3: the solve's error is relative
+/// to the interreflected radiosity, docs/DECISIONS.md "The solve's scale").
+const SOLUTION_FORMAT: u64 = 3;
 
 /// The part of every light's solution key that is the engine's: its operator key, its options,
 /// the leaves whose direct light is sampled finely and the leaf reflectances, and the tolerance

@@ -12,8 +12,12 @@
 //!
 //! Stopping rule per column (docs/METHOD.md §5): with `q = max_i ρ_i Σ_j F_ij` (`= ρ_max` in a closed
 //! room), `‖(I − diag(ρ)F)⁻¹‖∞ ≤ 1/(1 − q)`, so the true residual `r = ρE − (I − diag(ρ)F)B̃`
-//! certifies `‖B̃ − B‖∞ ≤ ‖r‖∞/(1 − q)`. A column stops once `‖r‖∞ ≤ tol·(1 − q)·‖B̃‖∞`,
-//! i.e. once its error is at most `tol` relative to `‖B̃‖∞`.
+//! certifies `‖B̃ − B‖∞ ≤ ‖r‖∞/(1 − q)`. A column stops once `‖r‖∞ ≤ tol·(1 − q)·s(B̃)`,
+//! i.e. once its error is at most `tol` relative to its scale `s(B̃) = min(‖B̃‖∞,
+//! ‖ρ∘(F B̃)‖∞)`: the largest radiosity, or the largest interreflected radiosity when that is
+//! smaller — the hot spot of a lamp a centimetre from a ceiling is a million times the rest of
+//! the room, and `tol` of it would leave the room's interreflected light unsolved
+//! (docs/DECISIONS.md "The solve's scale").
 
 use rayon::prelude::*;
 
@@ -136,12 +140,13 @@ pub struct ColumnReport {
     pub iterations: usize,
     /// `‖r‖∞` of the final radiosity, recomputed from scratch (lm/m²).
     pub residual: f64,
-    /// `‖B̃‖∞` of the final radiosity (lm/m²).
+    /// The scale the error is relative to (lm/m²): `‖B̃‖∞` of the final radiosity, at most its
+    /// largest interreflected radiosity `‖ρ∘(F B̃)‖∞` (module doc).
     pub radiosity_norm: f64,
     /// Certified bound on the true error `‖B̃ − B‖∞ = ‖r‖∞/(1 − q)` (lm/m²). The irradiance
     /// error is at most `max_row_sum ×` this.
     pub error_bound: f64,
-    /// True when `error_bound ≤ tol·‖B̃‖∞`.
+    /// True when `error_bound ≤ tol·radiosity_norm`.
     pub converged: bool,
 }
 
@@ -374,7 +379,7 @@ fn multiply_block(form_factors: &FormFactors, block: &[f64], width: usize) -> Ve
 /// Shared, read-only parameters of the per-column iteration.
 struct Params<'a> {
     reflectance: &'a [f64],
-    /// `tol·(1 − q)`: stop when `‖r‖∞ ≤ threshold·‖B̃‖∞`.
+    /// `tol·(1 − q)`: stop when `‖r‖∞ ≤ threshold·s(B̃)` (module doc).
     threshold: f64,
     contraction: f64,
     restart: usize,
@@ -409,6 +414,9 @@ struct ColumnGmres {
     /// Once done: `F·x` of the final radiosity, formed by the check that certified it (`None`
     /// for a zero right-hand side, done without a product).
     f_times_x: Option<Vec<f64>>,
+    /// `‖ρ∘(F x)‖∞` at the last check (infinite before the first): the cap on the scale the
+    /// steps between checks estimate against.
+    indirect_cap: f64,
 }
 
 impl ColumnGmres {
@@ -437,6 +445,7 @@ impl ColumnGmres {
                 converged: true,
             },
             f_times_x: None,
+            indirect_cap: f64::INFINITY,
         }
     }
 
@@ -474,11 +483,18 @@ impl ColumnGmres {
         let ax = Self::apply(&self.x, &f_times_x, params.reflectance);
         let residual: Vec<f64> = self.b.iter().zip(&ax).map(|(b, a)| b - a).collect();
         let residual_inf = norm_inf(&residual);
-        let x_inf = norm_inf(&self.x);
-        let converged = residual_inf <= params.threshold * x_inf;
+        let reflected = f_times_x
+            .iter()
+            .zip(params.reflectance)
+            .fold(0.0f64, |m, (fx, r)| m.max((r * fx).abs()));
+        if reflected > 0.0 {
+            self.indirect_cap = reflected;
+        }
+        let scale = norm_inf(&self.x).min(self.indirect_cap);
+        let converged = residual_inf <= params.threshold * scale;
         if converged || self.report.iterations >= params.max_iterations {
             self.report.residual = residual_inf;
-            self.report.radiosity_norm = x_inf;
+            self.report.radiosity_norm = scale;
             self.report.error_bound = residual_inf / (1.0 - params.contraction);
             self.report.converged = converged;
             self.stage = Stage::Done;
@@ -565,14 +581,15 @@ impl ColumnGmres {
     }
 
     /// The 2-norm residual estimate bounds the ∞-norm; compare it against the current iterate's
-    /// ∞-norm (formed only once a cheap upper bound of that norm already passes).
+    /// scale (its ∞-norm, formed only once a cheap upper bound of that norm already passes,
+    /// capped as at the last check).
     fn estimate_converged(&self, residual_2: f64, params: &Params) -> bool {
         let y = self.cycle_coefficients();
-        let upper = norm_inf(&self.x) + y.iter().map(|v| v.abs()).sum::<f64>();
+        let upper = (norm_inf(&self.x) + y.iter().map(|v| v.abs()).sum::<f64>()).min(self.indirect_cap);
         if residual_2 > params.threshold * upper {
             return false;
         }
-        residual_2 <= params.threshold * norm_inf(&self.candidate(&y))
+        residual_2 <= params.threshold * norm_inf(&self.candidate(&y)).min(self.indirect_cap)
     }
 
     fn candidate(&self, y: &[f64]) -> Vec<f64> {

@@ -5,6 +5,7 @@
 //! references and the comparison of Haiko against them are in [`references`].
 
 pub mod engine;
+pub mod random_rooms;
 pub mod references;
 pub mod session;
 pub mod tracer;
