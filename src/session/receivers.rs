@@ -207,11 +207,10 @@ impl ReceiverSet {
             }
             let light = input.light;
             let near_points = self.gather.as_ref().map_or(&[][..], Gather::near_points);
-            let reuse = slot.take().filter(|s| {
-                s.position == light.position
-                    && s.radius_m == light.radius_m
-                    && s.near_cache.n_receivers() == near_points.len()
-            });
+            // (The near field changes only with the engine, which drops every light.)
+            let reuse = slot
+                .take()
+                .filter(|s| s.position == light.position && s.radius_m == light.radius_m);
             let (cache, near_cache) = match reuse {
                 Some(s) => (s.cache, s.near_cache),
                 None => (

@@ -1055,8 +1055,8 @@ solver_patch_size = {solver}
     /// A bare lamp 1 cm below the ceiling puts a hot spot there a million times brighter than
     /// the rest of the room; the solve's tolerance is relative to the room's interreflected
     /// light, not to that spot (docs/DECISIONS.md "The solve's scale"): at the default 1e-3 every
-    /// floor leaf is within 0.2 % of a solve to 1e-9. Relative to the hot spot the floor was
-    /// 7 % low and less lit leaves 40 %.
+    /// floor leaf is within 0.2 % of a solve to 1e-9. With the error relative to the hot spot
+    /// a floor leaf was 73 % low.
     #[test]
     fn a_hot_spot_does_not_set_the_solves_scale() {
         let s = scene(

@@ -7,10 +7,11 @@
 use glam::DVec3;
 use haiko::photometry::LightState;
 use haiko::scene::Scene;
-use haiko::transport::direct::{Receiver, luminance_weight, scene_direct_at};
+use haiko::transport::direct::{Receiver, scene_direct_at};
 use haiko::transport::interreflection::{Interreflection, InterreflectionOptions};
 
 use super::closed_room_with_light;
+use super::references::total_lux;
 use super::tracer::{Rng, Tracer};
 
 const SMOOTH: &str = "[[0, 900], [30, 800], [60, 500], [90, 200], [120, 100], [180, 50]]";
@@ -80,12 +81,10 @@ fn engine_lux(scene: &Scene, points: &[(DVec3, DVec3)]) -> Vec<f64> {
         .map(|&(point, normal)| Receiver { point, normal })
         .collect();
     let b = engine.scene_radiosity(scene, 1e-6).expect("the solve converges");
-    let indirect = engine.gather(&b, &receivers);
-    scene_direct_at(scene, &receivers)
-        .iter()
-        .zip(&indirect)
-        .map(|(d, e)| d + luminance_weight(*e))
-        .collect()
+    total_lux(
+        &scene_direct_at(scene, &receivers),
+        &engine.gather(&b, &receivers),
+    )
 }
 
 /// Beside a lamp 1 cm below the ceiling and a lamp 1 mm from a box face (ρ = 0.6): the engine's

@@ -1114,10 +1114,15 @@ pub fn engine_lux_at(scene: &Scene, options: &InterreflectionOptions, receivers:
     let occluders = Occluders::of_scene(scene);
     let near_direct = lights_direct_rgb_at(scene, occluders.as_ref(), &near.points, Dimmers::AsSet);
     let indirect = engine.gather_near(&b, receivers, &near, &near_direct);
-    let direct = scene_direct_at(scene, receivers);
+    total_lux(&scene_direct_at(scene, receivers), &indirect)
+}
+
+/// Total illuminance (lx, photopic): the direct part `direct` (lx) plus the indirect
+/// irradiance `indirect` (lx, linear RGB) weighted to luminance.
+pub fn total_lux(direct: &[f64], indirect: &[[f64; 3]]) -> Vec<f64> {
     direct
         .iter()
-        .zip(&indirect)
+        .zip(indirect)
         .map(|(d, e)| d + luminance_weight(*e))
         .collect()
 }
@@ -1189,8 +1194,8 @@ pub fn engine_lux_at(scene: &Scene, options: &InterreflectionOptions, receivers:
 /// Twenty-sixth round: the table measures what a session gives — the lights solved to the
 /// session's tolerance, the near field resolved — where it had measured a solve to 10⁻⁵ and the
 /// leaves' gather alone. At the session's 10⁻³ the solve had stopped relative to a lamp's hot
-/// spot a centimetre from a ceiling: `haiko probe` was 20 % off at the median in
-/// `near-surfaces`, 32 % in `mesh-lamps`, 3 % in `desk-lamps` (docs/DECISIONS.md "The solve's
+/// spot a centimetre from a ceiling: `haiko probe` was 22 % off at the median in
+/// `near-surfaces`, 34 % in `mesh-lamps`, 3.3 % in `desk-lamps` (docs/DECISIONS.md "The solve's
 /// scale"). Receivers beside a leaf large for their distance now see it piece by piece
 /// (docs/DECISIONS.md "Receivers beside a large leaf"): every room within 2.59 % at worst
 /// (`pictures` 4.33 → 1.06 %, `empty` 3.12 → 0.96 %, `lamp-near-box` 2.70 → 1.10 %).

@@ -8,7 +8,7 @@ use haiko::scene::DirectMode;
 use haiko::session::{Session, SessionOptions};
 use haiko::transport::direct::Receiver;
 
-use super::references::{dir, read, room, summarize};
+use super::references::{dir, estimate_to, read, room, summarize, total_lux};
 
 /// Median bound (the 1 %) and each room's worst bound (what the engine meets on it,
 /// docs/ACCURACY.md "After").
@@ -160,15 +160,7 @@ solver_patch_size = 0.5
         .enumerate()
         .map(|(i, rx)| {
             let mut rng = Rng::new(0x51DE + i as u64);
-            let direct = tracer.direct_lux(rx.point, rx.normal);
-            let mut means = Vec::new();
-            loop {
-                means.extend(tracer.indirect_batches(rx.point, rx.normal, 16, 16, &mut rng));
-                let e = Estimate::from_batches(direct, &means, 256);
-                if e.std_error <= 0.005 * e.total {
-                    return e;
-                }
-            }
+            estimate_to(&tracer, (rx.point, rx.normal), &mut rng, 0.005, 16, usize::MAX)
         })
         .collect();
     let mut session = Session::new(scene.clone(), SessionOptions::default(), &mut |_| {}).unwrap();
@@ -191,12 +183,10 @@ solver_patch_size = 0.5
     let engine = session
         .hierarchical()
         .expect("the plan chose the hierarchical engine");
-    let direct = haiko::transport::direct::scene_direct_at(&scene, &receivers);
-    let plain: Vec<f64> = direct
-        .iter()
-        .zip(engine.gather_all(&receivers))
-        .map(|(d, e)| d + haiko::transport::direct::luminance_weight(e))
-        .collect();
+    let plain = total_lux(
+        &haiko::transport::direct::scene_direct_at(&scene, &receivers),
+        &engine.gather_all(&receivers),
+    );
     for (e, p) in traced[..2].iter().zip(&plain) {
         assert!((p - e.total) / e.total > 0.08, "{p} vs {}", e.total);
     }
