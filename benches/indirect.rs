@@ -2,7 +2,8 @@
 //! `rooms/paper.toml`, the engine's build with every light solved (target: paper bake ≤ 0.5 s);
 //! edits of light 0, each with its indirect light interpolated to the fine vertices (target for
 //! a curve edit ≤ 1 ms): the first edit of a control point's intensity (a solve with that
-//! point's column), more edits of it (a weighted sum of the light's response), one control
+//! point's column), more edits of it (a weighted sum of the light's response), a change of the
+//! whole shape once the light's response is grown to every control point, one control
 //! point's angle (a solve), a re-aim between ±5° (a warm-started solve), a dimmer edit (a scaling) and a 0.1 m move
 //! that keeps the refinement (a new direct cache and a solve), and the editor's estimate of a
 //! re-aim while its solve runs (from the light's SH response). The same edits on the open-plan
@@ -18,7 +19,7 @@ use glam::DVec3;
 use haiko::photometry::Curve;
 use haiko::scene::Light;
 use haiko::transport::direct::Receiver;
-use haiko::transport::indirect::HierarchicalIndirect;
+use haiko::transport::indirect::{HierarchicalIndirect, measured_curve_edit};
 use haiko::transport::interreflection::InterreflectionOptions;
 use haiko::transport::plan::{PlanOptions, plan};
 use haiko::transport::sh_response::ESTIMATE_ORDER;
@@ -93,8 +94,8 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
         // The first edit of the point, which solves its column, untimed.
         engine.set_light(0, &raised[1]).unwrap_or_else(|e| panic!("{e}"));
     }
-    let mut k = 0;
-    let mut edit = |b: &mut criterion::Bencher, pair: &[Light; 2]| {
+    let edit = |b: &mut criterion::Bencher, engine: &mut HierarchicalIndirect, pair: &[Light; 2]| {
+        let mut k = 0;
         b.iter(|| {
             k ^= 1;
             engine.set_light(0, &pair[k]).unwrap_or_else(|e| panic!("{e}"));
@@ -105,16 +106,30 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
     // then solve the light at the angles it is left with and point 1's column, and the timed
     // ones weigh the response.
     if time_gamma {
-        group.bench_function(format!("{name}_gamma_edit"), |b| edit(b, &widened));
+        group.bench_function(format!("{name}_gamma_edit"), |b| edit(b, &mut engine, &widened));
     }
-    group.bench_function(format!("{name}_intensity_edit"), |b| edit(b, &raised));
+    group.bench_function(format!("{name}_intensity_edit"), |b| {
+        edit(b, &mut engine, &raised)
+    });
+    // A change of the whole shape (every second point scaled by 0.7) once the light's curve
+    // response holds every control point, grown step by step as the editor does while idle
+    // (untimed): a weighted sum of the response, no solve.
+    engine.set_light(0, &light).unwrap_or_else(|e| panic!("{e}"));
+    while let Some(step) = engine.grow_response(0, &light) {
+        let grown = step.run().unwrap_or_else(|e| panic!("{e}"));
+        assert!(engine.install_response(0, grown), "the step is kept");
+    }
+    let reshaped = [light.clone(), measured_curve_edit(&light)];
+    group.bench_function(format!("{name}_curve_edit_from_grown_response"), |b| {
+        edit(b, &mut engine, &reshaped)
+    });
     let axis = light.aim.any_orthonormal_vector();
     // Both aims differ from the one the light's per-control-point solve was made for.
     let reaimed = [5f64, -5.0].map(|degrees| Light {
         aim: glam::DQuat::from_axis_angle(axis, degrees.to_radians()) * light.aim,
         ..light.clone()
     });
-    group.bench_function(format!("{name}_reaim"), |b| edit(b, &reaimed));
+    group.bench_function(format!("{name}_reaim"), |b| edit(b, &mut engine, &reaimed));
     let dimmed = [
         light.clone(),
         Light {
@@ -122,7 +137,7 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
             ..light.clone()
         },
     ];
-    group.bench_function(format!("{name}_dimmer_edit"), |b| edit(b, &dimmed));
+    group.bench_function(format!("{name}_dimmer_edit"), |b| edit(b, &mut engine, &dimmed));
     // A 0.1 m step: the engine's part of a move (the light's direct cache and solve), whether or
     // not the room's grading would call for a rebuild.
     let moved = [
@@ -132,7 +147,9 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
             ..light.clone()
         },
     ];
-    group.bench_function(format!("{name}_move_without_regrade"), |b| edit(b, &moved));
+    group.bench_function(format!("{name}_move_without_regrade"), |b| {
+        edit(b, &mut engine, &moved)
+    });
     // The editor's estimate of a re-aim while its solve runs: the light's values from its SH
     // response (built by the untimed solves aimed −5° then +5° first: at least one is a solve,
     // whatever the light was left at), interpolated to the vertices; the solve's job is made

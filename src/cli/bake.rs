@@ -326,6 +326,14 @@ fn format_hierarchical(engine: &Engine) -> String {
             c.move_s * 1e3,
             if c.move_rebuilt { " (the move regrades: engine rebuilt)" } else { "" }
         ));
+        if let Some(g) = &c.grown {
+            s.push_str(&format!(
+                "its curve response grown to every control point while idle: {} steps, {:.1} ms in all; then a curve edit {:.2} ms from the response, no solve\n",
+                g.steps,
+                g.grow_s * 1e3,
+                g.curve_s * 1e3,
+            ));
+        }
         let e = &c.aim_estimate;
         s.push_str(&format!(
             "editor's estimate of that re-aim: {:.2} ms from the light's SH response (built in {:.1} ms), off the solve by {:.2} % of its peak indirect light (without it {:.2} %), {:.3} % of the total illuminance at worst, {:.4} % at the median vertex (without it {:.3} % at worst)\n",
@@ -411,6 +419,11 @@ fn bake_json(b: &Bake, plan_s: f64, engine: Option<&Engine>) -> serde_json::Valu
             "aim_estimate": c.aim_estimate.estimate_s,
             "estimate_build": c.aim_estimate.build_s,
         });
+        if let Some(g) = &c.grown {
+            doc["edit_s"]["response_grown"] = serde_json::json!(g.grow_s);
+            doc["edit_s"]["response_grown_steps"] = serde_json::json!(g.steps);
+            doc["edit_s"]["curve_from_response"] = serde_json::json!(g.curve_s);
+        }
         doc["aim_estimate_error"] = serde_json::json!({
             "estimated": c.aim_estimate.error,
             "unestimated": c.aim_estimate.unestimated_error,

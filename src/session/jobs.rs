@@ -1,6 +1,6 @@
 //! Work a session hands to another thread so that edits stay interactive (docs/ARCHITECTURE.md
 //! "The editor's threads"): a moved light's new SH basis columns, an edited light's solve through the
-//! hierarchical engine, or the whole engine rebuilt when a move changes its graded mesh. Each
+//! hierarchical engine, a step of growing its curve response while the editor is idle, or the whole engine rebuilt when a move changes its graded mesh. Each
 //! [`BakeJob`] runs on any thread ([`BakeJob::run`]) and its [`BakeOutcome`] goes back to
 //! [`super::Session::finish_bake`], which installs it unless something newer superseded it.
 
@@ -41,6 +41,9 @@ pub(super) enum Work {
     },
     /// A light's solve through the hierarchical engine.
     Solve(LightSolveJob),
+    /// A step of growing a light's curve response while the editor is idle
+    /// ([`super::Session::queue_growth`]).
+    Grow(LightSolveJob),
     /// Lights moved, or were added or removed: the graded mesh checked, and the whole engine
     /// rebuilt when it no longer holds (the lights' own solves on the current engine are
     /// separate [`Work::Solve`] jobs, queued with it).
@@ -123,6 +126,8 @@ pub(super) enum Done {
     Basis { key: u64, baked: Box<BakedLight> },
     /// A light's solve.
     Solved(Box<LightSolve>),
+    /// A light's curve response grown by a step (its values unchanged).
+    Grown(Box<LightSolve>),
     /// The grading kept or the rebuilt engine, with the lights as the job found them and
     /// those whose own solve was queued beside it.
     Regraded {
@@ -166,6 +171,7 @@ impl BakeJob {
                     })
             }
             Work::Solve(job) => job.run().map(|solved| Done::Solved(Box::new(solved))),
+            Work::Grow(job) => job.run().map(|grown| Done::Grown(Box::new(grown))),
             Work::Regrade(job) => job.run().map(|placed| Done::Regraded {
                 placed,
                 snapshot: job.snapshot,

@@ -204,6 +204,9 @@ pub struct Session {
     /// Bumped whenever the fine-vertex illuminance changes.
     illuminance_version: u64,
     jobs: Vec<BakeJob>,
+    /// The light whose curve response is being grown while the editor is idle, and its
+    /// generation then ([`Session::queue_growth`]); stale once that generation moved on.
+    growing: Option<(LightId, u64)>,
     buffers: FrameBuffers,
     /// The furniture that casts shadows (the bake's, else built on first need); `None` inside
     /// when nothing occludes.
@@ -367,6 +370,7 @@ impl Session {
             relighter: None,
             illuminance_version: 0,
             jobs: Vec::new(),
+            growing: None,
             buffers: FrameBuffers::default(),
             occluders: None,
             watches: Vec::new(),
@@ -574,6 +578,52 @@ impl Session {
         }
     }
 
+    /// When nothing else is pending — no command unsolved, no job queued or running, no regrade
+    /// — queues the next step of growing a light's curve response towards a column for every
+    /// control point, so that its later curve edits are answered exactly from it without a solve
+    /// ([`HierarchicalIndirect::grow_response`]; docs/DECISIONS.md "Interreflection",
+    /// "Responses completed while the editor is idle"): the light with the latest values among
+    /// those whose curve was edited where they stand. One step at a time, each a few hundred ms
+    /// on a large floor, so that an edit waits at most one step. Returns whether a step was
+    /// queued; the editor calls it after each batch of work, headless use never does.
+    pub fn queue_growth(&mut self) -> bool {
+        let Some(h) = self.hierarchical.as_ref() else {
+            return false;
+        };
+        let growing = self.growing.is_some_and(|(id, generation)| {
+            self.light_index(id)
+                .is_some_and(|i| self.slots[i].generation == generation)
+        });
+        let busy = growing
+            || !self.jobs.is_empty()
+            || self.regrading.is_some()
+            || self
+                .slots
+                .iter()
+                .any(|s| s.generation != s.installed || s.solved != s.version);
+        if busy {
+            return false;
+        }
+        let mut order: Vec<usize> = (0..self.slots.len()).collect();
+        order.sort_by_key(|&i| std::cmp::Reverse(h.light_revision(i)));
+        for i in order {
+            let light = self.lights[i].to_light();
+            if let Some(job) = h.grow_response(i, &light) {
+                let slot = &self.slots[i];
+                self.growing = Some((slot.id, slot.generation));
+                self.jobs.push(BakeJob {
+                    light: Some(slot.id),
+                    name: light.name,
+                    generation: slot.generation,
+                    work: Work::Grow(job),
+                });
+                return true;
+            }
+        }
+        self.growing = None;
+        false
+    }
+
     /// The bake jobs queued by commands since the last call (one per light at most).
     pub fn take_bake_jobs(&mut self) -> Vec<BakeJob> {
         std::mem::take(&mut self.jobs)
@@ -594,8 +644,14 @@ impl Session {
             result,
         } = outcome;
         let index = light.and_then(|id| self.light_index(id));
+        let grown = light.is_some_and(|id| self.growing == Some((id, generation)));
+        if grown {
+            self.growing = None;
+        }
         let done = match result {
             Ok(done) => done,
+            // A growth step that failed leaves the light's values as they are.
+            Err(e) if grown => return Err(e),
             Err(e) => {
                 match (light, index) {
                     (None, _) if self.regrading == Some(generation) => {
@@ -635,6 +691,16 @@ impl Session {
                 Ok(Some(i))
             }
             Done::Solved(solved) => Ok(index.filter(|&i| self.install_solve(i, generation, *solved))),
+            Done::Grown(grown) => {
+                // Only while the light is as it was: any newer job or settled edit moved its
+                // generation on. The values shown do not change.
+                if let Some(i) = index.filter(|&i| self.slots[i].generation == generation)
+                    && let Some(h) = self.hierarchical.as_mut()
+                {
+                    h.install_response(i, *grown);
+                }
+                Ok(None)
+            }
             Done::Regraded {
                 placed,
                 snapshot,

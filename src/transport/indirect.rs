@@ -118,6 +118,11 @@ pub const DIRECT_CACHE_BUDGET_BYTES: usize = 128 << 20;
 /// the open-plan floor at degree 2, so the 13 lights solved last keep theirs.
 pub const SH_RESPONSE_BUDGET_BYTES: usize = 128 << 20;
 
+/// Most bytes the lights' curve responses ([`CurveResponse`]) may hold together: a complete
+/// response of a 37-point curve holds 21 MB on the open-plan floor (one channel), so the lights
+/// whose curves were edited last keep theirs.
+pub const CURVE_RESPONSE_BUDGET_BYTES: usize = 128 << 20;
+
 /// The source of [`HierarchicalIndirect::revision`]s.
 static REVISIONS: AtomicU64 = AtomicU64::new(1);
 
@@ -162,6 +167,12 @@ pub struct EditCosts {
     pub point_s: f64,
     /// The same point raised by 10 % again: the light's response weighted, no solve.
     pub point_again_s: f64,
+    /// After that, the light's response grown to a column for every control point, a
+    /// [`HierarchicalIndirect::grow_response`] step after another as the editor does while idle
+    /// (the steps' wall time summed), and then a curve edit of every second point
+    /// ([`measured_curve_edit`]) from the response alone, no solve; `None` when the curve has
+    /// more than [`MAX_RESPONSE_POINTS`] points.
+    pub grown: Option<GrownResponse>,
     /// A re-aim by 10°.
     pub aim_s: f64,
     /// The same re-aim estimated at once from the light's SH response of the editor's degree
@@ -175,6 +186,16 @@ pub struct EditCosts {
     pub move_s: f64,
     /// True when the measured move needed the rebuild.
     pub move_rebuilt: bool,
+}
+
+/// What [`EditCosts::grown`] measured (wall seconds).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GrownResponse {
+    /// The growth steps summed, and how many there were.
+    pub grow_s: f64,
+    pub steps: usize,
+    /// The curve edit of every second point once the response is complete.
+    pub curve_s: f64,
 }
 
 /// What [`HierarchicalIndirect::measure_estimate`] found.
@@ -631,8 +652,79 @@ impl HierarchicalIndirect {
         true
     }
 
-    /// Drops the direct caches, then the SH responses, of the lights solved longest ago (never
-    /// light `keep`'s) until each kind held is within its budget.
+    /// The next step of growing light `i`'s curve response towards a column for every control
+    /// point, for its current state `light` (docs/DECISIONS.md "Interreflection", "Responses
+    /// completed while the editor is idle"): a solve adding up to [`RESPONSE_POINTS_PER_SOLVE`]
+    /// columns, the points nearest those held first, to [`Self::install_response`]. `None` when
+    /// there is nothing to grow: the light was never given a curve edit where it stands as aimed
+    /// at its control-point angles (it holds no response that [`CurveResponse::stands_as`]
+    /// `light`), its values are not `light`'s solve (an edit is pending), its curve has more than
+    /// [`MAX_RESPONSE_POINTS`] points, or its response is complete.
+    pub fn grow_response(&self, i: usize, light: &Light) -> Option<LightSolveJob> {
+        let solved = self.lights.get(i)?;
+        let (curve, aim, dimmer) = solved.solved_for.as_ref()?;
+        let current = solved.position == light.position
+            && solved.radius_m == light.radius
+            && *curve == light.curve
+            && *aim == light.aim
+            && *dimmer == light.dimmer;
+        if !current || light.dimmer <= 0.0 || solved.estimate.is_some() {
+            return None;
+        }
+        let n = light.curve.len();
+        let response = solved.response.as_ref().filter(|r| r.stands_as(light))?;
+        let cache = solved.cache.as_ref()?;
+        if n > MAX_RESPONSE_POINTS {
+            return None;
+        }
+        let held: Vec<usize> = response.points().collect();
+        let distance = |k: usize| held.iter().map(|&h| h.abs_diff(k)).min().unwrap_or(0);
+        let mut missing: Vec<usize> = (0..n).filter(|k| !held.contains(k)).collect();
+        missing.sort_by_key(|&k| (distance(k), k));
+        missing.truncate(RESPONSE_POINTS_PER_SOLVE);
+        if missing.is_empty() {
+            return None;
+        }
+        Some(LightSolveJob {
+            engine: Arc::clone(&self.engine),
+            cache: Some(Arc::clone(cache)),
+            light: light.clone(),
+            indirect: solved.leaf_indirect.clone(),
+            tolerance: self.tolerance,
+            response: Some(ResponseRequest {
+                carried: Some(Arc::clone(response)),
+                points: missing,
+            }),
+            sh_response: None,
+        })
+    }
+
+    /// Keeps the grown curve response of a finished [`Self::grow_response`] step for light `i`
+    /// when the light is still in the state it was grown for, on this engine; its values stay
+    /// as they are (the step's are the same solve). Returns whether it was kept.
+    pub fn install_response(&mut self, i: usize, grown: LightSolve) -> bool {
+        if !Arc::ptr_eq(&grown.engine, &self.engine) {
+            return false;
+        }
+        let Some(light) = self.lights.get_mut(i) else {
+            return false;
+        };
+        let same = light.position == grown.light.position
+            && light.radius_m == grown.light.radius
+            && light.estimate.is_none()
+            && light.solved_for.as_ref().is_some_and(|(curve, aim, dimmer)| {
+                *curve == grown.light.curve && *aim == grown.light.aim && *dimmer == grown.light.dimmer
+            });
+        if !same || grown.response.is_none() {
+            return false;
+        }
+        light.response = grown.response;
+        self.trim_caches(i);
+        true
+    }
+
+    /// Drops the direct caches, the SH responses and the curve responses of the lights solved
+    /// longest ago (never light `keep`'s) until each kind held is within its budget.
     fn trim_caches(&mut self, keep: usize) {
         trim_to_budget(
             &mut self.lights,
@@ -646,6 +738,13 @@ impl HierarchicalIndirect {
             keep,
             SH_RESPONSE_BUDGET_BYTES,
             |l| &mut l.sh_response,
+            |r| r.bytes(),
+        );
+        trim_to_budget(
+            &mut self.lights,
+            keep,
+            CURVE_RESPONSE_BUDGET_BYTES,
+            |l| &mut l.response,
             |r| r.bytes(),
         );
     }
@@ -805,6 +904,28 @@ impl HierarchicalIndirect {
         copy.set_light(i, &again)?;
         let _ = copy.vertex_indirect(i);
         let point_again_s = t.elapsed().as_secs_f64();
+        let grown = match copy.grow_response(i, &again) {
+            Some(first) => {
+                let (mut grow_s, mut steps, mut next) = (0.0, 0, Some(first));
+                while let Some(job) = next {
+                    let t = Instant::now();
+                    let solved = job.run()?;
+                    copy.install_response(i, solved);
+                    grow_s += t.elapsed().as_secs_f64();
+                    steps += 1;
+                    next = copy.grow_response(i, &again);
+                }
+                let t = Instant::now();
+                copy.set_light(i, &measured_curve_edit(&again))?;
+                let _ = copy.vertex_indirect(i);
+                Some(GrownResponse {
+                    grow_s,
+                    steps,
+                    curve_s: t.elapsed().as_secs_f64(),
+                })
+            }
+            None => None,
+        };
         let step = if light.position.x + 0.1 < scene.room_size.x {
             0.1
         } else {
@@ -848,6 +969,7 @@ impl HierarchicalIndirect {
             curve_s,
             point_s,
             point_again_s,
+            grown,
             aim_s,
             aim_estimate,
             dimmer_s,
@@ -1340,6 +1462,66 @@ solver_patch_size = 0.5
             engine.update_light(0, &edited.lights[0]).is_some(),
             "a re-aim is solved"
         );
+    }
+
+    /// A light's curve response is grown only once a curve edit solved it where it stands, a
+    /// few columns a step, the points nearest those held first, until every control point has
+    /// one; then an edit of every point's intensity needs no solve and equals a fresh engine of
+    /// the edited room. A grown step is not kept once the light has changed since it was asked.
+    #[test]
+    fn a_grown_response_answers_every_curve_edit_without_a_solve() {
+        let mut scene = room();
+        scene.lights[0].curve = Curve::new(&[
+            (0.0, 900.0),
+            (20.0, 850.0),
+            (40.0, 700.0),
+            (60.0, 500.0),
+            (90.0, 300.0),
+            (130.0, 150.0),
+            (180.0, 60.0),
+        ])
+        .expect("a curve");
+        let mut engine = build(&scene);
+        let mut edited = scene.clone();
+        assert!(
+            engine.grow_response(0, &edited.lights[0]).is_none(),
+            "nothing to grow before a curve edit"
+        );
+        edited.lights[0].curve.set_intensity(2, 800.0).expect("valid");
+        engine.set_light(0, &edited.lights[0]).expect("solves");
+        // A step asked for the light as it is, then the light dimmed: the step is not kept.
+        let stale = engine.grow_response(0, &edited.lights[0]).expect("a step");
+        let dimmed = Light {
+            dimmer: 0.5,
+            ..edited.lights[0].clone()
+        };
+        assert!(
+            engine.grow_response(0, &dimmed).is_none(),
+            "not the light's state"
+        );
+        assert!(
+            engine.update_light(0, &dimmed).is_none(),
+            "a dimmer change scales"
+        );
+        assert!(!engine.install_response(0, stale.run().expect("solves")));
+        edited.lights[0].dimmer = 0.5;
+        let mut steps = Vec::new();
+        while let Some(job) = engine.grow_response(0, &edited.lights[0]) {
+            steps.push(job.response.as_ref().expect("a response step").points.clone());
+            assert!(engine.install_response(0, job.run().expect("solves")));
+        }
+        assert_eq!(steps, vec![vec![1, 3, 0, 4], vec![5, 6]]);
+        for point in 0..7 {
+            let curve = &mut edited.lights[0].curve;
+            let candela = curve.intensities_cd()[point] * (0.4 + 0.2 * point as f64);
+            curve.set_intensity(point, candela).expect("valid");
+        }
+        assert!(
+            engine.update_light(0, &edited.lights[0]).is_none(),
+            "every point held: no solve"
+        );
+        assert_matches_fresh(&engine, &edited, "every point edited from the grown response");
+        assert!(engine.grow_response(0, &edited.lights[0]).is_none(), "complete");
     }
 
     /// With estimates on, a light's first solve builds its SH response; a later re-aim, curve

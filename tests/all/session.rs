@@ -488,6 +488,101 @@ fn spec(size: (u32, u32)) -> FrameSpec {
     }
 }
 
+/// Runs every queued job here and installs it; returns how many there were.
+fn run_jobs(s: &mut Session) -> usize {
+    let jobs = s.take_bake_jobs();
+    let n = jobs.len();
+    for job in jobs {
+        s.finish_bake(job.run(&mut |_| {})).unwrap();
+    }
+    n
+}
+
+/// The editor's session grows a light's curve response while it is idle, once a curve edit
+/// was solved where the light stands: never while a command is unsolved or a job is out, one
+/// step at a time with the light `Ready` throughout and its values unchanged, a step asked
+/// before a later edit dropped and asked again; once complete, an edit of every control point
+/// queues no solve and gives a synchronous session's light (its indirect light within 0.5 % of
+/// its peak).
+#[test]
+fn idle_growth_answers_curve_edits_of_every_point_at_once() {
+    let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
+    let mut sync = planned_session(paper());
+    assert!(!s.queue_growth(), "no curve edited yet");
+    let shape = Curve::new(&[
+        (0.0, 2600.0),
+        (10.0, 2500.0),
+        (20.0, 2200.0),
+        (30.0, 1600.0),
+        (45.0, 700.0),
+        (60.0, 0.0),
+    ])
+    .unwrap();
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::SetCurve {
+            light: 0,
+            curve: shape,
+        },
+    );
+    s.relight();
+    assert_eq!(run_jobs(&mut s), 1, "a new shape is solved");
+    assert!(!s.queue_growth(), "a new shape holds no response");
+    let intensity = |point: usize, candela: f64| Command::SetIntensity {
+        light: 0,
+        point,
+        candela,
+    };
+    apply_both(&mut s, &mut sync, intensity(2, 2000.0));
+    assert!(!s.queue_growth(), "the edit is not solved yet");
+    s.relight();
+    assert!(!s.queue_growth(), "its solve is queued");
+    assert_eq!(run_jobs(&mut s), 1, "the point's first edit is solved");
+
+    // A step asked, then an edit of the point it already holds (no solve): the step is dropped.
+    assert!(s.queue_growth());
+    assert!(!s.queue_growth(), "one step at a time");
+    let stale = s.take_bake_jobs();
+    assert_eq!(stale.len(), 1);
+    apply_both(&mut s, &mut sync, intensity(2, 2100.0));
+    s.relight();
+    assert_eq!(run_jobs(&mut s), 0, "the point held: no solve");
+    let before = s.vertex_illuminance().to_vec();
+    for job in stale {
+        assert_eq!(s.finish_bake(job.run(&mut |_| {})).unwrap(), None);
+    }
+    let mut steps = 0;
+    while s.queue_growth() {
+        steps += 1;
+        assert_eq!(run_jobs(&mut s), 1);
+        assert_eq!(s.light_status(0), LightStatus::Ready);
+        assert!(s.relight().is_empty(), "growing changes no values");
+        assert_eq!(s.vertex_illuminance(), &before[..]);
+    }
+    assert_eq!(steps, 2, "five points missing: a step of four, then one");
+
+    let h = |s: &Session| {
+        let h = s.hierarchical().unwrap();
+        h.light_radiosity(0).values(h.n_leaves())
+    };
+    for (point, candela) in [
+        (0, 3000.0),
+        (1, 2000.0),
+        (2, 1800.0),
+        (3, 1900.0),
+        (4, 300.0),
+        (5, 150.0),
+    ] {
+        apply_both(&mut s, &mut sync, intensity(point, candela));
+    }
+    assert_eq!(s.relight(), vec![0]);
+    assert_eq!(run_jobs(&mut s), 0, "every point held: no solve");
+    sync.relight();
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+    assert_fields_within(&h(&s), &h(&sync), 5e-3);
+}
+
 /// Curve, aim, dimmer, window and point edits, applied as commands, give the light of a fresh
 /// session on the room file edited the same way.
 #[test]
