@@ -28,6 +28,39 @@ const TRANSPOSE_RUNS: usize = 16;
 /// Marks a missing index (no parent, no children, not a leaf).
 pub const NONE: u32 = u32::MAX;
 
+/// Two patches lie in one plane when their normals agree to this (cosine from 1) and their
+/// centroids' offsets along the normal to [`PLANE_OFFSET_M`]: the planar test room surfaces
+/// pass.
+const PLANE_NORMAL_TOLERANCE: f64 = 1e-12;
+const PLANE_OFFSET_M: f64 = 1e-9;
+
+/// `leaves` (patches of one surface) grouped by the plane they lie in, each group in the order
+/// of `leaves`, the groups in the order of their first leaf. A patch is compared only with the
+/// groups whose rounded plane (normal to 10⁻⁶, offset to 1 µm) is its own, so a plane split by
+/// the rounding becomes two groups, never one group of two planes.
+fn in_planes(mesh: &PatchMesh, leaves: &[u32]) -> Vec<Vec<u32>> {
+    let mut groups: Vec<(DVec3, f64, Vec<u32>)> = Vec::new();
+    let mut by_key: std::collections::HashMap<[i64; 4], Vec<usize>> = std::collections::HashMap::new();
+    for &l in leaves {
+        let patch = &mesh.patches[l as usize];
+        let (n, offset) = (patch.normal, patch.normal.dot(patch.centroid));
+        let key = [n.x * 1e6, n.y * 1e6, n.z * 1e6, offset * 1e6].map(|v| v.round() as i64);
+        let candidates = by_key.entry(key).or_default();
+        let found = candidates.iter().copied().find(|&g| {
+            let (gn, go, _) = &groups[g];
+            n.dot(*gn) > 1.0 - PLANE_NORMAL_TOLERANCE && (offset - go).abs() <= PLANE_OFFSET_M
+        });
+        match found {
+            Some(g) => groups[g].2.push(l),
+            None => {
+                candidates.push(groups.len());
+                groups.push((n, offset, vec![l]));
+            }
+        }
+    }
+    groups.into_iter().map(|(_, _, g)| g).collect()
+}
+
 /// A node of the cluster tree: one leaf, or the union of its two children (same surface and
 /// plane).
 #[derive(Debug, Clone, PartialEq)]
@@ -88,7 +121,7 @@ impl Node {
 pub struct Tree {
     /// All nodes.
     pub nodes: Vec<Node>,
-    /// The roots (one per planar surface; one per leaf of a non-planar OBJ surface).
+    /// The roots (one per planar surface; one per plane of a non-planar OBJ surface).
     pub roots: Vec<u32>,
     /// Per leaf (patch index), its node.
     pub leaf_node: Vec<u32>,
@@ -97,7 +130,10 @@ pub struct Tree {
 impl Tree {
     /// Builds the trees over the patches of `mesh`: per surface, recursive halving of the leaf
     /// centroids' bounding box along its longest side. Surfaces whose patches do not all share
-    /// one normal (OBJ objects) get one root per leaf. `hot` marks leaves no cluster holding which is
+    /// one normal (OBJ objects) get a tree per plane their patches lie in ([`in_planes`]): the
+    /// faces of a table top, a shelf or a book are clusters like a wall's, and only a patch
+    /// alone in its plane (a curved mesh) is a root by itself (docs/DECISIONS.md
+    /// "Interreflection", "OBJ surfaces clustered by plane"). `hot` marks leaves no cluster holding which is
     /// linked as a whole (next to a light, or in a slot; may be empty: none).
     pub fn build(mesh: &PatchMesh, hot: &[bool]) -> Self {
         let n_surfaces = mesh
@@ -124,8 +160,8 @@ impl Tree {
                 let root = tree.subtree(mesh, hot, leaves, NONE);
                 tree.roots.push(root);
             } else {
-                for &l in leaves.iter() {
-                    let root = tree.subtree(mesh, hot, &mut [l], NONE);
+                for mut group in in_planes(mesh, leaves) {
+                    let root = tree.subtree(mesh, hot, &mut group, NONE);
                     tree.roots.push(root);
                 }
             }
@@ -896,6 +932,69 @@ impl Operator {
 mod tests {
     use super::*;
     use crate::scene::Patch;
+
+    /// One OBJ-like surface of unit squares: two apart in the plane z = 0, one 10⁻¹⁰ m above
+    /// it (the same plane within the tolerance), one in the parallel plane z = 0.5, one facing
+    /// +x. Its tree has a root per plane: the three squares of z = 0 under one, the others
+    /// alone; every node's leaves share its normal and offset.
+    #[test]
+    fn an_obj_surface_gets_a_tree_per_plane() {
+        let mut mesh = PatchMesh {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            vertex_surface: Vec::new(),
+            patches: Vec::new(),
+        };
+        let mut square = |origin: DVec3, u: DVec3, v: DVec3| {
+            let first = mesh.positions.len() as u32;
+            let normal = u.cross(v);
+            for corner in [origin, origin + u, origin + u + v, origin + v] {
+                mesh.positions.push(corner);
+                mesh.normals.push(normal);
+                mesh.vertex_surface.push(0);
+            }
+            mesh.patches.push(Patch {
+                vertices: [first, first + 1, first + 2, first + 3],
+                n_vertices: 4,
+                surface: 0,
+                normal,
+                area: 1.0,
+                centroid: origin + 0.5 * (u + v),
+            });
+        };
+        square(DVec3::ZERO, DVec3::X, DVec3::Y);
+        square(DVec3::new(0.0, 0.0, 0.5), DVec3::X, DVec3::Y);
+        square(DVec3::new(3.0, 0.0, 0.0), DVec3::X, DVec3::Y);
+        square(DVec3::new(5.0, 0.0, 0.0), DVec3::Y, DVec3::Z);
+        square(DVec3::new(1.0, 2.0, 1e-10), DVec3::X, DVec3::Y);
+        let tree = Tree::build(&mesh, &[]);
+        let leaves_of = |root: u32| {
+            let mut out = Vec::new();
+            let mut stack = vec![root];
+            while let Some(i) = stack.pop() {
+                let node = &tree.nodes[i as usize];
+                if node.is_leaf() {
+                    out.push(node.leaf);
+                } else {
+                    stack.extend(node.children);
+                }
+            }
+            out.sort_unstable();
+            out
+        };
+        let roots: Vec<Vec<u32>> = tree.roots.iter().map(|&r| leaves_of(r)).collect();
+        assert_eq!(roots, vec![vec![0, 2, 4], vec![1], vec![3]]);
+        for node in &tree.nodes {
+            assert!(
+                node.normal == DVec3::Z || node.normal == DVec3::X,
+                "{:?}",
+                node.normal
+            );
+        }
+        let top = &tree.nodes[tree.roots[0] as usize];
+        assert_eq!((top.leaf_count, top.area), (3, 3.0));
+        assert!(top.lo.z == 0.0 && top.hi.z <= 1e-9);
+    }
 
     /// Two facing squares at z = 0 (side 1, up) and z = 1 (side `s`, down), each its own surface.
     fn two_squares(s: f64) -> PatchMesh {

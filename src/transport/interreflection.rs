@@ -204,8 +204,8 @@ impl OperatorOrigin {
 
 /// Bumped whenever the links or the balancing make something else of the same leaves, occluders
 /// and options: the operator's cache entries are keyed by it (2: shadow rays meet a mesh's
-/// triangles along their shared edges).
-const OPERATOR_FORMAT: u64 = 2;
+/// triangles along their shared edges; 3: OBJ surfaces clustered by plane).
+const OPERATOR_FORMAT: u64 = 3;
 
 /// The key of the operator's cache entry: everything the links and the balancing are made of —
 /// the leaves (corners, polygons, surfaces, which stand alone or in a slot), the occluders when
