@@ -207,6 +207,9 @@ pub struct Session {
     /// The light whose curve response is being grown while the editor is idle, and its
     /// generation then ([`Session::queue_growth`]); stale once that generation moved on.
     growing: Option<(LightId, u64)>,
+    /// The light whose last growth step failed, and its generation then: not grown again
+    /// until it changes (a failing step would otherwise be asked again at every batch).
+    growth_failed: Option<(LightId, u64)>,
     buffers: FrameBuffers,
     /// The furniture that casts shadows (the bake's, else built on first need); `None` inside
     /// when nothing occludes.
@@ -371,6 +374,7 @@ impl Session {
             illuminance_version: 0,
             jobs: Vec::new(),
             growing: None,
+            growth_failed: None,
             buffers: FrameBuffers::default(),
             occluders: None,
             watches: Vec::new(),
@@ -580,13 +584,14 @@ impl Session {
 
     /// When nothing else is pending — no command unsolved, no job queued or running, no regrade
     /// — queues the next step of growing a light's curve response towards a column for every
-    /// control point, so that its later curve edits are answered exactly from it without a solve
+    /// control point, so that its curve edits are answered exactly from it without a solve
     /// ([`HierarchicalIndirect::grow_response`]; docs/DECISIONS.md "Interreflection",
-    /// "Responses completed while the editor is idle"): the light with the latest values among
-    /// those whose curve was edited where they stand. One step at a time, each a few hundred ms
-    /// on a large floor, so that an edit waits at most one step. Returns whether a step was
-    /// queued; the editor calls it after each batch of work, headless use never does.
-    pub fn queue_growth(&mut self) -> bool {
+    /// "Responses completed while the editor is idle"): the `selected` light's first (its
+    /// response started if it has none), then the light with the latest values among those
+    /// whose curve was edited where they stand. One step at a time, each a few hundred ms on a
+    /// large floor, so that an edit waits at most one step. Returns whether a step was queued;
+    /// the editor calls it after each batch of work, headless use never does.
+    pub fn queue_growth(&mut self, selected: Option<usize>) -> bool {
         let Some(h) = self.hierarchical.as_ref() else {
             return false;
         };
@@ -605,11 +610,14 @@ impl Session {
             return false;
         }
         let mut order: Vec<usize> = (0..self.slots.len()).collect();
-        order.sort_by_key(|&i| std::cmp::Reverse(h.light_revision(i)));
+        order.sort_by_key(|&i| (Some(i) != selected, std::cmp::Reverse(h.light_revision(i))));
         for i in order {
+            let slot = &self.slots[i];
+            if self.growth_failed == Some((slot.id, slot.generation)) {
+                continue;
+            }
             let light = self.lights[i].to_light();
-            if let Some(job) = h.grow_response(i, &light) {
-                let slot = &self.slots[i];
+            if let Some(job) = h.grow_response(i, &light, Some(i) == selected) {
                 self.growing = Some((slot.id, slot.generation));
                 self.jobs.push(BakeJob {
                     light: Some(slot.id),
@@ -650,8 +658,12 @@ impl Session {
         }
         let done = match result {
             Ok(done) => done,
-            // A growth step that failed leaves the light's values as they are.
-            Err(e) if grown => return Err(e),
+            // A growth step that failed leaves the light's values as they are, and the light
+            // is not grown again until it changes.
+            Err(e) if grown => {
+                self.growth_failed = light.map(|id| (id, generation));
+                return Err(e);
+            }
             Err(e) => {
                 match (light, index) {
                     (None, _) if self.regrading == Some(generation) => {

@@ -655,12 +655,14 @@ impl HierarchicalIndirect {
     /// The next step of growing light `i`'s curve response towards a column for every control
     /// point, for its current state `light` (docs/DECISIONS.md "Interreflection", "Responses
     /// completed while the editor is idle"): a solve adding up to [`RESPONSE_POINTS_PER_SOLVE`]
-    /// columns, the points nearest those held first, to [`Self::install_response`]. `None` when
-    /// there is nothing to grow: the light was never given a curve edit where it stands as aimed
-    /// at its control-point angles (it holds no response that [`CurveResponse::stands_as`]
-    /// `light`), its values are not `light`'s solve (an edit is pending), its curve has more than
+    /// columns — the points nearest those held first, or, for a response started here, nearest
+    /// the curve's peak — to [`Self::install_response`]. A response is started only when
+    /// `start` (the light the designer has selected); otherwise the light must hold one that
+    /// [`CurveResponse::stands_as`] `light` (a curve edit solved it where it stands, as aimed,
+    /// at its control-point angles). `None` too when its values are not `light`'s solve (an edit
+    /// is pending), its direct cache was dropped, its dimmer is 0, its curve has more than
     /// [`MAX_RESPONSE_POINTS`] points, or its response is complete.
-    pub fn grow_response(&self, i: usize, light: &Light) -> Option<LightSolveJob> {
+    pub fn grow_response(&self, i: usize, light: &Light, start: bool) -> Option<LightSolveJob> {
         let solved = self.lights.get(i)?;
         let (curve, aim, dimmer) = solved.solved_for.as_ref()?;
         let current = solved.position == light.position
@@ -668,17 +670,22 @@ impl HierarchicalIndirect {
             && *curve == light.curve
             && *aim == light.aim
             && *dimmer == light.dimmer;
-        if !current || light.dimmer <= 0.0 || solved.estimate.is_some() {
-            return None;
-        }
         let n = light.curve.len();
-        let response = solved.response.as_ref().filter(|r| r.stands_as(light))?;
-        let cache = solved.cache.as_ref()?;
-        if n > MAX_RESPONSE_POINTS {
+        if !current || light.dimmer <= 0.0 || solved.estimate.is_some() || n > MAX_RESPONSE_POINTS {
             return None;
         }
-        let held: Vec<usize> = response.points().collect();
-        let distance = |k: usize| held.iter().map(|&h| h.abs_diff(k)).min().unwrap_or(0);
+        let response = solved.response.as_ref().filter(|r| r.stands_as(light));
+        if response.is_none() && !start {
+            return None;
+        }
+        let cache = solved.cache.as_ref()?;
+        let held: Vec<usize> = response.iter().flat_map(|r| r.points()).collect();
+        let intensities = light.curve.intensities_cd();
+        let peak = (0..n)
+            .max_by(|&a, &b| intensities[a].total_cmp(&intensities[b]))
+            .unwrap_or(0);
+        let from: &[usize] = if held.is_empty() { &[peak] } else { &held };
+        let distance = |k: usize| from.iter().map(|&h| h.abs_diff(k)).min().unwrap_or(0);
         let mut missing: Vec<usize> = (0..n).filter(|k| !held.contains(k)).collect();
         missing.sort_by_key(|&k| (distance(k), k));
         missing.truncate(RESPONSE_POINTS_PER_SOLVE);
@@ -692,7 +699,7 @@ impl HierarchicalIndirect {
             indirect: solved.leaf_indirect.clone(),
             tolerance: self.tolerance,
             response: Some(ResponseRequest {
-                carried: Some(Arc::clone(response)),
+                carried: response.cloned(),
                 points: missing,
             }),
             sh_response: None,
@@ -904,7 +911,7 @@ impl HierarchicalIndirect {
         copy.set_light(i, &again)?;
         let _ = copy.vertex_indirect(i);
         let point_again_s = t.elapsed().as_secs_f64();
-        let grown = match copy.grow_response(i, &again) {
+        let grown = match copy.grow_response(i, &again, false) {
             Some(first) => {
                 let (mut grow_s, mut steps, mut next) = (0.0, 0, Some(first));
                 while let Some(job) = next {
@@ -913,7 +920,7 @@ impl HierarchicalIndirect {
                     copy.install_response(i, solved);
                     grow_s += t.elapsed().as_secs_f64();
                     steps += 1;
-                    next = copy.grow_response(i, &again);
+                    next = copy.grow_response(i, &again, false);
                 }
                 let t = Instant::now();
                 copy.set_light(i, &measured_curve_edit(&again))?;
@@ -1464,9 +1471,9 @@ solver_patch_size = 0.5
         );
     }
 
-    /// A light's curve response is grown only once a curve edit solved it where it stands, a
-    /// few columns a step, the points nearest those held first, until every control point has
-    /// one; then an edit of every point's intensity needs no solve and equals a fresh engine of
+    /// A light's curve response is grown once a curve edit solved it where it stands (or from
+    /// nothing when asked to start, from the curve's peak), a few columns a step, the points
+    /// nearest those held first, until every control point has one; then an edit of every point's intensity needs no solve and equals a fresh engine of
     /// the edited room. A grown step is not kept once the light has changed since it was asked.
     #[test]
     fn a_grown_response_answers_every_curve_edit_without_a_solve() {
@@ -1484,19 +1491,41 @@ solver_patch_size = 0.5
         let mut engine = build(&scene);
         let mut edited = scene.clone();
         assert!(
-            engine.grow_response(0, &edited.lights[0]).is_none(),
+            engine.grow_response(0, &edited.lights[0], false).is_none(),
             "nothing to grow before a curve edit"
         );
+        // Started for a selected light that was never edited: the points nearest its peak
+        // (point 0), then an edit of those needs no solve.
+        let mut started = engine.clone();
+        let job = started
+            .grow_response(0, &edited.lights[0], true)
+            .expect("a step started");
+        assert_eq!(
+            job.response.as_ref().expect("a response step").points,
+            vec![0, 1, 2, 3]
+        );
+        assert!(started.install_response(0, job.run().expect("solves")));
+        let mut reshaped = edited.clone();
+        for point in 0..4 {
+            let curve = &mut reshaped.lights[0].curve;
+            let candela = 0.8 * curve.intensities_cd()[point];
+            curve.set_intensity(point, candela).expect("valid");
+        }
+        assert!(
+            started.update_light(0, &reshaped.lights[0]).is_none(),
+            "held: no solve"
+        );
+        assert_matches_fresh(&started, &reshaped, "the points of a started response edited");
         edited.lights[0].curve.set_intensity(2, 800.0).expect("valid");
         engine.set_light(0, &edited.lights[0]).expect("solves");
         // A step asked for the light as it is, then the light dimmed: the step is not kept.
-        let stale = engine.grow_response(0, &edited.lights[0]).expect("a step");
+        let stale = engine.grow_response(0, &edited.lights[0], false).expect("a step");
         let dimmed = Light {
             dimmer: 0.5,
             ..edited.lights[0].clone()
         };
         assert!(
-            engine.grow_response(0, &dimmed).is_none(),
+            engine.grow_response(0, &dimmed, false).is_none(),
             "not the light's state"
         );
         assert!(
@@ -1506,7 +1535,7 @@ solver_patch_size = 0.5
         assert!(!engine.install_response(0, stale.run().expect("solves")));
         edited.lights[0].dimmer = 0.5;
         let mut steps = Vec::new();
-        while let Some(job) = engine.grow_response(0, &edited.lights[0]) {
+        while let Some(job) = engine.grow_response(0, &edited.lights[0], false) {
             steps.push(job.response.as_ref().expect("a response step").points.clone());
             assert!(engine.install_response(0, job.run().expect("solves")));
         }
@@ -1521,7 +1550,10 @@ solver_patch_size = 0.5
             "every point held: no solve"
         );
         assert_matches_fresh(&engine, &edited, "every point edited from the grown response");
-        assert!(engine.grow_response(0, &edited.lights[0]).is_none(), "complete");
+        assert!(
+            engine.grow_response(0, &edited.lights[0], false).is_none(),
+            "complete"
+        );
     }
 
     /// With estimates on, a light's first solve builds its SH response; a later re-aim, curve

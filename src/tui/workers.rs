@@ -341,9 +341,10 @@ impl Engine {
         }
         // Commands queue re-bakes; the relight and the numbers queue the hierarchical engine's
         // solves (docs/ARCHITECTURE.md "The editor's threads").
-        // Idle: a light's curve response grown a step (docs/DECISIONS.md "Interreflection",
-        // "Responses completed while the editor is idle").
-        self.session.queue_growth();
+        // Idle: the selected light's curve response (else an edited one's) grown a step
+        // (docs/DECISIONS.md "Interreflection", "Responses completed while the editor is idle").
+        self.session
+            .queue_growth(self.spec.and_then(|s| s.selected_light));
         for job in self.session.take_bake_jobs() {
             status_changed = true;
             // The bake worker outlives the engine's use of it; a closed queue means shutdown.

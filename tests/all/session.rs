@@ -499,7 +499,7 @@ fn run_jobs(s: &mut Session) -> usize {
 }
 
 /// The editor's session grows a light's curve response while it is idle, once a curve edit
-/// was solved where the light stands: never while a command is unsolved or a job is out, one
+/// was solved where the light stands (the selected light's from nothing): never while a command is unsolved or a job is out, one
 /// step at a time with the light `Ready` throughout and its values unchanged, a step asked
 /// before a later edit dropped and asked again; once complete, an edit of every control point
 /// queues no solve and gives a synchronous session's light (its indirect light within 0.5 % of
@@ -508,7 +508,7 @@ fn run_jobs(s: &mut Session) -> usize {
 fn idle_growth_answers_curve_edits_of_every_point_at_once() {
     let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
     let mut sync = planned_session(paper());
-    assert!(!s.queue_growth(), "no curve edited yet");
+    assert!(!s.queue_growth(None), "no curve edited yet");
     let shape = Curve::new(&[
         (0.0, 2600.0),
         (10.0, 2500.0),
@@ -528,21 +528,21 @@ fn idle_growth_answers_curve_edits_of_every_point_at_once() {
     );
     s.relight();
     assert_eq!(run_jobs(&mut s), 1, "a new shape is solved");
-    assert!(!s.queue_growth(), "a new shape holds no response");
+    assert!(!s.queue_growth(None), "a new shape holds no response");
     let intensity = |point: usize, candela: f64| Command::SetIntensity {
         light: 0,
         point,
         candela,
     };
     apply_both(&mut s, &mut sync, intensity(2, 2000.0));
-    assert!(!s.queue_growth(), "the edit is not solved yet");
+    assert!(!s.queue_growth(None), "the edit is not solved yet");
     s.relight();
-    assert!(!s.queue_growth(), "its solve is queued");
+    assert!(!s.queue_growth(None), "its solve is queued");
     assert_eq!(run_jobs(&mut s), 1, "the point's first edit is solved");
 
     // A step asked, then an edit of the point it already holds (no solve): the step is dropped.
-    assert!(s.queue_growth());
-    assert!(!s.queue_growth(), "one step at a time");
+    assert!(s.queue_growth(None));
+    assert!(!s.queue_growth(None), "one step at a time");
     let stale = s.take_bake_jobs();
     assert_eq!(stale.len(), 1);
     apply_both(&mut s, &mut sync, intensity(2, 2100.0));
@@ -553,7 +553,7 @@ fn idle_growth_answers_curve_edits_of_every_point_at_once() {
         assert_eq!(s.finish_bake(job.run(&mut |_| {})).unwrap(), None);
     }
     let mut steps = 0;
-    while s.queue_growth() {
+    while s.queue_growth(None) {
         steps += 1;
         assert_eq!(run_jobs(&mut s), 1);
         assert_eq!(s.light_status(0), LightStatus::Ready);
@@ -581,6 +581,36 @@ fn idle_growth_answers_curve_edits_of_every_point_at_once() {
     sync.relight();
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
     assert_fields_within(&h(&s), &h(&sync), 5e-3);
+
+    // The selected light, never edited, is grown from nothing: its four points in one step,
+    // its values unchanged; then its first curve edit needs no solve either.
+    assert!(!s.queue_growth(None), "light 0 complete, light 1 never edited");
+    let before = s.vertex_illuminance().to_vec();
+    assert!(s.queue_growth(Some(1)), "the selected light is started");
+    assert_eq!(run_jobs(&mut s), 1);
+    assert!(s.relight().is_empty(), "growing changes no values");
+    assert_eq!(s.vertex_illuminance(), &before[..]);
+    assert_eq!(s.light_status(1), LightStatus::Ready);
+    assert!(!s.queue_growth(Some(1)), "four points: complete in one step");
+    for (point, candela) in [(0, 2000.0), (2, 900.0)] {
+        apply_both(
+            &mut s,
+            &mut sync,
+            Command::SetIntensity {
+                light: 1,
+                point,
+                candela,
+            },
+        );
+    }
+    assert_eq!(s.relight(), vec![1]);
+    assert_eq!(
+        run_jobs(&mut s),
+        0,
+        "the selected light's first curve edit: no solve"
+    );
+    sync.relight();
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
 }
 
 /// Curve, aim, dimmer, window and point edits, applied as commands, give the light of a fresh
