@@ -115,10 +115,9 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
     // response holds every control point, grown step by step as the editor does while idle
     // (untimed): a weighted sum of the response, no solve.
     engine.set_light(0, &light).unwrap_or_else(|e| panic!("{e}"));
-    while let Some(step) = engine.grow_response(0, &light, false) {
-        let grown = step.run().unwrap_or_else(|e| panic!("{e}"));
-        assert!(engine.install_response(0, grown), "the step is kept");
-    }
+    engine
+        .complete_response(0, &light)
+        .unwrap_or_else(|e| panic!("{e}"));
     let reshaped = [light.clone(), measured_curve_edit(&light)];
     group.bench_function(format!("{name}_curve_edit_from_grown_response"), |b| {
         edit(b, &mut engine, &reshaped)

@@ -63,6 +63,19 @@ struct SolvedLight {
     revision: u64,
 }
 
+impl SolvedLight {
+    /// True when the values shown are the solve of `light`'s state (where it stands, its
+    /// curve, aim and dimmer), not an estimate of a pending edit.
+    fn shows_solve_of(&self, light: &Light) -> bool {
+        self.position == light.position
+            && self.radius_m == light.radius
+            && self.estimate.is_none()
+            && self.solved_for.as_ref().is_some_and(|(curve, aim, dimmer)| {
+                *curve == light.curve && *aim == light.aim && *dimmer == light.dimmer
+            })
+    }
+}
+
 /// A light's values estimated for its edited state while that state's solve runs.
 #[derive(Debug, Clone)]
 struct Estimated {
@@ -664,14 +677,8 @@ impl HierarchicalIndirect {
     /// [`MAX_RESPONSE_POINTS`] points, or its response is complete.
     pub fn grow_response(&self, i: usize, light: &Light, start: bool) -> Option<LightSolveJob> {
         let solved = self.lights.get(i)?;
-        let (curve, aim, dimmer) = solved.solved_for.as_ref()?;
-        let current = solved.position == light.position
-            && solved.radius_m == light.radius
-            && *curve == light.curve
-            && *aim == light.aim
-            && *dimmer == light.dimmer;
         let n = light.curve.len();
-        if !current || light.dimmer <= 0.0 || solved.estimate.is_some() || n > MAX_RESPONSE_POINTS {
+        if !solved.shows_solve_of(light) || light.dimmer <= 0.0 || n > MAX_RESPONSE_POINTS {
             return None;
         }
         let response = solved.response.as_ref().filter(|r| r.stands_as(light));
@@ -706,6 +713,23 @@ impl HierarchicalIndirect {
         })
     }
 
+    /// Grows light `i`'s curve response (it must hold one that stands as `light`, its current
+    /// state) to every control point here, one [`Self::grow_response`] step after another as
+    /// the editor does while idle; returns the number of steps.
+    ///
+    /// Errors: a step's solve failing (internal).
+    pub fn complete_response(&mut self, i: usize, light: &Light) -> Result<usize> {
+        let mut steps = 0;
+        while let Some(job) = self.grow_response(i, light, false) {
+            let grown = job.run()?;
+            if !self.install_response(i, grown) {
+                break;
+            }
+            steps += 1;
+        }
+        Ok(steps)
+    }
+
     /// Keeps the grown curve response of a finished [`Self::grow_response`] step for light `i`
     /// when the light is still in the state it was grown for, on this engine; its values stay
     /// as they are (the step's are the same solve). Returns whether it was kept.
@@ -716,13 +740,7 @@ impl HierarchicalIndirect {
         let Some(light) = self.lights.get_mut(i) else {
             return false;
         };
-        let same = light.position == grown.light.position
-            && light.radius_m == grown.light.radius
-            && light.estimate.is_none()
-            && light.solved_for.as_ref().is_some_and(|(curve, aim, dimmer)| {
-                *curve == grown.light.curve && *aim == grown.light.aim && *dimmer == grown.light.dimmer
-            });
-        if !same || grown.response.is_none() {
+        if !light.shows_solve_of(&grown.light) || grown.response.is_none() {
             return false;
         }
         light.response = grown.response;
@@ -911,27 +929,20 @@ impl HierarchicalIndirect {
         copy.set_light(i, &again)?;
         let _ = copy.vertex_indirect(i);
         let point_again_s = t.elapsed().as_secs_f64();
-        let grown = match copy.grow_response(i, &again, false) {
-            Some(first) => {
-                let (mut grow_s, mut steps, mut next) = (0.0, 0, Some(first));
-                while let Some(job) = next {
-                    let t = Instant::now();
-                    let solved = job.run()?;
-                    copy.install_response(i, solved);
-                    grow_s += t.elapsed().as_secs_f64();
-                    steps += 1;
-                    next = copy.grow_response(i, &again, false);
-                }
-                let t = Instant::now();
-                copy.set_light(i, &measured_curve_edit(&again))?;
-                let _ = copy.vertex_indirect(i);
-                Some(GrownResponse {
-                    grow_s,
-                    steps,
-                    curve_s: t.elapsed().as_secs_f64(),
-                })
-            }
-            None => None,
+        let t = Instant::now();
+        let steps = copy.complete_response(i, &again)?;
+        let grow_s = t.elapsed().as_secs_f64();
+        let grown = if steps > 0 {
+            let t = Instant::now();
+            copy.set_light(i, &measured_curve_edit(&again))?;
+            let _ = copy.vertex_indirect(i);
+            Some(GrownResponse {
+                grow_s,
+                steps,
+                curve_s: t.elapsed().as_secs_f64(),
+            })
+        } else {
+            None
         };
         let step = if light.position.x + 0.1 < scene.room_size.x {
             0.1
