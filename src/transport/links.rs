@@ -58,12 +58,12 @@ pub struct LinkOptions {
     /// links"). Defaults 1 m and 0.1: no growth.
     pub near_m: f64,
     pub eta_far: f64,
-    /// Refine a partially visible link whose larger form factor exceeds this. Default 0.0005
+    /// Refine a partially visible link whose larger form factor exceeds this. Default 0.0001
     /// (0.002 on floors of more than 50 000 leaves: docs/DECISIONS.md "Shadow rays weighted by
-    /// the kernel").
+    /// the kernel", "Dark pockets: partly visible links refined down to 0.0001").
     pub visibility_refine: f64,
     /// The same for a link to a leaf in a slot, which sees the room only through a narrow
-    /// opening, so that small partly visible links carry most of its light. Default 0.0005.
+    /// opening, so that small partly visible links carry most of its light. Default 0.0001.
     pub slot_visibility_refine: f64,
 }
 
@@ -80,8 +80,8 @@ impl Default for LinkOptions {
             eta: 0.1,
             near_m: 1.0,
             eta_far: 0.1,
-            visibility_refine: 0.0005,
-            slot_visibility_refine: 0.0005,
+            visibility_refine: 0.0001,
+            slot_visibility_refine: 0.0001,
         }
     }
 }

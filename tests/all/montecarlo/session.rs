@@ -99,8 +99,9 @@ fn session_numbers_meet_the_wall_washer_references() {
 /// beside the wall it hangs on, whose top strip lies in the picture's shadow — get the leaf's
 /// radiosity where they see it (docs/DECISIONS.md "Receivers beside a large leaf"): the session's
 /// numbers there are within 3.5 % of a fresh trace (to 0.5 %) where the gather from the leaves
-/// alone was 12–15 % high, and the engine's gather agrees with the session's at points no leaf
-/// is close to. The room is the twenty-sixth round's random room 33 (docs/ACCURACY.md "Rooms
+/// alone is 1.5–2.8 % high (12–15 % before partly visible links were refined down to 0.0001,
+/// docs/DECISIONS.md "Partly visible links refined down to 0.0001"), and the engine's gather
+/// agrees with the session's at points no leaf is close to. The room is the twenty-sixth round's random room 33 (docs/ACCURACY.md "Rooms
 /// drawn at random").
 #[test]
 fn numbers_beside_a_picture_on_a_wall_meet_a_fresh_trace() {
@@ -178,8 +179,8 @@ solver_patch_size = 0.5
             100.0 * error
         );
     }
-    // The gather from the leaves alone: 8 % high and more beside the wall, the session's own
-    // numbers in the middle of the floor, where no leaf is near.
+    // The gather from the leaves alone: more than 1 % high beside the wall (1.5 and 2.8 % when
+    // written), the session's own numbers in the middle of the floor, where no leaf is near.
     let engine = session
         .hierarchical()
         .expect("the plan chose the hierarchical engine");
@@ -188,7 +189,7 @@ solver_patch_size = 0.5
         &engine.gather_all(&receivers),
     );
     for (e, p) in traced[..2].iter().zip(&plain) {
-        assert!((p - e.total) / e.total > 0.08, "{p} vs {}", e.total);
+        assert!((p - e.total) / e.total > 0.01, "{p} vs {}", e.total);
     }
     assert!(
         (plain[2] - lux[2]).abs() <= 1e-9 * lux[2],
