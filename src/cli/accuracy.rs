@@ -5,8 +5,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::accuracy::{AccuracyOptions, AccuracyReport, ErrorStats, FieldErrors, accuracy};
+use crate::cli::load_room;
 use crate::error::{Error, Result};
-use crate::scene;
 
 /// `max / median` as percentages.
 fn pct(e: &ErrorStats) -> String {
@@ -250,7 +250,7 @@ pub fn format_report(r: &AccuracyReport) -> String {
 
 /// Runs `haiko accuracy ROOM [--json]`; progress goes to standard error.
 pub fn run(room: &Path, json: bool) -> Result<()> {
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     let mut progress = |line: &str| eprintln!("accuracy: {line}");
     let report = accuracy(&scene, &AccuracyOptions::default(), &mut progress)?;
     if json {

@@ -5,9 +5,9 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 use std::time::Instant;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
-use crate::scene;
 use crate::session::budget::{EngineKind, Estimate, LimitSource, MemoryLimit};
 use crate::transport::bake::{Bake, Progress};
 use crate::transport::indirect::{EditCosts, IndirectStats};
@@ -87,7 +87,7 @@ pub(crate) fn format_plan(p: &Plan) -> String {
 
 /// Runs `haiko plan`.
 pub(crate) fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     let p = plan(&scene, PlanOptions::default());
     check_finite(
         "plan: a mounting normal",
@@ -97,6 +97,7 @@ pub(crate) fn run_plan(room: &Path, json: bool, limit: &MemoryLimit) -> Result<(
     if json {
         let json_error = |e: serde_json::Error| Error::internal(e.to_string());
         let mut doc = serde_json::to_value(&p).map_err(json_error)?;
+        doc["notes"] = serde_json::json!(scene.notes);
         doc["budget"] = serde_json::json!({
             "estimate_bytes": estimate.bytes(),
             "form_factor_bytes": estimate.form_factor_bytes,
@@ -238,13 +239,14 @@ struct Engine {
 /// per-edit costs); `json` prints one JSON document instead.
 pub(crate) fn run_bake(room: &Path, json: bool, limit: &MemoryLimit) -> Result<()> {
     let started = Instant::now();
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     let p = plan(&scene, PlanOptions::default());
     // Refused before the plan is printed: the one line on standard error is all that shows.
     limit.check(room, &Estimate::of(&p, true))?;
     if !json {
         print!("{}", format_plan(&p));
     }
+    let notes = scene.notes.clone();
     let session = open_session(scene, true, limit)?;
     // The bake itself: the room read, planned, its engine built and every light solved.
     let ready_s = started.elapsed().as_secs_f64();
@@ -272,7 +274,8 @@ pub(crate) fn run_bake(room: &Path, json: bool, limit: &MemoryLimit) -> Result<(
     match (json, engine) {
         (true, engine) => {
             let json_error = |e: serde_json::Error| Error::internal(e.to_string());
-            let doc = bake_json(&b, plan_s, engine.as_ref());
+            let mut doc = bake_json(&b, plan_s, engine.as_ref());
+            doc["notes"] = serde_json::json!(notes);
             println!("{}", serde_json::to_string_pretty(&doc).map_err(json_error)?);
         }
         (false, Some(engine)) => print!("{}", format_hierarchical(&engine)),

@@ -9,10 +9,10 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Error, Result};
 use crate::metrics::{Check, SurfaceResult, SurfaceSummary};
-use crate::scene;
 use crate::session::DesignNumbers;
 use crate::session::budget::MemoryLimit;
 
@@ -142,7 +142,7 @@ pub(crate) fn to_text(
 /// Runs the command: loads the room, opens a session (the user's bake cache unless
 /// `direct_only`) and prints the surfaces' numbers.
 pub fn run(room: &Path, json: bool, direct_only: bool, limit: &MemoryLimit) -> Result<()> {
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     let maintenance_factor = scene.design.maintenance_factor;
     let mut session = open_session(scene, !direct_only, limit)?;
     let DesignNumbers { surfaces, .. } = session.design_numbers();

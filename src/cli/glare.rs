@@ -9,10 +9,10 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::cli::check::overall;
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Error, Result};
 use crate::metrics::{ObserverGlare, SourceStatus, UgrStatus};
-use crate::scene;
 use crate::session::budget::MemoryLimit;
 
 #[derive(Serialize)]
@@ -120,7 +120,7 @@ pub(crate) fn to_text(room: &str, direct_only: bool, observers: &[ObserverGlare]
 /// Runs the command: loads the room, opens a session (the user's bake cache unless
 /// `direct_only`: the background luminance needs the indirect light) and prints the ratings.
 pub fn run(room: &Path, json: bool, direct_only: bool, limit: &MemoryLimit) -> Result<()> {
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     let mut session = open_session(scene, !direct_only, limit)?;
     let observers = session.design_numbers().observers;
     let name = room.display().to_string();

@@ -5,10 +5,11 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::metrics::work_plane::{GridStats, WorkPlane};
-use crate::scene::{self, DirectMode};
+use crate::scene::DirectMode;
 use crate::session::budget::MemoryLimit;
 
 #[derive(Serialize)]
@@ -42,7 +43,7 @@ pub fn run(
     direct_only: bool,
     limit: &MemoryLimit,
 ) -> Result<()> {
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     let margin_m = match margin_m {
         Some(margin_m) => margin_m,
         None => {

@@ -514,6 +514,17 @@ pub fn catch_panics(command: impl FnOnce() -> Result<()>) -> Result<()> {
     })
 }
 
+/// Loads the room file `room` for a command and writes what loading repaired
+/// ([`Scene::notes`]) to standard error, one `haiko: note:` line each, so that what a command
+/// prints for files and pipes stays as it was.
+pub(crate) fn load_room(room: &std::path::Path) -> Result<Scene> {
+    let scene = crate::scene::load(room)?;
+    for note in &scene.notes {
+        eprintln!("haiko: note: {note}");
+    }
+    Ok(scene)
+}
+
 /// Opens a session on `scene` for a command: the plan's estimate checked against `limit` first,
 /// then the user's bake cache, the progress bar on standard error, cache notices printed;
 /// `indirect` false for direct light only (no bake).

@@ -10,10 +10,11 @@ use std::str::FromStr;
 use glam::DVec3;
 use serde::Serialize;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Error, Result, check_finite, printable};
 use crate::render::{DisplayMode, aim_direction};
-use crate::scene::{self, DirectMode, Receiver};
+use crate::scene::{DirectMode, Receiver};
 use crate::session::budget::MemoryLimit;
 use crate::session::frame::check_size;
 use crate::session::{FrameSpec, Session};
@@ -228,7 +229,7 @@ pub fn run(
     direct_only: bool,
     limit: &MemoryLimit,
 ) -> Result<()> {
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     check_pixel(pixel, width, height)?;
     let mut session = open_session(scene, !direct_only, limit)?;
     let report = pick_pixel(&mut session, width, height, pixel, aim_light, direct_only)?;

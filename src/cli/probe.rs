@@ -3,10 +3,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Result, check_finite};
+use crate::scene::DirectMode;
 use crate::scene::points::POINTS_HEADER;
-use crate::scene::{self, DirectMode};
 use crate::session::budget::MemoryLimit;
 use crate::transport::direct::Receiver;
 
@@ -28,8 +29,8 @@ pub fn run(
     mode: DirectMode,
     limit: &MemoryLimit,
 ) -> Result<()> {
-    let scene = scene::load(room)?;
-    let receivers = scene::points::read_points(points, scene.room_size)?;
+    let scene = load_room(room)?;
+    let receivers = crate::scene::points::read_points(points, scene.room_size)?;
     let mut session = open_session(scene, !direct_only, limit)?;
     let lux = session.illuminance_at(&receivers, direct_only, mode)?;
     check_finite("probe: an illuminance", lux.iter().copied())?;

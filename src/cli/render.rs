@@ -7,11 +7,11 @@ use std::time::Instant;
 
 use clap::ValueEnum;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Error, Result, printable};
 use crate::fsio;
 use crate::render::{DisplayMode, DisplayShader, LuxScale, write_pfm};
-use crate::scene;
 use crate::session::budget::MemoryLimit;
 use crate::session::frame::check_size;
 use crate::session::{ExposureChoice, FrameSpec, ViewChoice};
@@ -121,7 +121,7 @@ fn ms_since(start: Instant) -> f64 {
 pub fn run(room: &Path, output: &Path, options: &RenderOptions, limit: &MemoryLimit) -> Result<()> {
     let (width, height, mode) = (options.width, options.height, options.mode);
     let start = Instant::now();
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     check_size(width, height, ["--width", "--height"])?;
     // Every file the room named has been read: none of them may be the output.
     fsio::check_not_an_input(output, &[room])?;

@@ -3,18 +3,18 @@
 
 use std::path::Path;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Result, printable};
 use crate::fsio;
 use crate::report::{ReportOptions, report_html};
-use crate::scene;
 use crate::session::budget::MemoryLimit;
 use crate::session::frame::check_size;
 
 /// Runs the command: loads and bakes the room (or reads the bake cache), renders the views and
 /// writes the HTML file `output`.
 pub fn run(room: &Path, output: &Path, width: u32, height: u32, limit: &MemoryLimit) -> Result<()> {
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     check_size(width, height, ["--width", "--height"])?;
     // Every file the room named has been read: none of them may be the output.
     fsio::check_not_an_input(output, &[room])?;

@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
 
+use crate::cli::load_room;
 use crate::cli::open_session;
 use crate::error::{Error, Result};
-use crate::scene;
 use crate::session::budget::MemoryLimit;
 use crate::session::frame::MAX_SIDE_PX;
 use crate::tui::frame_budget::DEFAULT_BUDGET;
@@ -86,7 +86,7 @@ pub fn run(
             ),
         ));
     }
-    let scene = scene::load(room)?;
+    let scene = load_room(room)?;
     let mut session = open_session(scene.clone(), true, limit)?;
     session.relight();
     let costs = measure(&mut session, &scene, terminal.into(), cells, font, DEFAULT_BUDGET)?;

@@ -162,6 +162,7 @@ mod tests {
             },
             settings: Settings::default(),
             design: Design::default_for(size),
+            notes: Vec::new(),
         }
     }
 

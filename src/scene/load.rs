@@ -169,6 +169,8 @@ pub struct CheckedRoom {
     camera: Camera,
     settings: Settings,
     design: Design,
+    /// What loading repaired, one sentence each ([`Scene::notes`]).
+    notes: Vec<String>,
     /// Where `patch_size` and `solver_patch_size` are (or would be) in the file, for errors.
     size_places: [String; 2],
 }
@@ -255,6 +257,7 @@ impl CheckedRoom {
             camera: self.camera,
             settings: self.settings,
             design: self.design,
+            notes: self.notes,
         })
     }
 }
@@ -365,10 +368,12 @@ impl Loader<'_> {
         let (boxes, box_reflectances) = self.boxes(&file.boxes, room_size)?;
         let mut obj_surfaces = Vec::new();
         let mut mesh_bounds = Vec::with_capacity(file.meshes.len());
+        let mut notes = Vec::new();
         for (i, spec) in file.meshes.iter().enumerate() {
-            let (surfaces, bounds) = self.obj(spec.get_ref(), i, room_size)?;
+            let (surfaces, bounds, mesh_notes) = self.obj(spec.get_ref(), i, room_size)?;
             obj_surfaces.extend(surfaces);
             mesh_bounds.push(bounds);
+            notes.extend(mesh_notes);
         }
         if let Some((earlier, later, corners)) = obj::first_repeated_triangle(&obj_surfaces) {
             let copy = if earlier == later {
@@ -419,6 +424,7 @@ impl Loader<'_> {
             lights,
             camera,
             settings,
+            notes,
             size_places: [
                 self.setting_place(&file.settings.patch_size, "patch_size"),
                 self.setting_place(&file.settings.solver_patch_size, "solver_patch_size"),
@@ -571,7 +577,14 @@ impl Loader<'_> {
     }
 
     /// Reads, places and checks one `[[mesh]]`; returns its surfaces and world bounds.
-    fn obj(&self, spec: &MeshSpec, index: usize, room_size: DVec3) -> Result<(Vec<obj::ObjSurface>, Aabb)> {
+    /// The OBJ of `[[mesh]]` number `index`, placed and checked to lie in the room, its bounds,
+    /// and the import's notes (each starting with the field).
+    fn obj(
+        &self,
+        spec: &MeshSpec,
+        index: usize,
+        room_size: DVec3,
+    ) -> Result<(Vec<obj::ObjSurface>, Aabb, Vec<String>)> {
         let field = format!("mesh[{index}]");
         let written = spec.file.get_ref();
         let resolved = self.resolve(written);
@@ -595,14 +608,15 @@ impl Loader<'_> {
             scale,
             translate,
         };
-        let surfaces = obj::read_obj(&resolved, index, &placement)
+        let obj::ObjImport { surfaces, notes } = obj::read_obj(&resolved, index, &placement)
             .map_err(|e| self.nested(&span, &file_field, "OBJ", written, &resolved, e))?;
         let mut points = surfaces
             .iter()
             .flat_map(|s| s.geometry.positions.iter().copied())
             .peekable();
         if points.peek().is_none() {
-            return Err(file_error(format!("OBJ {} has no faces", quoted_path(written))));
+            let message = format!("OBJ {} has no faces of nonzero area", quoted_path(written));
+            return Err(file_error(message));
         }
         let (min, max) = points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(p), hi.max(p))
@@ -617,7 +631,8 @@ impl Loader<'_> {
                 room_size.to_array()
             )));
         }
-        Ok((surfaces, Aabb { min, max }))
+        let notes = notes.into_iter().map(|n| format!("{field}: {n}")).collect();
+        Ok((surfaces, Aabb { min, max }, notes))
     }
 
     fn light(&self, spec: &Spanned<LightSpec>, index: usize, solids: &Solids) -> Result<Light> {

@@ -291,4 +291,8 @@ pub struct Scene {
     pub settings: Settings,
     /// Calculation surfaces, glare observers and the maintenance factor.
     pub design: Design,
+    /// What loading repaired in the inputs, one sentence each naming the file and the place
+    /// (OBJ faces left out or turned, docs/DECISIONS.md "Degenerate and inside-out OBJ
+    /// faces"): shown by `haiko plan` and `haiko bake` and when the editor opens.
+    pub notes: Vec<String>,
 }

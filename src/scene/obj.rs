@@ -12,9 +12,10 @@
 //!
 //! Placement: the up conversion first (`up = "y"`: (x, y, z) → (x, −z, y); `up = "z"`: kept),
 //! then the uniform scale, then the translation. A surface without a material, or whose
-//! material has no `Kd`, gets a grey reflectance of 0.5. Polygons are split into triangle fans;
-//! a face whose area is below 1e-12 m² (after placement) is an error naming its face number
-//! (1-based, counted over the whole file in file order).
+//! material has no `Kd`, gets a grey reflectance of 0.5. Polygons are split into triangle fans.
+//! Two repairs are made and reported as notes ([`ObjImport::notes`], docs/DECISIONS.md
+//! "Degenerate and inside-out OBJ faces"): a face whose area is below 1e-12 m² (after
+//! placement) is left out, and a closed solid whose faces all turn inwards is turned outwards.
 
 use glam::DVec3;
 use std::collections::HashMap;
@@ -29,7 +30,7 @@ use crate::scene::room_file::UpAxis;
 /// Reflectance of OBJ surfaces without a material or without `Kd`.
 pub(crate) const DEFAULT_REFLECTANCE: f64 = 0.5;
 
-/// Faces smaller than this (m², after placement) are rejected as degenerate.
+/// Faces smaller than this (m², after placement) are left out as degenerate.
 pub(crate) const MIN_FACE_AREA: f64 = 1e-12;
 
 /// The most triangles (after splitting polygons into fans) one OBJ may have. The fine mesh
@@ -71,9 +72,19 @@ pub struct ObjSurface {
     pub reflectance: Reflectance,
 }
 
+/// What an OBJ gives the room: its surfaces, and what the import repaired on the way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjImport {
+    /// The placed surfaces (an object whose every face was left out has none).
+    pub surfaces: Vec<ObjSurface>,
+    /// One sentence per repair, naming the file, the faces (numbers and lines) or the object:
+    /// degenerate faces left out, closed solids turned outwards.
+    pub notes: Vec<String>,
+}
+
 /// Reads the OBJ at `path` for `[[mesh]]` number `mesh_index`, and its material libraries,
 /// through [`crate::fsio`]. Errors name the OBJ or MTL file and the line.
-pub fn read_obj(path: &Path, mesh_index: usize, placement: &Placement) -> Result<Vec<ObjSurface>> {
+pub fn read_obj(path: &Path, mesh_index: usize, placement: &Placement) -> Result<ObjImport> {
     let bytes = fsio::read(path, FileKind::Obj)?;
     parse_obj(path, &bytes, mesh_index, placement, &|mtl| {
         fsio::read(mtl, FileKind::Mtl)
@@ -88,15 +99,35 @@ pub fn parse_obj(
     mesh_index: usize,
     placement: &Placement,
     read_mtl: &dyn Fn(&Path) -> Result<Vec<u8>>,
-) -> Result<Vec<ObjSurface>> {
+) -> Result<ObjImport> {
     let text = String::from_utf8_lossy(bytes);
     let parsed = Statements::parse(path, &text, read_mtl)?;
     let mut surfaces = Vec::with_capacity(parsed.groups.len());
     let mut names: Vec<String> = Vec::new();
+    let mut degenerate: Vec<&Face> = Vec::new();
+    let mut notes = Vec::new();
+    let file = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
     for group in &parsed.groups {
         let material = group.material.map(|m| &parsed.materials[m]);
         let reflectance = material_reflectance(path, material)?;
-        let (positions, triangles) = parsed.place(path, group, placement)?;
+        let Placed {
+            positions,
+            mut triangles,
+            left_out,
+        } = parsed.place(path, group, placement)?;
+        degenerate.extend(left_out);
+        if triangles.is_empty() {
+            continue;
+        }
+        let turned = turn_closed_solids_outwards(&positions, &mut triangles);
+        if turned > 0 {
+            notes.push(format!(
+                "OBJ `{file}`, object `{}`: {turned} closed solid{} whose faces all turned inwards \
+                 (clockwise seen from outside) turned to face outwards",
+                group.name,
+                if turned == 1 { "" } else { "s" }
+            ));
+        }
         let mut name = format!("mesh{mesh_index}:{}", group.name);
         if names.contains(&name) {
             name = format!("{name}#{}", surfaces.len());
@@ -112,7 +143,30 @@ pub fn parse_obj(
             reflectance,
         });
     }
-    Ok(surfaces)
+    if !degenerate.is_empty() {
+        let shown: Vec<String> = degenerate
+            .iter()
+            .take(3)
+            .map(|f| format!("face {} (line {})", f.number, f.line))
+            .collect();
+        let more = degenerate.len() - shown.len();
+        notes.insert(
+            0,
+            format!(
+                "OBJ `{file}`: {} degenerate face{} (area below {MIN_FACE_AREA:e} m² after placement) \
+                 left out: {}{}",
+                degenerate.len(),
+                if degenerate.len() == 1 { "" } else { "s" },
+                shown.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
+            ),
+        );
+    }
+    Ok(ObjImport { surfaces, notes })
 }
 
 /// A material of an MTL file.
@@ -137,6 +191,16 @@ struct Group {
     name: String,
     material: Option<usize>,
     faces: Vec<Face>,
+}
+
+/// A group placed in the world ([`Statements::place`]).
+struct Placed<'g> {
+    /// The vertices its faces use (world, m).
+    positions: Vec<DVec3>,
+    /// Its triangles, indices into `positions`.
+    triangles: Vec<[u32; 3]>,
+    /// Its faces left out as degenerate.
+    left_out: Vec<&'g Face>,
 }
 
 /// The statements of an OBJ file Haiko uses.
@@ -396,18 +460,14 @@ impl Statements {
         }
     }
 
-    /// The group's vertices placed in the world (only those its faces use) and its triangles
-    /// ([`triangulate`]), zero-area triangles dropped; a face whose total area is below
-    /// [`MIN_FACE_AREA`] or not finite is an error.
-    fn place(
-        &self,
-        path: &Path,
-        group: &Group,
-        placement: &Placement,
-    ) -> Result<(Vec<DVec3>, Vec<[u32; 3]>)> {
+    /// The group's vertices placed in the world (only those its faces use), its triangles
+    /// ([`triangulate`]; zero-area triangles dropped) and the faces left out because their total
+    /// area is below [`MIN_FACE_AREA`]; a face whose area is not finite is an error.
+    fn place<'g>(&self, path: &Path, group: &'g Group, placement: &Placement) -> Result<Placed<'g>> {
         let mut local: HashMap<usize, u32> = HashMap::new();
         let mut positions = Vec::new();
         let mut triangles = Vec::new();
+        let mut left_out = Vec::new();
         for face in &group.faces {
             let ids: Vec<u32> = face
                 .vertices
@@ -425,20 +485,27 @@ impl Statements {
                 0.5 * (b - a).cross(c - a).length()
             };
             let face_area: f64 = pieces.iter().map(area).sum();
-            if !face_area.is_finite() || face_area < MIN_FACE_AREA {
+            if !face_area.is_finite() {
                 return Err(at(
                     path,
                     face.line,
                     format!(
-                        "face {} (object `{}`) is degenerate: area {face_area:.3e} m² after placement \
-                         (it must be finite and at least {MIN_FACE_AREA:e} m²)",
+                        "face {} (object `{}`): its area is not finite after placement (scale it down)",
                         face.number, group.name
                     ),
                 ));
             }
+            if face_area < MIN_FACE_AREA {
+                left_out.push(face);
+                continue;
+            }
             triangles.extend(pieces.into_iter().filter(|t| area(t) >= MIN_FACE_AREA));
         }
-        Ok((positions, triangles))
+        Ok(Placed {
+            positions,
+            triangles,
+            left_out,
+        })
     }
 }
 
@@ -511,6 +578,74 @@ fn material_reflectance(obj: &Path, material: Option<&Material>) -> Result<Refle
     Ok(Reflectance(*kd))
 }
 
+/// Turns outwards each closed solid among `triangles` whose faces all turn inwards, and returns
+/// how many it turned (docs/DECISIONS.md "Degenerate and inside-out OBJ faces"). A solid is a
+/// set of triangles joined edge to edge (corners compared exactly, so faces that do not share
+/// vertex indices join too) in which every edge is met exactly once each way: closed and
+/// consistently turned. Its signed volume `Σ a·(b×c) / 6` is then negative exactly when its
+/// faces turn clockwise seen from outside, and no light can reach them: lights are never inside
+/// a mesh. Open meshes, solids meeting along an edge of three or more faces, and a two-sided
+/// sheet (volume zero) are left as they are.
+fn turn_closed_solids_outwards(positions: &[DVec3], triangles: &mut [[u32; 3]]) -> usize {
+    let Some(&origin) = positions.first() else {
+        return 0;
+    };
+    let mut welded: HashMap<[u64; 3], u32> = HashMap::new();
+    let corner: Vec<u32> = positions
+        .iter()
+        .map(|p| {
+            let next = welded.len() as u32;
+            *welded
+                .entry((*p + DVec3::ZERO).to_array().map(f64::to_bits))
+                .or_insert(next)
+        })
+        .collect();
+    let mut edges: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    for (t, triangle) in triangles.iter().enumerate() {
+        let c = triangle.map(|i| corner[i as usize]);
+        for k in 0..3 {
+            edges.entry((c[k], c[(k + 1) % 3])).or_default().push(t);
+        }
+    }
+    let mut parent: Vec<usize> = (0..triangles.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut closed = vec![true; triangles.len()];
+    for (&(a, b), these) in &edges {
+        match edges.get(&(b, a)) {
+            Some(back) if these.len() == 1 && back.len() == 1 => {
+                let (x, y) = (root(&mut parent, these[0]), root(&mut parent, back[0]));
+                parent[x] = y;
+            }
+            _ => these.iter().for_each(|&t| closed[t] = false),
+        }
+    }
+    // Per solid: closed, signed volume ×6 and its scale Σ |a·(b×c)| (about `origin`).
+    let mut solids: HashMap<usize, (bool, f64, f64)> = HashMap::new();
+    for t in 0..triangles.len() {
+        let [a, b, c] = triangles[t].map(|i| positions[i as usize] - origin);
+        let v = a.dot(b.cross(c));
+        let solid = solids.entry(root(&mut parent, t)).or_insert((true, 0.0, 0.0));
+        *solid = (solid.0 && closed[t], solid.1 + v, solid.2 + v.abs());
+    }
+    let inside_out: std::collections::HashSet<usize> = solids
+        .iter()
+        .filter(|(_, (closed, volume, scale))| *closed && *volume < -1e-9 * *scale)
+        .map(|(&r, _)| r)
+        .collect();
+    for t in 0..triangles.len() {
+        if inside_out.contains(&root(&mut parent, t)) {
+            triangles[t].swap(1, 2);
+        }
+    }
+    inside_out.len()
+}
+
 /// The first triangle that appears twice facing the same way among `surfaces` (world frame):
 /// the `[[mesh]]` indices of its first and second appearance and its corners (m). Coincident
 /// faces each reflect the light the other also reflects, so their interreflection has no
@@ -566,7 +701,7 @@ mod tests {
         translate: DVec3::ZERO,
     };
 
-    fn parse(obj: &str, mtl: &str) -> Result<Vec<ObjSurface>> {
+    fn import(obj: &str, mtl: &str) -> Result<ObjImport> {
         let mtl = mtl.as_bytes().to_vec();
         parse_obj(Path::new("d/m.obj"), obj.as_bytes(), 0, &KEEP, &move |p| {
             assert_eq!(p, Path::new("d/m.mtl"));
@@ -574,7 +709,86 @@ mod tests {
         })
     }
 
+    fn parse(obj: &str, mtl: &str) -> Result<Vec<ObjSurface>> {
+        import(obj, mtl).map(|i| i.surfaces)
+    }
+
     const SQUARE: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+
+    /// The triangles of a unit cube at `at`, counter-clockwise seen from outside (or reversed),
+    /// each with its own three corners when `unwelded`; with or without its bottom.
+    fn cube(at: DVec3, reverse: bool, unwelded: bool, bottom: bool) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let corner = |i: u32| at + DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64);
+        let quads: &[[u32; 4]] = &[
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [1, 3, 7, 5],
+            [3, 2, 6, 7],
+            [2, 0, 4, 6],
+        ];
+        let mut positions: Vec<DVec3> = (0..8).map(corner).collect();
+        let mut triangles = Vec::new();
+        for q in &quads[usize::from(!bottom)..] {
+            for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                let t = if reverse { [t[0], t[2], t[1]] } else { t };
+                if unwelded {
+                    let base = positions.len() as u32;
+                    positions.extend(t.map(corner));
+                    triangles.push([base, base + 1, base + 2]);
+                } else {
+                    triangles.push(t);
+                }
+            }
+        }
+        (positions, triangles)
+    }
+
+    fn volume(positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
+        triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| positions[i as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn closed_solids_wound_inside_out_are_turned_and_nothing_else() {
+        let at = DVec3::new(2.0, 3.0, 0.5);
+        for unwelded in [false, true] {
+            let (p, right) = cube(at, false, unwelded, true);
+            assert!((volume(&p, &right) - 1.0).abs() < 1e-12);
+            let mut t = right.clone();
+            assert_eq!(turn_closed_solids_outwards(&p, &mut t), 0);
+            assert_eq!(t, right);
+            let (p, mut t) = cube(at, true, unwelded, true);
+            assert_eq!(turn_closed_solids_outwards(&p, &mut t), 1, "unwelded {unwelded}");
+            assert!((volume(&p, &t) - 1.0).abs() < 1e-12);
+            // Open (no bottom, as furniture standing on the floor is often modelled): which
+            // side is outside cannot be told, so it stays as written.
+            let (p, wound) = cube(at, true, unwelded, false);
+            let mut t = wound.clone();
+            assert_eq!(turn_closed_solids_outwards(&p, &mut t), 0);
+            assert_eq!(t, wound);
+        }
+        // Two cubes in one object, the second inside out: only it is turned.
+        let (mut p, mut t) = cube(DVec3::ZERO, false, false, true);
+        let (q, u) = cube(DVec3::new(3.0, 0.0, 0.0), true, false, true);
+        let offset = p.len() as u32;
+        p.extend(q);
+        t.extend(u.iter().map(|tri| tri.map(|i| i + offset)));
+        let first = t[..12].to_vec();
+        assert_eq!(turn_closed_solids_outwards(&p, &mut t), 1);
+        assert_eq!(t[..12], first[..]);
+        assert!((volume(&p, &t) - 2.0).abs() < 1e-12);
+        // A two-sided sheet (each triangle both ways) encloses nothing: kept.
+        let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
+        let mut t = vec![[0, 1, 2], [0, 2, 1]];
+        assert_eq!(turn_closed_solids_outwards(&p, &mut t), 0);
+        assert_eq!(t, [[0, 1, 2], [0, 2, 1]]);
+    }
 
     #[test]
     fn a_face_written_twice_the_same_way_is_found_but_a_two_sided_sheet_is_not() {

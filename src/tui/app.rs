@@ -95,13 +95,18 @@ pub fn run(room: &Path, options: EditorOptions, limit: &MemoryLimit) -> Result<(
     };
     // Temporaries of a save that was killed midway (docs/DECISIONS.md "Saving").
     let removed = scene::save::remove_stale_temporaries(room).unwrap_or_default();
-    let mut session = TerminalSession::enter(options.graphics)?;
-    let mut app = App::start(saved_scene, restored, loaded, room, *limit, &session, options)?;
+    // What loading repaired (OBJ faces left out or turned) shows until the first key.
+    let mut messages = saved_scene.notes.clone();
     if !removed.is_empty() {
-        app.model.message = Some(format!(
+        messages.push(format!(
             "removed {} temporary file(s) an interrupted save left beside the room file",
             removed.len()
         ));
+    }
+    let mut session = TerminalSession::enter(options.graphics)?;
+    let mut app = App::start(saved_scene, restored, loaded, room, *limit, &session, options)?;
+    if !messages.is_empty() {
+        app.model.message = Some(messages.join("; "));
     }
     app.run(&mut session)
 }

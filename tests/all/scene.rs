@@ -359,7 +359,7 @@ fn obj_y_up_becomes_z_up_then_scale_then_translate() {
         scale: 2.0,
         translate: DVec3::new(1.0, 1.0, 0.0),
     };
-    let surfaces = read_obj(&obj, 0, &placement).unwrap();
+    let surfaces = read_obj(&obj, 0, &placement).unwrap().surfaces;
     assert_eq!(surfaces.len(), 1);
     let s = &surfaces[0].geometry;
     // (x, y, z) → (x, −z, y), ×2, + (1, 1, 0).
@@ -376,7 +376,7 @@ fn obj_y_up_becomes_z_up_then_scale_then_translate() {
         scale: 1.0,
         translate: DVec3::ZERO,
     };
-    let s = &read_obj(&obj, 0, &keep).unwrap()[0].geometry;
+    let s = &read_obj(&obj, 0, &keep).unwrap().surfaces[0].geometry;
     assert!((s.positions[s.triangles[0][0] as usize] - DVec3::new(0.1, 0.2, -0.3)).length() < 1e-6);
 }
 
@@ -636,15 +636,106 @@ fn missing_lid_file_names_the_path_written_and_resolved() {
     );
 }
 
+/// A degenerate OBJ face (a catalogue model's sliver) is left out with a note naming the mesh,
+/// the file, the face and its line; an OBJ with nothing else is refused.
 #[test]
-fn degenerate_obj_face_names_the_obj_and_the_face() {
-    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
+fn degenerate_obj_faces_are_left_out_with_a_note_naming_them() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 2 4 1\n";
     let text = format!("{GOOD_ROOM}[[mesh]]\nfile = \"flat.obj\"\ntranslate = [0.5, 0.5, 0.0]\nup = \"z\"\n");
-    let m = load_error(&text, &[("flat.obj", obj)]);
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "flat.obj", obj);
+    let scene = load(&write(dir.path(), "room.toml", &text)).unwrap();
+    assert_eq!(
+        scene.notes,
+        [
+            "mesh[0]: OBJ `flat.obj`: 2 degenerate faces (area below 1e-12 m² after placement) left \
+          out: face 2 (line 6), face 3 (line 7)"
+        ]
+    );
+    let meshes: Vec<_> = scene
+        .surfaces
+        .iter()
+        .filter(|s| s.name.starts_with("mesh0:"))
+        .collect();
+    assert_eq!(meshes.len(), 1);
+    // Only the one real triangle (0.5 m²) was meshed.
+    let area: f64 = scene
+        .fine
+        .patches
+        .iter()
+        .filter(|p| scene.surfaces[p.surface as usize].name.starts_with("mesh0:"))
+        .map(|p| p.area)
+        .sum();
+    assert!((area - 0.5).abs() < 1e-9, "{area}");
+    let nothing_else = "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
+    let m = load_error(&text, &[("flat.obj", nothing_else)]);
     assert!(
-        m.contains("flat.obj") && m.contains("face 2") && m.contains("degenerate"),
+        m.contains("flat.obj") && m.contains("no faces of nonzero area"),
         "{m}"
     );
+}
+
+/// A closed solid wound inside out (every face clockwise seen from outside: no light could ever
+/// reach one) is turned outwards, with a note: the room then lights exactly as with the solid
+/// written the right way round.
+#[test]
+fn an_inside_out_closed_solid_lights_the_room_as_the_right_way_round() {
+    // A 0.6 m cube standing on the floor, faces counter-clockwise seen from outside, and the
+    // same with every face reversed.
+    let corners =
+        "v 0 0 0\nv 0.6 0 0\nv 0.6 0.6 0\nv 0 0.6 0\nv 0 0 0.6\nv 0.6 0 0.6\nv 0.6 0.6 0.6\nv 0 0.6 0.6\n";
+    let outward = ["1 4 3 2", "5 6 7 8", "1 2 6 5", "2 3 7 6", "3 4 8 7", "4 1 5 8"];
+    let faces = |reverse: bool| -> String {
+        outward
+            .iter()
+            .map(|f| {
+                let mut ids: Vec<&str> = f.split(' ').collect();
+                if reverse {
+                    ids.reverse();
+                }
+                format!("f {}\n", ids.join(" "))
+            })
+            .collect()
+    };
+    let text = format!("{GOOD_ROOM}[[mesh]]\nfile = \"cube.obj\"\ntranslate = [1.0, 0.8, 0.0]\nup = \"z\"\n");
+    let load_cube = |faces: String| {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "cube.obj", &format!("o cube\n{corners}{faces}"));
+        load(&write(dir.path(), "room.toml", &text)).unwrap()
+    };
+    let right = load_cube(faces(false));
+    let turned = load_cube(faces(true));
+    assert!(right.notes.is_empty(), "{:?}", right.notes);
+    assert_eq!(
+        turned.notes,
+        [
+            "mesh[0]: OBJ `cube.obj`, object `cube`: 1 closed solid whose faces all turned inwards \
+          (clockwise seen from outside) turned to face outwards"
+        ]
+    );
+    // The cube's top, its side facing the light and the floor beside it: the same light.
+    let receivers = [
+        (DVec3::new(1.3, 1.1, 0.6), DVec3::Z),
+        (DVec3::new(1.6, 1.1, 0.3), DVec3::X),
+        (DVec3::new(1.8, 1.1, 0.0), DVec3::Z),
+    ]
+    .map(|(point, normal)| haiko::scene::Receiver { point, normal });
+    let lux = |scene: haiko::scene::Scene| {
+        let mut session =
+            haiko::session::Session::new(scene, haiko::session::SessionOptions::default(), &mut |_| {})
+                .unwrap();
+        session
+            .illuminance_at(&receivers, false, haiko::scene::DirectMode::Exact)
+            .unwrap()
+    };
+    let (right, turned) = (lux(right), lux(turned));
+    assert!(right.iter().all(|&e| e > 1.0), "{right:?}");
+    // Reversed quads split along their other diagonal, so the two meshes differ in where their
+    // triangles' edges lie: the indirect light differs at the solve's tolerance (3e-6 when
+    // written), the direct light not at all.
+    for (r, t) in right.iter().zip(&turned) {
+        assert!((r - t).abs() <= 1e-4 * r, "{right:?} vs {turned:?}");
+    }
 }
 
 #[test]

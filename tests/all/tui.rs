@@ -80,6 +80,7 @@ fn scene() -> Scene {
         },
         settings: Settings::default(),
         design: Design::default_for(DVec3::new(6.0, 4.0, 2.7)),
+        notes: Vec::new(),
     }
 }
 
