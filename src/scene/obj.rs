@@ -105,6 +105,8 @@ pub fn parse_obj(
     let mut surfaces = Vec::with_capacity(parsed.groups.len());
     let mut names: Vec<String> = Vec::new();
     let mut degenerate: Vec<&Face> = Vec::new();
+    // Per surface, the OBJ object (group) it came from.
+    let mut objects: Vec<&str> = Vec::new();
     let mut notes = Vec::new();
     let file = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
     for group in &parsed.groups {
@@ -112,21 +114,12 @@ pub fn parse_obj(
         let reflectance = material_reflectance(path, material)?;
         let Placed {
             positions,
-            mut triangles,
+            triangles,
             left_out,
         } = parsed.place(path, group, placement)?;
         degenerate.extend(left_out);
         if triangles.is_empty() {
             continue;
-        }
-        let turned = turn_closed_solids_outwards(&positions, &mut triangles);
-        if turned > 0 {
-            notes.push(format!(
-                "OBJ `{file}`, object `{}`: {turned} closed solid{} whose faces all turned inwards \
-                 (clockwise seen from outside) turned to face outwards",
-                group.name,
-                if turned == 1 { "" } else { "s" }
-            ));
         }
         let mut name = format!("mesh{mesh_index}:{}", group.name);
         if names.contains(&name) {
@@ -142,6 +135,18 @@ pub fn parse_obj(
             },
             reflectance,
         });
+        objects.push(group.name.as_str());
+    }
+    let (turned, touched) = turn_closed_solids_outwards(&mut surfaces);
+    if turned > 0 {
+        let named: Vec<String> = touched.iter().map(|&k| format!("`{}`", objects[k])).collect();
+        notes.push(format!(
+            "OBJ `{file}`: {turned} closed solid{} whose faces all turned inwards (clockwise seen \
+             from outside) turned to face outwards (object{} {})",
+            if turned == 1 { "" } else { "s" },
+            if named.len() == 1 { "" } else { "s" },
+            named.join(", ")
+        ));
     }
     if !degenerate.is_empty() {
         let shown: Vec<String> = degenerate
@@ -578,36 +583,46 @@ fn material_reflectance(obj: &Path, material: Option<&Material>) -> Result<Refle
     Ok(Reflectance(*kd))
 }
 
-/// Turns outwards each closed solid among `triangles` whose faces all turn inwards, and returns
-/// how many it turned (docs/DECISIONS.md "Degenerate and inside-out OBJ faces"). A solid is a
-/// set of triangles joined edge to edge (corners compared exactly, so faces that do not share
-/// vertex indices join too) in which every edge is met exactly once each way: closed and
-/// consistently turned. Its signed volume `Σ a·(b×c) / 6` is then negative exactly when its
-/// faces turn clockwise seen from outside, and no light can reach them: lights are never inside
-/// a mesh. Open meshes, solids meeting along an edge of three or more faces, and a two-sided
-/// sheet (volume zero) are left as they are.
-fn turn_closed_solids_outwards(positions: &[DVec3], triangles: &mut [[u32; 3]]) -> usize {
-    let Some(&origin) = positions.first() else {
-        return 0;
-    };
+/// Turns outwards each closed solid among the surfaces' triangles whose faces all turn
+/// inwards; returns how many solids it turned and the surfaces it changed (docs/DECISIONS.md
+/// "Degenerate and inside-out OBJ faces"). A solid is a set of triangles joined edge to edge
+/// (corners compared exactly, so faces that do not share vertex indices, or lie in different
+/// objects or materials, join too) in which every edge is met exactly once each way: closed
+/// and consistently turned. Its signed volume `Σ a·(b×c) / 6` is then negative exactly when
+/// its faces turn clockwise seen from outside, and no light can reach them: lights are never
+/// inside a mesh. Open meshes, solids meeting along an edge of three or more faces, and a
+/// two-sided sheet (volume zero) are left as they are.
+fn turn_closed_solids_outwards(surfaces: &mut [ObjSurface]) -> (usize, Vec<usize>) {
+    // Every triangle: its surface and index there, and its corners welded by position.
     let mut welded: HashMap<[u64; 3], u32> = HashMap::new();
-    let corner: Vec<u32> = positions
+    let mut owner: Vec<(usize, usize)> = Vec::new();
+    let mut corners: Vec<[u32; 3]> = Vec::new();
+    for (k, surface) in surfaces.iter().enumerate() {
+        let g = &surface.geometry;
+        for (t, triangle) in g.triangles.iter().enumerate() {
+            owner.push((k, t));
+            corners.push(triangle.map(|i| {
+                let next = welded.len() as u32;
+                let key = (g.positions[i as usize] + DVec3::ZERO)
+                    .to_array()
+                    .map(f64::to_bits);
+                *welded.entry(key).or_insert(next)
+            }));
+        }
+    }
+    let Some(origin) = surfaces
         .iter()
-        .map(|p| {
-            let next = welded.len() as u32;
-            *welded
-                .entry((*p + DVec3::ZERO).to_array().map(f64::to_bits))
-                .or_insert(next)
-        })
-        .collect();
+        .find_map(|s| s.geometry.positions.first().copied())
+    else {
+        return (0, Vec::new());
+    };
     let mut edges: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
-    for (t, triangle) in triangles.iter().enumerate() {
-        let c = triangle.map(|i| corner[i as usize]);
+    for (t, c) in corners.iter().enumerate() {
         for k in 0..3 {
             edges.entry((c[k], c[(k + 1) % 3])).or_default().push(t);
         }
     }
-    let mut parent: Vec<usize> = (0..triangles.len()).collect();
+    let mut parent: Vec<usize> = (0..corners.len()).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
         while parent[i] != i {
             parent[i] = parent[parent[i]];
@@ -615,7 +630,7 @@ fn turn_closed_solids_outwards(positions: &[DVec3], triangles: &mut [[u32; 3]]) 
         }
         i
     }
-    let mut closed = vec![true; triangles.len()];
+    let mut closed = vec![true; corners.len()];
     for (&(a, b), these) in &edges {
         match edges.get(&(b, a)) {
             Some(back) if these.len() == 1 && back.len() == 1 => {
@@ -625,10 +640,14 @@ fn turn_closed_solids_outwards(positions: &[DVec3], triangles: &mut [[u32; 3]]) 
             _ => these.iter().for_each(|&t| closed[t] = false),
         }
     }
+    let corner_of = |(k, t): (usize, usize), surfaces: &[ObjSurface]| {
+        let g = &surfaces[k].geometry;
+        g.triangles[t].map(|i| g.positions[i as usize] - origin)
+    };
     // Per solid: closed, signed volume ×6 and its scale Σ |a·(b×c)| (about `origin`).
     let mut solids: HashMap<usize, (bool, f64, f64)> = HashMap::new();
-    for t in 0..triangles.len() {
-        let [a, b, c] = triangles[t].map(|i| positions[i as usize] - origin);
+    for t in 0..corners.len() {
+        let [a, b, c] = corner_of(owner[t], surfaces);
         let v = a.dot(b.cross(c));
         let solid = solids.entry(root(&mut parent, t)).or_insert((true, 0.0, 0.0));
         *solid = (solid.0 && closed[t], solid.1 + v, solid.2 + v.abs());
@@ -638,12 +657,16 @@ fn turn_closed_solids_outwards(positions: &[DVec3], triangles: &mut [[u32; 3]]) 
         .filter(|(_, (closed, volume, scale))| *closed && *volume < -1e-9 * *scale)
         .map(|(&r, _)| r)
         .collect();
-    for t in 0..triangles.len() {
+    let mut touched = Vec::new();
+    for (t, &(k, i)) in owner.iter().enumerate() {
         if inside_out.contains(&root(&mut parent, t)) {
-            triangles[t].swap(1, 2);
+            surfaces[k].geometry.triangles[i].swap(1, 2);
+            if touched.last() != Some(&k) && !touched.contains(&k) {
+                touched.push(k);
+            }
         }
     }
-    inside_out.len()
+    (inside_out.len(), touched)
 }
 
 /// The first triangle that appears twice facing the same way among `surfaces` (world frame):
@@ -744,6 +767,23 @@ mod tests {
         (positions, triangles)
     }
 
+    /// [`turn_closed_solids_outwards`] on one surface of these triangles.
+    fn turn(positions: &[DVec3], triangles: &mut Vec<[u32; 3]>) -> usize {
+        let mut surfaces = [ObjSurface {
+            geometry: TriangleSurface {
+                name: "mesh0:test".into(),
+                mesh_index: 0,
+                positions: positions.to_vec(),
+                triangles: triangles.clone(),
+            },
+            reflectance: Reflectance::grey(0.5),
+        }];
+        let (turned, touched) = turn_closed_solids_outwards(&mut surfaces);
+        assert_eq!(touched, if turned > 0 { vec![0] } else { vec![] });
+        *triangles = surfaces[0].geometry.triangles.clone();
+        turned
+    }
+
     fn volume(positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
         triangles
             .iter()
@@ -761,16 +801,16 @@ mod tests {
             let (p, right) = cube(at, false, unwelded, true);
             assert!((volume(&p, &right) - 1.0).abs() < 1e-12);
             let mut t = right.clone();
-            assert_eq!(turn_closed_solids_outwards(&p, &mut t), 0);
+            assert_eq!(turn(&p, &mut t), 0);
             assert_eq!(t, right);
             let (p, mut t) = cube(at, true, unwelded, true);
-            assert_eq!(turn_closed_solids_outwards(&p, &mut t), 1, "unwelded {unwelded}");
+            assert_eq!(turn(&p, &mut t), 1, "unwelded {unwelded}");
             assert!((volume(&p, &t) - 1.0).abs() < 1e-12);
             // Open (no bottom, as furniture standing on the floor is often modelled): which
             // side is outside cannot be told, so it stays as written.
             let (p, wound) = cube(at, true, unwelded, false);
             let mut t = wound.clone();
-            assert_eq!(turn_closed_solids_outwards(&p, &mut t), 0);
+            assert_eq!(turn(&p, &mut t), 0);
             assert_eq!(t, wound);
         }
         // Two cubes in one object, the second inside out: only it is turned.
@@ -780,13 +820,33 @@ mod tests {
         p.extend(q);
         t.extend(u.iter().map(|tri| tri.map(|i| i + offset)));
         let first = t[..12].to_vec();
-        assert_eq!(turn_closed_solids_outwards(&p, &mut t), 1);
+        assert_eq!(turn(&p, &mut t), 1);
         assert_eq!(t[..12], first[..]);
         assert!((volume(&p, &t) - 2.0).abs() < 1e-12);
+        // A cube wound inside out whose top is another object (another material): one solid,
+        // both objects turned, one note naming them.
+        let corners = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n";
+        let obj = format!(
+            "{corners}o top\nf 5 7 8 6\no sides\nf 1 2 4 3\nf 1 5 6 2\nf 2 6 8 4\nf 4 8 7 3\nf 3 7 5 1\n"
+        );
+        let import = import(&obj, "").unwrap();
+        assert_eq!(
+            import.notes,
+            [
+                "OBJ `m.obj`: 1 closed solid whose faces all turned inwards (clockwise seen from \
+              outside) turned to face outwards (objects `top`, `sides`)"
+            ]
+        );
+        let total: f64 = import
+            .surfaces
+            .iter()
+            .map(|s| volume(&s.geometry.positions, &s.geometry.triangles))
+            .sum();
+        assert!((total - 1.0).abs() < 1e-12, "{total}");
         // A two-sided sheet (each triangle both ways) encloses nothing: kept.
         let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
         let mut t = vec![[0, 1, 2], [0, 2, 1]];
-        assert_eq!(turn_closed_solids_outwards(&p, &mut t), 0);
+        assert_eq!(turn(&p, &mut t), 0);
         assert_eq!(t, [[0, 1, 2], [0, 2, 1]]);
     }
 

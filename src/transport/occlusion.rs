@@ -1,6 +1,8 @@
 //! Shadow rays against the scene's occluders: furniture boxes (exact f64 slab tests, in a
 //! [`BoxBvh`] for rays that may meet any of them) and OBJ triangles (a BVH2 from the `obvhs`
-//! crate, f32, built once per scene).
+//! crate, f32, built once per scene from the coarse mesh's triangles: the same surface as the
+//! fine mesh's, in fewer pieces; docs/DECISIONS.md "Shadow rays against the coarse OBJ
+//! triangles").
 //!
 //! Room walls never occlude (the room is convex); only boxes and meshes can, so a scene
 //! without them needs no visibility tests at all ([`crate::transport::visibility::Unoccluded`]).
@@ -48,7 +50,7 @@ impl Occluders {
     /// The boxes and OBJ triangles of a scene. Returns `None` when nothing can occlude (an
     /// empty convex room), so callers skip visibility entirely.
     pub fn of_scene(scene: &Scene) -> Option<Self> {
-        let triangles: Vec<[DVec3; 3]> = mesh_triangles(&scene.fine, scene).collect();
+        let triangles: Vec<[DVec3; 3]> = mesh_triangles(&scene.coarse, scene).collect();
         (!scene.boxes.is_empty() || !triangles.is_empty()).then(|| Self::from_parts(&scene.boxes, &triangles))
     }
 
@@ -253,7 +255,7 @@ fn segment_blocked(boxes: Boxes<'_>, triangles: Option<&TriangleBvh>, from: DVec
 }
 
 /// How far (barycentric, of the triangle's size) past its edges a ray still meets a triangle:
-/// about a micrometre on a 0.1 m fine triangle.
+/// about a micrometre on a 0.1 m triangle, 5 µm on a 0.5 m one.
 const TRIANGLE_EDGE_MARGIN: f32 = 1e-5;
 
 /// Distance along `ray` at which it meets `t` within the ray's range, or infinity: Möller–Trumbore
@@ -290,22 +292,22 @@ impl Visibility for Occluders {
     }
 }
 
-/// The triangles of the fine patches that belong to OBJ meshes (world, m).
 /// Adds what [`Occluders::of_scene`] is made of — the boxes' corners, then the OBJ surfaces'
-/// fine triangles — to a cache key (world, m; by bit pattern).
+/// coarse triangles — to a cache key (world, m; by bit pattern).
 pub fn hash_occluders(scene: &Scene, h: &mut Fnv64) {
     for b in &scene.boxes {
         for v in [b.min, b.max] {
             h.f64(v.x).f64(v.y).f64(v.z);
         }
     }
-    for triangle in mesh_triangles(&scene.fine, scene) {
+    for triangle in mesh_triangles(&scene.coarse, scene) {
         for p in triangle {
             h.f64(p.x).f64(p.y).f64(p.z);
         }
     }
 }
 
+/// The triangles of `mesh`'s patches that belong to OBJ meshes (world, m).
 fn mesh_triangles<'a>(mesh: &'a PatchMesh, scene: &'a Scene) -> impl Iterator<Item = [DVec3; 3]> + 'a {
     mesh.triangles().filter_map(move |([a, b, c], pid)| {
         let surface = mesh.patches[pid as usize].surface as usize;

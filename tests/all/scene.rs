@@ -709,8 +709,8 @@ fn an_inside_out_closed_solid_lights_the_room_as_the_right_way_round() {
     assert_eq!(
         turned.notes,
         [
-            "mesh[0]: OBJ `cube.obj`, object `cube`: 1 closed solid whose faces all turned inwards \
-          (clockwise seen from outside) turned to face outwards"
+            "mesh[0]: OBJ `cube.obj`: 1 closed solid whose faces all turned inwards (clockwise \
+             seen from outside) turned to face outwards (object `cube`)"
         ]
     );
     // The cube's top, its side facing the light and the floor beside it: the same light.
