@@ -38,7 +38,7 @@ const PLANE_OFFSET_M: f64 = 1e-9;
 /// of `leaves`, the groups in the order of their first leaf. A patch is compared only with the
 /// groups whose rounded plane (normal to 10⁻⁶, offset to 1 µm) is its own, so a plane split by
 /// the rounding becomes two groups, never one group of two planes.
-fn in_planes(mesh: &PatchMesh, leaves: &[u32]) -> Vec<Vec<u32>> {
+pub(crate) fn in_planes(mesh: &PatchMesh, leaves: &[u32]) -> Vec<Vec<u32>> {
     let mut groups: Vec<(DVec3, f64, Vec<u32>)> = Vec::new();
     let mut by_key: std::collections::HashMap<[i64; 4], Vec<usize>> = std::collections::HashMap::new();
     for &l in leaves {

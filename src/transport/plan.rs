@@ -7,8 +7,9 @@ use serde::Serialize;
 
 use crate::error::printable;
 use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
-use crate::scene::{DirectMode, Scene};
+use crate::scene::{DirectMode, PatchMesh, Scene, SurfaceKind};
 use crate::transport::formfactor::FormFactorOptions;
+use crate::transport::hierarchy::in_planes;
 use crate::transport::interreflection::{
     COARSE_VISIBILITY_ABOVE_LEAVES, InterreflectionOptions, RELAXED_LINKS_ABOVE_LEAVES,
 };
@@ -216,7 +217,17 @@ pub fn plan_graded(scene: &Scene, options: PlanOptions) -> (Plan, Option<SolverM
     let (leaves, refinement) = solver.as_ref().map_or((0, Vec::new()), |solver| {
         (solver.mesh.patches.len(), solver.notes(scene))
     });
-    let hierarchical = engine_decision(choice, interreflection.on, paper, leaves);
+    let mut hierarchical = engine_decision(choice, interreflection.on, paper, leaves);
+    if let Some(solver) = solver.as_ref().filter(|_| hierarchical.on) {
+        let planes = obj_planes(scene, &solver.mesh);
+        if planes > MANY_OBJ_PLANES {
+            hierarchical.reason += &format!(
+                "; the OBJ surfaces lie in {planes} planes (curved models), each a cluster root \
+                 linked with every root it sees: links and bake time grow with the square of that \
+                 (a simplified model bakes faster)"
+            );
+        }
+    }
     let n_coarse = scene.coarse.patches.len();
     let per_channel: usize = lights.iter().map(|l| l.columns).sum();
     let columns = per_channel * channels;
@@ -244,6 +255,28 @@ pub fn plan_graded(scene: &Scene, options: PlanOptions) -> (Plan, Option<SolverM
         lights,
     };
     (plan, solver)
+}
+
+/// Above this many planes among the OBJ surfaces' leaves, the engine decision says what they
+/// cost: each plane is a cluster tree's root (docs/DECISIONS.md "OBJ surfaces clustered by
+/// plane"), and the roots that see each other are linked pair by pair.
+const MANY_OBJ_PLANES: usize = 1000;
+
+/// Number of planes the OBJ surfaces' leaves (patches of `mesh`) lie in.
+fn obj_planes(scene: &Scene, mesh: &PatchMesh) -> usize {
+    let mut by_surface: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+    for (i, patch) in mesh.patches.iter().enumerate() {
+        if matches!(
+            scene.surfaces[patch.surface as usize].kind,
+            SurfaceKind::Mesh { .. }
+        ) {
+            by_surface.entry(patch.surface).or_default().push(i as u32);
+        }
+    }
+    by_surface
+        .values()
+        .map(|leaves| in_planes(mesh, leaves).len())
+        .sum()
 }
 
 /// Whether the hierarchical engine carries the indirect light, and why.

@@ -675,6 +675,43 @@ fn degenerate_obj_faces_are_left_out_with_a_note_naming_them() {
     );
 }
 
+/// A model of many planes (a curved surface cut into facets) is named in the plan's engine
+/// decision with the number of planes its leaves lie in — each a cluster root, linked pair by
+/// pair — and a model of few planes is not.
+#[test]
+fn the_plan_says_when_an_obj_lies_in_many_planes() {
+    // A cone of `sides` facets on a floating base (z = 0 in the OBJ, lifted 0.2 m), apex up.
+    let cone = |sides: usize| -> String {
+        let mut obj = String::from("v 0 0 1\n");
+        for k in 0..sides {
+            let a = 2.0 * std::f64::consts::PI * k as f64 / sides as f64;
+            obj += &format!("v {} {} 0\n", 0.5 * a.cos(), 0.5 * a.sin());
+        }
+        for k in 0..sides {
+            obj += &format!("f 1 {} {}\n", 2 + k, 2 + (k + 1) % sides);
+        }
+        let base: Vec<String> = (0..sides).rev().map(|k| (2 + k).to_string()).collect();
+        obj + &format!("f {}\n", base.join(" "))
+    };
+    let text = format!("{GOOD_ROOM}[[mesh]]\nfile = \"cone.obj\"\ntranslate = [2.0, 1.5, 0.2]\nup = \"z\"\n");
+    let reason = |sides: usize| {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "cone.obj", &cone(sides));
+        let scene = load(&write(dir.path(), "room.toml", &text)).unwrap();
+        assert!(scene.notes.is_empty(), "{:?}", scene.notes);
+        let plan = haiko::transport::plan::plan(&scene, haiko::transport::plan::PlanOptions::default());
+        assert!(plan.hierarchical.on);
+        plan.hierarchical.reason
+    };
+    let many = reason(1200);
+    assert!(
+        many.contains("the OBJ surfaces lie in 1201 planes (curved models)"),
+        "{many}"
+    );
+    let few = reason(12);
+    assert!(!few.contains("planes"), "{few}");
+}
+
 /// A closed solid wound inside out (every face clockwise seen from outside: no light could ever
 /// reach one) is turned outwards, with a note: the room then lights exactly as with the solid
 /// written the right way round.
