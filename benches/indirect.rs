@@ -175,6 +175,11 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
             black_box((job, engine.vertex_indirect(0)))
         })
     });
+    // The same re-aims as `_reaim`, solved with the estimates on: each solve starts from the
+    // estimate of its new aim instead of the values of the old one.
+    group.bench_function(format!("{name}_reaim_from_estimate"), |b| {
+        edit(b, &mut engine, &reaimed)
+    });
     group.finish();
 }
 
