@@ -139,39 +139,47 @@ pub fn parse_obj(
     }
     let (turned, touched) = turn_closed_solids_outwards(&mut surfaces);
     if turned > 0 {
-        let named: Vec<String> = touched.iter().map(|&k| format!("`{}`", objects[k])).collect();
+        let mut named: Vec<&str> = Vec::new();
+        for &k in &touched {
+            if !named.contains(&objects[k]) {
+                named.push(objects[k]);
+            }
+        }
         notes.push(format!(
-            "OBJ `{file}`: {turned} closed solid{} whose faces all turned inwards (clockwise seen \
-             from outside) turned to face outwards (object{} {})",
+            "OBJ `{file}`: {turned} closed solid{} whose faces all turned into the solid instead \
+             of out of it turned round (object{} {})",
             if turned == 1 { "" } else { "s" },
             if named.len() == 1 { "" } else { "s" },
-            named.join(", ")
+            listed(named.iter().map(|n| format!("`{n}`")))
         ));
     }
     if !degenerate.is_empty() {
-        let shown: Vec<String> = degenerate
-            .iter()
-            .take(3)
-            .map(|f| format!("face {} (line {})", f.number, f.line))
-            .collect();
-        let more = degenerate.len() - shown.len();
         notes.insert(
             0,
             format!(
                 "OBJ `{file}`: {} degenerate face{} (area below {MIN_FACE_AREA:e} m² after placement) \
-                 left out: {}{}",
+                 left out: {}",
                 degenerate.len(),
                 if degenerate.len() == 1 { "" } else { "s" },
-                shown.join(", "),
-                if more > 0 {
-                    format!(" and {more} more")
-                } else {
-                    String::new()
-                }
+                listed(
+                    degenerate
+                        .iter()
+                        .map(|f| format!("face {} (line {})", f.number, f.line))
+                )
             ),
         );
     }
     Ok(ObjImport { surfaces, notes })
+}
+
+/// The first three of `items` joined with ", ", then how many more there are.
+fn listed(items: impl ExactSizeIterator<Item = String>) -> String {
+    let total = items.len();
+    let shown: Vec<String> = items.take(3).collect();
+    match total - shown.len() {
+        0 => shown.join(", "),
+        more => format!("{} and {more} more", shown.join(", ")),
+    }
 }
 
 /// A material of an MTL file.
@@ -465,20 +473,25 @@ impl Statements {
         }
     }
 
-    /// The group's vertices placed in the world (only those its faces use), its triangles
-    /// ([`triangulate`]; zero-area triangles dropped) and the faces left out because their total
-    /// area is below [`MIN_FACE_AREA`]; a face whose area is not finite is an error.
+    /// The group's vertices placed in the world (only those its kept faces use), its triangles
+    /// ([`triangulate`]; triangles below [`MIN_FACE_AREA`] dropped) and the faces left out
+    /// because their area, or every triangle of theirs, is below it; a face whose area is not
+    /// finite is an error.
     fn place<'g>(&self, path: &Path, group: &'g Group, placement: &Placement) -> Result<Placed<'g>> {
         let mut local: HashMap<usize, u32> = HashMap::new();
         let mut positions = Vec::new();
         let mut triangles = Vec::new();
         let mut left_out = Vec::new();
         for face in &group.faces {
+            // Vertices first used by this face, taken back if it is left out: a dropped face's
+            // corners must not widen the mesh's bounds.
+            let (kept, mut added) = (positions.len(), Vec::new());
             let ids: Vec<u32> = face
                 .vertices
                 .iter()
                 .map(|&v| {
                     *local.entry(v).or_insert_with(|| {
+                        added.push(v);
                         positions.push(placement.apply(self.positions[v]));
                         positions.len() as u32 - 1
                     })
@@ -500,11 +513,16 @@ impl Statements {
                     ),
                 ));
             }
-            if face_area < MIN_FACE_AREA {
+            let whole: Vec<[u32; 3]> = pieces.into_iter().filter(|t| area(t) >= MIN_FACE_AREA).collect();
+            if face_area < MIN_FACE_AREA || whole.is_empty() {
                 left_out.push(face);
+                positions.truncate(kept);
+                added.iter().for_each(|v| {
+                    local.remove(v);
+                });
                 continue;
             }
-            triangles.extend(pieces.into_iter().filter(|t| area(t) >= MIN_FACE_AREA));
+            triangles.extend(whole);
         }
         Ok(Placed {
             positions,
@@ -583,15 +601,17 @@ fn material_reflectance(obj: &Path, material: Option<&Material>) -> Result<Refle
     Ok(Reflectance(*kd))
 }
 
-/// Turns outwards each closed solid among the surfaces' triangles whose faces all turn
-/// inwards; returns how many solids it turned and the surfaces it changed (docs/DECISIONS.md
-/// "Degenerate and inside-out OBJ faces"). A solid is a set of triangles joined edge to edge
-/// (corners compared exactly, so faces that do not share vertex indices, or lie in different
-/// objects or materials, join too) in which every edge is met exactly once each way: closed
-/// and consistently turned. Its signed volume `Σ a·(b×c) / 6` is then negative exactly when
-/// its faces turn clockwise seen from outside, and no light can reach them: lights are never
-/// inside a mesh. Open meshes, solids meeting along an edge of three or more faces, and a
-/// two-sided sheet (volume zero) are left as they are.
+/// Turns round each closed shell among the surfaces' triangles whose faces turn into the solid
+/// instead of out of it; returns how many shells it turned and the surfaces it changed
+/// (docs/DECISIONS.md "Degenerate and inside-out OBJ faces"). A shell is a set of triangles
+/// joined edge to edge (corners compared exactly, so faces that do not share vertex indices, or
+/// lie in different objects or materials, join too) in which every edge is met exactly once each
+/// way: closed and consistently turned. Its signed volume `Σ a·(b×c) / 6` is positive when its
+/// faces turn out of what it encloses. A shell inside an odd number of other shells bounds a
+/// hollow (the inside of a vase), whose faces turn into the hollow: negative. A shell whose sign
+/// is the other one is turned round. No light can reach the faces of a wrongly turned shell:
+/// lights are never inside a mesh's material. Open meshes, shells meeting along an edge of three
+/// or more faces, and a two-sided sheet (volume zero) are left as they are.
 fn turn_closed_solids_outwards(surfaces: &mut [ObjSurface]) -> (usize, Vec<usize>) {
     // Every triangle: its surface and index there, and its corners welded by position.
     let mut welded: HashMap<[u64; 3], u32> = HashMap::new();
@@ -616,10 +636,17 @@ fn turn_closed_solids_outwards(surfaces: &mut [ObjSurface]) -> (usize, Vec<usize
     else {
         return (0, Vec::new());
     };
-    let mut edges: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    let at = |t: usize| {
+        let (k, i) = owner[t];
+        let g = &surfaces[k].geometry;
+        g.triangles[i].map(|v| g.positions[v as usize])
+    };
+    // Per directed edge: how many triangles have it, and the first.
+    let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
     for (t, c) in corners.iter().enumerate() {
         for k in 0..3 {
-            edges.entry((c[k], c[(k + 1) % 3])).or_default().push(t);
+            let e = edges.entry((c[k], c[(k + 1) % 3])).or_insert((0, t as u32));
+            e.0 += 1;
         }
     }
     let mut parent: Vec<usize> = (0..corners.len()).collect();
@@ -631,42 +658,84 @@ fn turn_closed_solids_outwards(surfaces: &mut [ObjSurface]) -> (usize, Vec<usize
         i
     }
     let mut closed = vec![true; corners.len()];
-    for (&(a, b), these) in &edges {
-        match edges.get(&(b, a)) {
-            Some(back) if these.len() == 1 && back.len() == 1 => {
-                let (x, y) = (root(&mut parent, these[0]), root(&mut parent, back[0]));
-                parent[x] = y;
+    for (t, c) in corners.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (c[k], c[(k + 1) % 3]);
+            match (edges[&(a, b)], edges.get(&(b, a))) {
+                ((1, _), Some(&(1, other))) => {
+                    let (x, y) = (root(&mut parent, t), root(&mut parent, other as usize));
+                    parent[x] = y;
+                }
+                _ => closed[t] = false,
             }
-            _ => these.iter().for_each(|&t| closed[t] = false),
         }
     }
-    let corner_of = |(k, t): (usize, usize), surfaces: &[ObjSurface]| {
-        let g = &surfaces[k].geometry;
-        g.triangles[t].map(|i| g.positions[i as usize] - origin)
-    };
-    // Per solid: closed, signed volume ×6 and its scale Σ |a·(b×c)| (about `origin`).
-    let mut solids: HashMap<usize, (bool, f64, f64)> = HashMap::new();
+    // Per shell: its triangles, whether closed, its signed volume ×6 and that sum's scale
+    // Σ |a·(b×c)| (about `origin`), and its bounds.
+    struct Shell {
+        triangles: Vec<usize>,
+        closed: bool,
+        volume: f64,
+        scale: f64,
+        min: DVec3,
+        max: DVec3,
+    }
+    let mut shells: Vec<Shell> = Vec::new();
+    let mut shell_of: HashMap<usize, usize> = HashMap::new();
     for t in 0..corners.len() {
-        let [a, b, c] = corner_of(owner[t], surfaces);
-        let v = a.dot(b.cross(c));
-        let solid = solids.entry(root(&mut parent, t)).or_insert((true, 0.0, 0.0));
-        *solid = (solid.0 && closed[t], solid.1 + v, solid.2 + v.abs());
+        let r = root(&mut parent, t);
+        let s = *shell_of.entry(r).or_insert_with(|| {
+            shells.push(Shell {
+                triangles: Vec::new(),
+                closed: true,
+                volume: 0.0,
+                scale: 0.0,
+                min: DVec3::INFINITY,
+                max: DVec3::NEG_INFINITY,
+            });
+            shells.len() - 1
+        });
+        let [a, b, c] = at(t);
+        let v = (a - origin).dot((b - origin).cross(c - origin));
+        let shell = &mut shells[s];
+        shell.triangles.push(t);
+        shell.closed &= closed[t];
+        shell.volume += v;
+        shell.scale += v.abs();
+        shell.min = shell.min.min(a).min(b).min(c);
+        shell.max = shell.max.max(a).max(b).max(c);
     }
-    let inside_out: std::collections::HashSet<usize> = solids
-        .iter()
-        .filter(|(_, (closed, volume, scale))| *closed && *volume < -1e-9 * *scale)
-        .map(|(&r, _)| r)
+    let solid: Vec<usize> = (0..shells.len())
+        .filter(|&s| shells[s].closed && shells[s].volume.abs() > 1e-9 * shells[s].scale)
         .collect();
-    let mut touched = Vec::new();
-    for (t, &(k, i)) in owner.iter().enumerate() {
-        if inside_out.contains(&root(&mut parent, t)) {
+    let wrong: Vec<usize> = solid
+        .iter()
+        .copied()
+        .filter(|&s| {
+            let [a, b, c] = at(shells[s].triangles[0]);
+            let p = (a + b + c) / 3.0;
+            let depth = solid
+                .iter()
+                .filter(|&&o| {
+                    let shell = &shells[o];
+                    o != s
+                        && p.cmpge(shell.min).all()
+                        && p.cmple(shell.max).all()
+                        && winding_number(p, shell.triangles.iter().map(|&t| at(t))).abs() > 0.5
+                })
+                .count();
+            (shells[s].volume < 0.0) != (depth % 2 == 1)
+        })
+        .collect();
+    let mut changed = vec![false; surfaces.len()];
+    for &s in &wrong {
+        for &t in &shells[s].triangles {
+            let (k, i) = owner[t];
             surfaces[k].geometry.triangles[i].swap(1, 2);
-            if touched.last() != Some(&k) && !touched.contains(&k) {
-                touched.push(k);
-            }
+            changed[k] = true;
         }
     }
-    (inside_out.len(), touched)
+    (wrong.len(), (0..surfaces.len()).filter(|&k| changed[k]).collect())
 }
 
 /// The first triangle that appears twice facing the same way among `surfaces` (world frame):
@@ -833,8 +902,8 @@ mod tests {
         assert_eq!(
             import.notes,
             [
-                "OBJ `m.obj`: 1 closed solid whose faces all turned inwards (clockwise seen from \
-              outside) turned to face outwards (objects `top`, `sides`)"
+                "OBJ `m.obj`: 1 closed solid whose faces all turned into the solid instead of out \
+              of it turned round (objects `top`, `sides`)"
             ]
         );
         let total: f64 = import
@@ -843,6 +912,24 @@ mod tests {
             .map(|s| volume(&s.geometry.positions, &s.geometry.triangles))
             .sum();
         assert!((total - 1.0).abs() < 1e-12, "{total}");
+        // A hollow cube (a 3 m shell round a 1 m hollow, whose faces turn into the hollow):
+        // right as it is; wound inside out as a whole, both shells turned; only its outer
+        // shell wrong, only that one.
+        let hollow = |outer_reversed: bool, inner_reversed: bool| {
+            let (mut p, mut t) = cube(DVec3::ZERO, outer_reversed, false, true);
+            p.iter_mut().for_each(|v| *v *= 3.0);
+            let (q, u) = cube(DVec3::ONE, !inner_reversed, false, true);
+            let offset = p.len() as u32;
+            p.extend(q);
+            t.extend(u.iter().map(|tri| tri.map(|i| i + offset)));
+            (p, t)
+        };
+        for (outer, inner, turned) in [(false, false, 0), (true, true, 2), (true, false, 1)] {
+            let (p, mut t) = hollow(outer, inner);
+            assert_eq!(turn(&p, &mut t), turned, "outer {outer}, inner {inner}");
+            assert_eq!(t, hollow(false, false).1, "outer {outer}, inner {inner}");
+            assert!((volume(&p, &t) - 26.0).abs() < 1e-9);
+        }
         // A two-sided sheet (each triangle both ways) encloses nothing: kept.
         let p = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
         let mut t = vec![[0, 1, 2], [0, 2, 1]];

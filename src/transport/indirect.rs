@@ -239,8 +239,9 @@ pub struct LightSolveJob {
     /// The light's direct sample cache; `None` when the light moved (rebuilt by the job).
     cache: Option<Arc<PatchDirectCache>>,
     light: Light,
-    /// The light's previous leaf indirect irradiance `H − E` per channel (lx; the warm start
-    /// [`warm_start`] makes with the new direct light; empty before any solve).
+    /// The leaf indirect irradiance `H − E` per channel the light showed when the job was made
+    /// — the estimate of its new state when it had one, else its last solve's (lx; the warm
+    /// start [`warm_start`] makes with the new direct light; empty before any solve).
     indirect: Vec<Vec<f32>>,
     tolerance: f64,
     /// Solve the light's [`CurveResponse`] and take its values from it, instead of one column.
@@ -544,7 +545,9 @@ impl HierarchicalIndirect {
     /// linear in the emission: a dimmer or colour change only scales the light's solution) and
     /// returns `None`; otherwise returns the solve to run, on any thread, then to
     /// [`Self::install`]. The job rebuilds the light's direct sample cache first when its
-    /// position or radius changed, and starts from its previous indirect light.
+    /// position or radius changed, and starts from the indirect light the light shows — the
+    /// estimate of `light` when one can be made (docs/DECISIONS.md "Re-aims solved from their
+    /// estimate").
     pub fn update_light(&mut self, i: usize, light: &Light) -> Option<LightSolveJob> {
         let old = &self.lights[i];
         let moved = old.position != light.position || old.radius_m != light.radius;

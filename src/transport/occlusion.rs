@@ -1,7 +1,7 @@
 //! Shadow rays against the scene's occluders: furniture boxes (exact f64 slab tests, in a
 //! [`BoxBvh`] for rays that may meet any of them) and OBJ triangles (a BVH2 from the `obvhs`
-//! crate, f32, built once per scene from the coarse mesh's triangles: the same surface as the
-//! fine mesh's, in fewer pieces; docs/DECISIONS.md "Shadow rays against the coarse OBJ
+//! crate, f32, built once per scene from the coarse mesh's triangles, the same surface as the
+//! fine mesh's in fewer pieces: docs/DECISIONS.md "Shadow rays against the coarse OBJ
 //! triangles").
 //!
 //! Room walls never occlude (the room is convex); only boxes and meshes can, so a scene
@@ -50,7 +50,7 @@ impl Occluders {
     /// The boxes and OBJ triangles of a scene. Returns `None` when nothing can occlude (an
     /// empty convex room), so callers skip visibility entirely.
     pub fn of_scene(scene: &Scene) -> Option<Self> {
-        let triangles: Vec<[DVec3; 3]> = mesh_triangles(&scene.coarse, scene).collect();
+        let triangles: Vec<[DVec3; 3]> = mesh_triangles(occluder_mesh(scene), scene).collect();
         (!scene.boxes.is_empty() || !triangles.is_empty()).then(|| Self::from_parts(&scene.boxes, &triangles))
     }
 
@@ -300,10 +300,21 @@ pub fn hash_occluders(scene: &Scene, h: &mut Fnv64) {
             h.f64(v.x).f64(v.y).f64(v.z);
         }
     }
-    for triangle in mesh_triangles(&scene.coarse, scene) {
+    for triangle in mesh_triangles(occluder_mesh(scene), scene) {
         for p in triangle {
             h.f64(p.x).f64(p.y).f64(p.z);
         }
+    }
+}
+
+/// The mesh whose OBJ triangles the occluders hold: the coarse one, or the fine one when a room
+/// sets `solver_patch_size` below `patch_size` — whichever cuts the same surfaces into fewer
+/// pieces.
+fn occluder_mesh(scene: &Scene) -> &PatchMesh {
+    if scene.coarse.patches.len() <= scene.fine.patches.len() {
+        &scene.coarse
+    } else {
+        &scene.fine
     }
 }
 

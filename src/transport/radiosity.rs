@@ -616,6 +616,27 @@ fn norm_2(v: &[f64]) -> f64 {
     dot(v, v).sqrt()
 }
 
+/// `max |v_i|`, NaN when any entry is NaN (`f64::max` alone would drop it, and a NaN residual
+/// would pass for a certified one).
 fn norm_inf(v: &[f64]) -> f64 {
-    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+    v.iter().fold(0.0, |m: f64, x| {
+        if m.is_nan() || x.is_nan() {
+            f64::NAN
+        } else {
+            m.max(x.abs())
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::norm_inf;
+
+    #[test]
+    fn the_max_norm_keeps_a_nan_wherever_it_is() {
+        assert_eq!(norm_inf(&[1.0, -3.0, 2.0]), 3.0);
+        for v in [[f64::NAN, 1.0, 2.0], [1.0, f64::NAN, 2.0], [1.0, 2.0, f64::NAN]] {
+            assert!(norm_inf(&v).is_nan(), "{v:?}");
+        }
+    }
 }

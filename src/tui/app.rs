@@ -95,8 +95,9 @@ pub fn run(room: &Path, options: EditorOptions, limit: &MemoryLimit) -> Result<(
     };
     // Temporaries of a save that was killed midway (docs/DECISIONS.md "Saving").
     let removed = scene::save::remove_stale_temporaries(room).unwrap_or_default();
-    // What loading repaired (OBJ faces left out or turned) shows until the first key.
-    let mut messages = saved_scene.notes.clone();
+    // What loading repaired (OBJ faces left out or turned) shows until the first key, after
+    // what the start itself has to say (a restored recovery file, the terminal's hint).
+    let mut messages: Vec<String> = loading_notes(&saved_scene).into_iter().collect();
     if !removed.is_empty() {
         messages.push(format!(
             "removed {} temporary file(s) an interrupted save left beside the room file",
@@ -106,9 +107,23 @@ pub fn run(room: &Path, options: EditorOptions, limit: &MemoryLimit) -> Result<(
     let mut session = TerminalSession::enter(options.graphics)?;
     let mut app = App::start(saved_scene, restored, loaded, room, *limit, &session, options)?;
     if !messages.is_empty() {
+        messages.splice(0..0, app.model.message.take());
         app.model.message = Some(messages.join("; "));
     }
     app.run(&mut session)
+}
+
+/// What loading `scene` repaired ([`scene::Scene::notes`]), for the one-line message: the note
+/// itself, or when there are several, how many (`haiko plan` prints them all) and the first.
+fn loading_notes(scene: &scene::Scene) -> Option<String> {
+    match scene.notes.as_slice() {
+        [] => None,
+        [one] => Some(one.clone()),
+        [first, ..] => Some(format!(
+            "{} notes on loading (`haiko plan` lists them): {first}",
+            scene.notes.len()
+        )),
+    }
 }
 
 /// The editor's model for a freshly loaded scene: the plan's orders, as if the file said them.
@@ -479,8 +494,9 @@ impl App {
             ..model.polar
         };
         fresh.message = Some(format!(
-            "reloaded {} (the edits were dropped)",
-            self.room.display()
+            "reloaded {} (the edits were dropped){}",
+            self.room.display(),
+            loading_notes(&scene).map_or(String::new(), |n| format!("; {n}"))
         ));
         self.model = fresh;
         self.loaded = loaded;
@@ -657,6 +673,21 @@ mod tests {
     use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
     use super::*;
+
+    #[test]
+    fn loading_notes_fit_the_message_line() {
+        let mut scene = crate::scene::load::test_room(
+            "version = 1\n[room]\nsize = [3.0, 3.0, 2.5]\n[room.reflectance]\nfloor = 0.2\nwalls = 0.5\nceiling = 0.7\n",
+        );
+        assert_eq!(loading_notes(&scene), None);
+        scene.notes = vec!["mesh[0]: one".into()];
+        assert_eq!(loading_notes(&scene).as_deref(), Some("mesh[0]: one"));
+        scene.notes.push("mesh[1]: two".into());
+        assert_eq!(
+            loading_notes(&scene).as_deref(),
+            Some("2 notes on loading (`haiko plan` lists them): mesh[0]: one")
+        );
+    }
 
     #[test]
     fn terminal_events_become_messages() {

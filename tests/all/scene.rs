@@ -658,6 +658,8 @@ fn degenerate_obj_faces_are_left_out_with_a_note_naming_them() {
         .filter(|s| s.name.starts_with("mesh0:"))
         .collect();
     assert_eq!(meshes.len(), 1);
+    // The corner only the left-out faces use (2, 0, 0) does not widen the mesh's bounds.
+    assert_eq!(scene.mesh_bounds[0].max, DVec3::new(1.5, 1.5, 0.0));
     // Only the one real triangle (0.5 m²) was meshed.
     let area: f64 = scene
         .fine
@@ -746,8 +748,8 @@ fn an_inside_out_closed_solid_lights_the_room_as_the_right_way_round() {
     assert_eq!(
         turned.notes,
         [
-            "mesh[0]: OBJ `cube.obj`: 1 closed solid whose faces all turned inwards (clockwise \
-             seen from outside) turned to face outwards (object `cube`)"
+            "mesh[0]: OBJ `cube.obj`: 1 closed solid whose faces all turned into the solid \
+             instead of out of it turned round (object `cube`)"
         ]
     );
     // The cube's top, its side facing the light and the floor beside it: the same light.
