@@ -38,7 +38,7 @@ const PLANE_OFFSET_M: f64 = 1e-9;
 /// of `leaves`, the groups in the order of their first leaf. A patch is compared only with the
 /// groups whose rounded plane (normal to 10⁻⁶, offset to 1 µm) is its own, so a plane split by
 /// the rounding becomes two groups, never one group of two planes.
-pub(crate) fn in_planes(mesh: &PatchMesh, leaves: &[u32]) -> Vec<Vec<u32>> {
+fn in_planes(mesh: &PatchMesh, leaves: &[u32]) -> Vec<Vec<u32>> {
     let mut groups: Vec<(DVec3, f64, Vec<u32>)> = Vec::new();
     let mut by_key: std::collections::HashMap<[i64; 4], Vec<usize>> = std::collections::HashMap::new();
     for &l in leaves {
@@ -59,6 +59,21 @@ pub(crate) fn in_planes(mesh: &PatchMesh, leaves: &[u32]) -> Vec<Vec<u32>> {
         }
     }
     groups.into_iter().map(|(_, _, g)| g).collect()
+}
+
+/// The groups of one surface's `leaves` that get a tree each ([`Tree::build`]): all of them
+/// when they share one normal (a room surface, a box face, a flat OBJ object), else one group
+/// per plane they lie in ([`in_planes`]).
+pub(crate) fn tree_groups(mesh: &PatchMesh, leaves: Vec<u32>) -> Vec<Vec<u32>> {
+    let n0 = mesh.patches[leaves[0] as usize].normal;
+    let planar = leaves
+        .iter()
+        .all(|&l| mesh.patches[l as usize].normal.dot(n0) > 1.0 - PLANE_NORMAL_TOLERANCE);
+    if planar {
+        vec![leaves]
+    } else {
+        in_planes(mesh, &leaves)
+    }
 }
 
 /// A node of the cluster tree: one leaf, or the union of its two children (same surface and
@@ -151,19 +166,10 @@ impl Tree {
             roots: Vec::new(),
             leaf_node: vec![NONE; mesh.patches.len()],
         };
-        for leaves in by_surface.iter_mut().filter(|l| !l.is_empty()) {
-            let n0 = mesh.patches[leaves[0] as usize].normal;
-            let planar = leaves
-                .iter()
-                .all(|&l| mesh.patches[l as usize].normal.dot(n0) > 1.0 - 1e-12);
-            if planar {
-                let root = tree.subtree(mesh, hot, leaves, NONE);
+        for leaves in by_surface.into_iter().filter(|l| !l.is_empty()) {
+            for mut group in tree_groups(mesh, leaves) {
+                let root = tree.subtree(mesh, hot, &mut group, NONE);
                 tree.roots.push(root);
-            } else {
-                for mut group in in_planes(mesh, leaves) {
-                    let root = tree.subtree(mesh, hot, &mut group, NONE);
-                    tree.roots.push(root);
-                }
             }
         }
         tree

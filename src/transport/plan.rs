@@ -9,7 +9,7 @@ use crate::error::printable;
 use crate::photometry::{Curve, Window, ZonalWeights, auto_window, sh_count, truncation_stats};
 use crate::scene::{DirectMode, PatchMesh, Scene, SurfaceKind};
 use crate::transport::formfactor::FormFactorOptions;
-use crate::transport::hierarchy::in_planes;
+use crate::transport::hierarchy::tree_groups;
 use crate::transport::interreflection::{
     COARSE_VISIBILITY_ABOVE_LEAVES, InterreflectionOptions, RELAXED_LINKS_ABOVE_LEAVES,
 };
@@ -262,7 +262,8 @@ pub fn plan_graded(scene: &Scene, options: PlanOptions) -> (Plan, Option<SolverM
 /// plane"), and the roots that see each other are linked pair by pair.
 const MANY_OBJ_PLANES: usize = 1000;
 
-/// Number of planes the OBJ surfaces' leaves (patches of `mesh`) lie in.
+/// Number of cluster trees the OBJ surfaces' leaves (patches of `mesh`) make: one per plane
+/// they lie in, one for a flat object ([`tree_groups`]).
 fn obj_planes(scene: &Scene, mesh: &PatchMesh) -> usize {
     let mut by_surface: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
     for (i, patch) in mesh.patches.iter().enumerate() {
@@ -274,8 +275,8 @@ fn obj_planes(scene: &Scene, mesh: &PatchMesh) -> usize {
         }
     }
     by_surface
-        .values()
-        .map(|leaves| in_planes(mesh, leaves).len())
+        .into_values()
+        .map(|leaves| tree_groups(mesh, leaves).len())
         .sum()
 }
 
