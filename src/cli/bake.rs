@@ -5,8 +5,7 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 use std::time::Instant;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Error, Result, check_finite, printable};
 use crate::session::budget::{EngineKind, Estimate, LimitSource, MemoryLimit};
 use crate::transport::bake::{Bake, Progress};

@@ -9,8 +9,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Error, Result};
 use crate::metrics::{Check, SurfaceResult, SurfaceSummary};
 use crate::session::DesignNumbers;

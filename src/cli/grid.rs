@@ -5,8 +5,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Error, Result, check_finite, printable};
 use crate::metrics::work_plane::{GridStats, WorkPlane};
 use crate::scene::DirectMode;

@@ -10,8 +10,7 @@ use std::str::FromStr;
 use glam::DVec3;
 use serde::Serialize;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Error, Result, check_finite, printable};
 use crate::render::{DisplayMode, aim_direction};
 use crate::scene::{DirectMode, Receiver};

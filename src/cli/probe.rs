@@ -3,11 +3,10 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Result, check_finite};
 use crate::scene::DirectMode;
-use crate::scene::points::POINTS_HEADER;
+use crate::scene::points::{POINTS_HEADER, read_points};
 use crate::session::budget::MemoryLimit;
 use crate::transport::direct::Receiver;
 
@@ -30,7 +29,7 @@ pub fn run(
     limit: &MemoryLimit,
 ) -> Result<()> {
     let scene = load_room(room)?;
-    let receivers = crate::scene::points::read_points(points, scene.room_size)?;
+    let receivers = read_points(points, scene.room_size)?;
     let mut session = open_session(scene, !direct_only, limit)?;
     let lux = session.illuminance_at(&receivers, direct_only, mode)?;
     check_finite("probe: an illuminance", lux.iter().copied())?;

@@ -7,8 +7,7 @@ use std::time::Instant;
 
 use clap::ValueEnum;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Error, Result, printable};
 use crate::fsio;
 use crate::render::{DisplayMode, DisplayShader, LuxScale, write_pfm};

@@ -3,8 +3,7 @@
 
 use std::path::Path;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Result, printable};
 use crate::fsio;
 use crate::report::{ReportOptions, report_html};

@@ -7,8 +7,7 @@ use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
 
-use crate::cli::load_room;
-use crate::cli::open_session;
+use crate::cli::{load_room, open_session};
 use crate::error::{Error, Result};
 use crate::session::budget::MemoryLimit;
 use crate::session::frame::MAX_SIDE_PX;

@@ -576,9 +576,8 @@ impl Loader<'_> {
         }
     }
 
-    /// Reads, places and checks one `[[mesh]]`; returns its surfaces and world bounds.
-    /// The OBJ of `[[mesh]]` number `index`, placed and checked to lie in the room, its bounds,
-    /// and the import's notes (each starting with the field).
+    /// Reads, places and checks `[[mesh]]` number `index`: its surfaces, its world bounds and the
+    /// import's notes (each starting with the field).
     fn obj(
         &self,
         spec: &MeshSpec,

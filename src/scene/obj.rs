@@ -137,6 +137,19 @@ pub fn parse_obj(
         });
         objects.push(group.name.as_str());
     }
+    if !degenerate.is_empty() {
+        notes.push(format!(
+            "OBJ `{file}`: {} degenerate face{} (area below {MIN_FACE_AREA:e} m² after placement) \
+             left out: {}",
+            degenerate.len(),
+            plural(degenerate.len()),
+            listed(
+                degenerate
+                    .iter()
+                    .map(|f| format!("face {} (line {})", f.number, f.line))
+            )
+        ));
+    }
     let (turned, touched) = turn_closed_solids_outwards(&mut surfaces);
     if turned > 0 {
         let mut named: Vec<&str> = Vec::new();
@@ -148,28 +161,17 @@ pub fn parse_obj(
         notes.push(format!(
             "OBJ `{file}`: {turned} closed solid{} whose faces all turned into the solid instead \
              of out of it turned round (object{} {})",
-            if turned == 1 { "" } else { "s" },
-            if named.len() == 1 { "" } else { "s" },
+            plural(turned),
+            plural(named.len()),
             listed(named.iter().map(|n| format!("`{n}`")))
         ));
     }
-    if !degenerate.is_empty() {
-        notes.insert(
-            0,
-            format!(
-                "OBJ `{file}`: {} degenerate face{} (area below {MIN_FACE_AREA:e} m² after placement) \
-                 left out: {}",
-                degenerate.len(),
-                if degenerate.len() == 1 { "" } else { "s" },
-                listed(
-                    degenerate
-                        .iter()
-                        .map(|f| format!("face {} (line {})", f.number, f.line))
-                )
-            ),
-        );
-    }
     Ok(ObjImport { surfaces, notes })
+}
+
+/// "s" unless `n` is 1.
+fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
 }
 
 /// The first three of `items` joined with ", ", then how many more there are.
@@ -623,10 +625,7 @@ fn turn_closed_solids_outwards(surfaces: &mut [ObjSurface]) -> (usize, Vec<usize
             owner.push((k, t));
             corners.push(triangle.map(|i| {
                 let next = welded.len() as u32;
-                let key = (g.positions[i as usize] + DVec3::ZERO)
-                    .to_array()
-                    .map(f64::to_bits);
-                *welded.entry(key).or_insert(next)
+                *welded.entry(exact_key(g.positions[i as usize])).or_insert(next)
             }));
         }
     }
@@ -738,6 +737,11 @@ fn turn_closed_solids_outwards(surfaces: &mut [ObjSurface]) -> (usize, Vec<usize
     (wrong.len(), (0..surfaces.len()).filter(|&k| changed[k]).collect())
 }
 
+/// A point's coordinates bit for bit, −0 as +0: equal keys are the same point exactly.
+fn exact_key(p: DVec3) -> [u64; 3] {
+    (p + DVec3::ZERO).to_array().map(f64::to_bits)
+}
+
 /// The first triangle that appears twice facing the same way among `surfaces` (world frame):
 /// the `[[mesh]]` indices of its first and second appearance and its corners (m). Coincident
 /// faces each reflect the light the other also reflects, so their interreflection has no
@@ -750,9 +754,9 @@ pub fn first_repeated_triangle(surfaces: &[ObjSurface]) -> Option<(usize, usize,
         let g = &surface.geometry;
         for triangle in &g.triangles {
             let corners = triangle.map(|i| g.positions[i as usize]);
-            // `+ 0.0` turns −0 into +0; the rotation starting at the smallest corner keeps the
-            // turn of the triangle and so the side it faces.
-            let bits = corners.map(|c| (c + DVec3::ZERO).to_array().map(f64::to_bits));
+            // The rotation starting at the smallest corner keeps the turn of the triangle and so
+            // the side it faces.
+            let bits = corners.map(exact_key);
             let first = (0..3).min_by_key(|&k| bits[k]).unwrap_or(0);
             let key = [bits[first], bits[(first + 1) % 3], bits[(first + 2) % 3]];
             if let Some(&earlier) = seen.get(&key) {

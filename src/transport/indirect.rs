@@ -1391,6 +1391,15 @@ solver_patch_size = 0.5
         engine.light_radiosity(i).values(engine.n_leaves())
     }
 
+    /// Light 0's leaf radiosity (first channel) in a fresh engine of `scene`.
+    fn fresh_radiosity(scene: &Scene) -> Vec<f64> {
+        radiosity(&build(scene), 0).iter().map(|b| b[0]).collect()
+    }
+
+    fn max_difference(a: &[f64], b: &[f64]) -> f64 {
+        a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    }
+
     fn peak_difference(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
         a.iter()
             .zip(b)
@@ -1669,16 +1678,11 @@ solver_patch_size = 0.5
             ..e
         }];
         let start = warm_start(&job.engine, &job.indirect, &e).expect("a start");
-        let fresh = build(&reaimed);
-        let new: Vec<f64> = radiosity(&fresh, 0).iter().map(|b| b[0]).collect();
-        let distance = |x: &PatchColumns| {
-            x.values
-                .iter()
-                .zip(&new)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max)
-        };
-        let (from_old, from_start) = (distance(&old[0]), distance(&start[0]));
+        let new = fresh_radiosity(&reaimed);
+        let (from_old, from_start) = (
+            max_difference(&old[0].values, &new),
+            max_difference(&start[0].values, &new),
+        );
         assert!(
             from_start < 0.2 * from_old,
             "the start is {from_start} from the solution, the old radiosity {from_old}"
@@ -1709,15 +1713,10 @@ solver_patch_size = 0.5
         assert_eq!(job.indirect, estimate.leaf_indirect);
         let cache = job.cache.clone().expect("the light kept its direct cache");
         let e = cache.emission(&LightState::from(&reaimed.lights[0]));
-        let new: Vec<f64> = radiosity(&build(&reaimed), 0).iter().map(|b| b[0]).collect();
+        let new = fresh_radiosity(&reaimed);
         let distance = |indirect: &[Vec<f32>]| {
             let start = warm_start(&job.engine, indirect, &e).expect("a start");
-            start[0]
-                .values
-                .iter()
-                .zip(&new)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max)
+            max_difference(&start[0].values, &new)
         };
         let (from_estimate, from_solved) = (distance(&job.indirect), distance(&solved));
         assert!(

@@ -406,6 +406,37 @@ fn area_integrated_direct_light_equals_the_flux_in_a_closed_room() {
     assert!((total / phi - 1.0).abs() < 0.005, "Σ flux {total} vs Φ {phi}");
 }
 
+/// What loading repaired reaches the user of every command: `haiko plan` writes it on standard
+/// error (its standard output stays the plan) and lists it in `--json`.
+#[test]
+fn plan_writes_what_loading_repaired() {
+    let cache = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("flat.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n",
+    )
+    .unwrap();
+    let room = dir.path().join("room.toml");
+    std::fs::write(
+        &room,
+        "version = 1\n[room]\nsize = [4.0, 3.0, 2.5]\n[room.reflectance]\nfloor = 0.2\nwalls = 0.5\n\
+         ceiling = 0.7\n[[mesh]]\nfile = \"flat.obj\"\ntranslate = [0.5, 0.5, 0.5]\nup = \"z\"\n\
+         [[light]]\nname = \"a\"\nposition = [2.0, 1.5, 2.4]\nlid = [[0, 100], [90, 0]]\n",
+    )
+    .unwrap();
+    let note = "mesh[0]: OBJ `flat.obj`: 1 degenerate face (area below 1e-12 m² after placement) \
+                left out: face 2 (line 6)";
+    let o = haiko(cache.path(), &["plan", room.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), format!("haiko: note: {note}\n"));
+    assert!(!stdout(&o).contains("note"), "{}", stdout(&o));
+    let o = haiko(cache.path(), &["plan", room.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["notes"], serde_json::json!([note]));
+}
+
 #[test]
 fn plan_and_bake_commands_report_their_decisions() {
     let cache = tempfile::tempdir().unwrap();
