@@ -76,8 +76,9 @@ pub(crate) fn tree_groups(mesh: &PatchMesh, leaves: Vec<u32>) -> Vec<Vec<u32>> {
     }
 }
 
-/// A node of the cluster tree: one leaf, or the union of its two children (same surface and
-/// plane).
+/// A node of the cluster tree: one leaf, the union of its two children of one plane, or a
+/// *volume cluster* (the children of one non-planar OBJ surface in different planes;
+/// docs/DECISIONS.md "Volume clusters").
 #[derive(Debug, Clone, PartialEq)]
 pub struct Node {
     /// Surface of its leaves.
@@ -94,7 +95,8 @@ pub struct Node {
     pub area: f64,
     /// Area-weighted centroid (world, m).
     pub centroid: DVec3,
-    /// Unit normal (world) of its leaves.
+    /// Unit normal (world) of its leaves; of a volume cluster, the direction of its leaves'
+    /// area-weighted normal sum (the normal its links are computed for).
     pub normal: DVec3,
     /// Bounds of its leaves' corners (world, m).
     pub lo: DVec3,
@@ -109,18 +111,46 @@ pub struct Node {
     /// True when some leaf below lies next to a light (a possible hot spot): such a cluster is
     /// never linked or gathered as a whole.
     pub hot: bool,
+    /// True for a volume cluster: its leaves lie in more than one plane.
+    pub volume: bool,
+    /// Upper bound (radians) of the angle between `normal` and any leaf normal below (0 unless
+    /// `volume`; π when the normals cancel).
+    pub cone: f64,
 }
 
 impl Node {
+    /// A cluster of `surface` under `parent`, before [`Tree::join`] fills it in from its
+    /// children.
+    fn unjoined(surface: u32, parent: u32, normal: DVec3, volume: bool) -> Self {
+        Node {
+            surface,
+            children: [NONE, NONE],
+            parent,
+            leaf: NONE,
+            leaf_count: 0,
+            area: 0.0,
+            centroid: DVec3::ZERO,
+            normal,
+            lo: DVec3::ZERO,
+            hi: DVec3::ZERO,
+            diameter: 0.0,
+            representative: NONE,
+            full_rect: false,
+            hot: false,
+            volume,
+            cone: 0.0,
+        }
+    }
+
     /// True for a leaf.
     pub fn is_leaf(&self) -> bool {
         self.leaf != NONE
     }
 
-    /// True when the (planar) node faces the point `p` (unit normal `n`) and some of it lies
-    /// in front of `p`'s tangent plane: it can send `p` light.
+    /// True when the node may send the point `p` (unit normal `n`) light: some of it lies in
+    /// front of `p`'s tangent plane, and a planar node faces `p`.
     pub fn seen_from(&self, p: DVec3, n: DVec3) -> bool {
-        if self.normal.dot(p - self.centroid) <= 0.0 {
+        if !self.volume && self.normal.dot(p - self.centroid) <= 0.0 {
             return false;
         }
         let top = (0..3)
@@ -136,7 +166,7 @@ impl Node {
 pub struct Tree {
     /// All nodes.
     pub nodes: Vec<Node>,
-    /// The roots (one per planar surface; one per plane of a non-planar OBJ surface).
+    /// The roots, one per surface (a volume cluster for a non-planar OBJ surface).
     pub roots: Vec<u32>,
     /// Per leaf (patch index), its node.
     pub leaf_node: Vec<u32>,
@@ -145,11 +175,13 @@ pub struct Tree {
 impl Tree {
     /// Builds the trees over the patches of `mesh`: per surface, recursive halving of the leaf
     /// centroids' bounding box along its longest side. Surfaces whose patches do not all share
-    /// one normal (OBJ objects) get a tree per plane their patches lie in ([`in_planes`]): the
-    /// faces of a table top, a shelf or a book are clusters like a wall's, and only a patch
-    /// alone in its plane (a curved mesh) is a root by itself (docs/DECISIONS.md
-    /// "Interreflection", "OBJ surfaces clustered by plane"). `hot` marks leaves no cluster holding which is
-    /// linked as a whole (next to a light, or in a slot; may be empty: none).
+    /// one normal (OBJ objects) get a planar tree per plane their patches lie in ([`in_planes`]):
+    /// the faces of a table top, a shelf or a book are clusters like a wall's. Those trees are
+    /// the leaves of a volume-cluster tree over the surface, halved the same way by their
+    /// centroids, so a curved mesh — a patch alone in each plane — is one root, not a root per
+    /// patch (docs/DECISIONS.md "Interreflection", "OBJ surfaces clustered by plane", "Volume
+    /// clusters"). `hot` marks leaves no cluster holding which is linked as a whole (next to a
+    /// light, or in a slot; may be empty: none).
     pub fn build(mesh: &PatchMesh, hot: &[bool]) -> Self {
         let n_surfaces = mesh
             .patches
@@ -167,12 +199,100 @@ impl Tree {
             leaf_node: vec![NONE; mesh.patches.len()],
         };
         for leaves in by_surface.into_iter().filter(|l| !l.is_empty()) {
-            for mut group in tree_groups(mesh, leaves) {
-                let root = tree.subtree(mesh, hot, &mut group, NONE);
-                tree.roots.push(root);
-            }
+            let mut groups: Vec<(DVec3, Vec<u32>)> = tree_groups(mesh, leaves)
+                .into_iter()
+                .map(|g| {
+                    let (sum, area) = g.iter().fold((DVec3::ZERO, 0.0), |(s, a), &l| {
+                        let p = &mesh.patches[l as usize];
+                        (s + p.centroid * p.area, a + p.area)
+                    });
+                    let centroid = if area > 0.0 {
+                        sum / area
+                    } else {
+                        mesh.patches[g[0] as usize].centroid
+                    };
+                    (centroid, g)
+                })
+                .collect();
+            let root = tree.volume_subtree(mesh, hot, &mut groups, NONE);
+            tree.roots.push(root);
         }
         tree
+    }
+
+    /// Appends the subtree over the plane `groups` (each with its centroid) of one surface and
+    /// returns its root: the group's planar tree for one group, else a volume cluster over the
+    /// two halves of the groups' centroids' bounding box along its longest side.
+    fn volume_subtree(
+        &mut self,
+        mesh: &PatchMesh,
+        hot: &[bool],
+        groups: &mut [(DVec3, Vec<u32>)],
+        parent: u32,
+    ) -> u32 {
+        if let [(_, leaves)] = groups {
+            return self.subtree(mesh, hot, leaves, parent);
+        }
+        let (clo, chi) = groups
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), (c, _)| {
+                (lo.min(*c), hi.max(*c))
+            });
+        let axis = (chi - clo).max_position();
+        let mid = 0.5 * (clo[axis] + chi[axis]);
+        let mut split = partition(groups, |(c, _)| c[axis] < mid);
+        if split == 0 || split == groups.len() {
+            groups.sort_by(|a, b| a.0[axis].total_cmp(&b.0[axis]));
+            split = groups.len() / 2;
+        }
+        let index = self.nodes.len() as u32;
+        let surface = mesh.patches[groups[0].1[0] as usize].surface;
+        self.nodes.push(Node::unjoined(surface, parent, DVec3::Z, true));
+        let (left, right) = groups.split_at_mut(split);
+        let a = self.volume_subtree(mesh, hot, left, index);
+        let b = self.volume_subtree(mesh, hot, right, index);
+        self.join(mesh, index, [a, b]);
+        let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
+        let sum = na.normal * na.area + nb.normal * nb.area;
+        let normal = sum.try_normalize().unwrap_or(na.normal);
+        let cone = [na, nb]
+            .iter()
+            .map(|c| c.normal.dot(normal).clamp(-1.0, 1.0).acos() + c.cone)
+            .fold(0.0, f64::max)
+            .min(std::f64::consts::PI);
+        let node = &mut self.nodes[index as usize];
+        node.normal = normal;
+        node.cone = cone;
+        index
+    }
+
+    /// Fills in node `index` as the union of its `children` (already built): leaf count, area,
+    /// centroid, bounds, representative leaf, and whether it is hot.
+    fn join(&mut self, mesh: &PatchMesh, index: u32, [a, b]: [u32; 2]) {
+        let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
+        let hot_children = na.hot || nb.hot;
+        let leaf_count = na.leaf_count + nb.leaf_count;
+        let area = na.area + nb.area;
+        let centroid = (na.centroid * na.area + nb.centroid * nb.area) / area;
+        let (lo, hi) = (na.lo.min(nb.lo), na.hi.max(nb.hi));
+        let representative = [na.representative, nb.representative]
+            .into_iter()
+            .min_by(|x, y| {
+                let dx = mesh.patches[*x as usize].centroid.distance_squared(centroid);
+                let dy = mesh.patches[*y as usize].centroid.distance_squared(centroid);
+                dx.total_cmp(&dy)
+            })
+            .unwrap_or(NONE);
+        let node = &mut self.nodes[index as usize];
+        node.children = [a, b];
+        node.leaf_count = leaf_count;
+        node.area = area;
+        node.centroid = centroid;
+        node.lo = lo;
+        node.hi = hi;
+        node.diameter = (hi - lo).length();
+        node.representative = representative;
+        node.hot = hot_children;
     }
 
     /// Appends the subtree over `leaves` (preorder) and returns its root.
@@ -204,6 +324,8 @@ impl Tree {
                 full_rect: patch.n_vertices == 4
                     && (flat_area(lo, hi, patch.normal) - patch.area).abs() <= 1e-9 * patch.area,
                 hot: hot.get(leaf as usize).copied().unwrap_or(false),
+                volume: false,
+                cone: 0.0,
             });
             self.leaf_node[leaf as usize] = index;
             return index;
@@ -229,54 +351,33 @@ impl Tree {
             });
             split = leaves.len() / 2;
         }
-        self.nodes.push(Node {
-            surface: mesh.patches[leaves[0] as usize].surface,
-            children: [NONE, NONE],
-            parent,
-            leaf: NONE,
-            leaf_count: leaves.len() as u32,
-            area: 0.0,
-            centroid: DVec3::ZERO,
-            normal: mesh.patches[leaves[0] as usize].normal,
-            lo: DVec3::ZERO,
-            hi: DVec3::ZERO,
-            diameter: 0.0,
-            representative: NONE,
-            full_rect: false,
-            hot: false,
-        });
+        let patch = &mesh.patches[leaves[0] as usize];
+        self.nodes
+            .push(Node::unjoined(patch.surface, parent, patch.normal, false));
         let (left, right) = leaves.split_at_mut(split);
         let a = self.subtree(mesh, hot, left, index);
         let b = self.subtree(mesh, hot, right, index);
-        let (na, nb) = (&self.nodes[a as usize], &self.nodes[b as usize]);
-        let hot_children = na.hot || nb.hot;
-        let area = na.area + nb.area;
-        let centroid = (na.centroid * na.area + nb.centroid * nb.area) / area;
-        let (lo, hi) = (na.lo.min(nb.lo), na.hi.max(nb.hi));
-        let representative = [na.representative, nb.representative]
-            .into_iter()
-            .min_by(|x, y| {
-                let dx = mesh.patches[*x as usize].centroid.distance_squared(centroid);
-                let dy = mesh.patches[*y as usize].centroid.distance_squared(centroid);
-                dx.total_cmp(&dy)
-            })
-            .unwrap_or(NONE);
+        self.join(mesh, index, [a, b]);
         let node = &mut self.nodes[index as usize];
-        node.children = [a, b];
-        node.area = area;
-        node.centroid = centroid;
-        node.lo = lo;
-        node.hi = hi;
-        node.diameter = (hi - lo).length();
-        node.representative = representative;
-        node.full_rect = (flat_area(lo, hi, node.normal) - area).abs() <= 1e-9 * area;
-        node.hot = hot_children;
+        node.full_rect = (flat_area(node.lo, node.hi, node.normal) - node.area).abs() <= 1e-9 * node.area;
         index
     }
 
     /// Number of leaves.
     pub fn n_leaves(&self) -> usize {
         self.leaf_node.len()
+    }
+
+    /// The root of the planar tree holding node `i`: its highest ancestor below any volume
+    /// cluster.
+    pub fn plane_root(&self, mut i: u32) -> u32 {
+        loop {
+            let p = self.nodes[i as usize].parent;
+            if p == NONE || self.nodes[p as usize].volume {
+                return i;
+            }
+            i = p;
+        }
     }
 }
 
@@ -341,6 +442,16 @@ pub struct Link {
 pub fn plane_axes(normal: DVec3) -> [usize; 2] {
     let axis = normal.abs().max_position();
     [(axis + 1) % 3, (axis + 2) % 3]
+}
+
+/// The offsets (one more, from 0) of entries in runs of these `counts`.
+fn offsets_of(counts: &[u32]) -> Vec<usize> {
+    let mut offsets = Vec::with_capacity(counts.len() + 1);
+    offsets.push(0usize);
+    for &c in counts {
+        offsets.push(offsets.last().expect("starts with 0") + c as usize);
+    }
+    offsets
 }
 
 /// Per node, where its entries' gradients start (a leaf's entries keep none), given the entries'
@@ -524,6 +635,101 @@ pub struct Balance {
     pub defect: f64,
 }
 
+/// A volume cluster's linear correction towards the node at `d` (world, from the cluster):
+/// `u/(n̄·u)` with `u = d/|d|` (zero for a planar node). The links only join a volume cluster
+/// to nodes well in front of all its leaves ([`crate::transport::links`]), so `n̄·u` is far from
+/// zero; it is kept from below at [`MIN_FACING`] all the same.
+fn facing_weight(node: &Node, d: DVec3) -> [f32; 3] {
+    if !node.volume {
+        return [0.0; 3];
+    }
+    let u = d.normalize_or_zero();
+    let w = u / node.normal.dot(u).max(MIN_FACING);
+    [w.x as f32, w.y as f32, w.z as f32]
+}
+
+/// The smallest cosine between a volume cluster's normal and the direction of a node linked
+/// with it.
+pub const MIN_FACING: f64 = 0.1;
+
+/// The entries of the links with a volume cluster at either end (docs/DECISIONS.md "Volume
+/// clusters"), by receiving node like the others. A volume cluster's leaves of unit normals `n`
+/// receive from the direction `u` (unit, towards a far source) `E(n) = E(n̄)·(n·u)/(n̄·u)`,
+/// linear in `n`: the link's irradiance at the cluster's normal `n̄` plus `W·(n − n̄)`, `W =
+/// E(n̄)·u/(n̄·u)`, is what each leaf facing the source gets. Likewise a volume cluster sends
+/// `B̄ + P·u/(n̄·u)` towards `u`, `B̄` its mean radiosity and `P = Σ A_l B_l (n_l − n̄) / A` its
+/// normal moment.
+#[derive(Debug, Clone)]
+struct VolumeEntries {
+    /// Entries `offsets[r]..offsets[r + 1]` are those of receiving node `r`.
+    offsets: Vec<usize>,
+    sources: Vec<u32>,
+    /// `G/A_r`.
+    coefficients: Vec<f32>,
+    /// The in-plane gradient over a planar cluster receiving (zero otherwise).
+    gradients: Vec<[f32; 2]>,
+    /// `u/(n̄·u)` of a volume receiver towards its source (zero for a planar receiver).
+    to_source: Vec<[f32; 3]>,
+    /// `u/(n̄·u)` of a volume source towards its receiver (zero for a planar source).
+    to_receiver: Vec<[f32; 3]>,
+    /// Per node whose parent is a volume cluster, its normal less the parent's (zero
+    /// otherwise: the leaves below a planar node share its normal).
+    normal_offsets: Vec<DVec3>,
+}
+
+impl VolumeEntries {
+    /// Zeroed entries for these offsets by receiving node.
+    fn with_offsets(offsets: Vec<usize>) -> Self {
+        let n = *offsets.last().expect("one more offset than nodes");
+        VolumeEntries {
+            offsets,
+            sources: vec![0; n],
+            coefficients: vec![0.0; n],
+            gradients: vec![[0.0; 2]; n],
+            to_source: vec![[0.0; 3]; n],
+            to_receiver: vec![[0.0; 3]; n],
+            normal_offsets: Vec::new(),
+        }
+    }
+
+    /// Bytes held.
+    fn bytes(&self) -> usize {
+        self.offsets.len() * 8 + self.sources.len() * (4 + 4 + 8 + 12 + 12) + self.normal_offsets.len() * 24
+    }
+
+    /// Adds receiving node `r`'s volume entries to its gather from the node radiosity `b` and
+    /// normal moments `moment` (`k` columns; 3 per column): `value`, the in-plane `grad`
+    /// (2 per column) and the normal gradient `w` (3 per column).
+    #[allow(clippy::too_many_arguments)]
+    fn gather(
+        &self,
+        r: usize,
+        b: &[f64],
+        moment: &[f64],
+        k: usize,
+        value: &mut [f64],
+        grad: &mut [f64],
+        w: &mut [f64],
+    ) {
+        for e in self.offsets[r]..self.offsets[r + 1] {
+            let s = self.sources[e] as usize;
+            let (f, [gu, gv]) = (f64::from(self.coefficients[e]), self.gradients[e].map(f64::from));
+            let to_receiver = self.to_receiver[e].map(f64::from);
+            let to_source = self.to_source[e].map(f64::from);
+            for c in 0..k {
+                let m = &moment[(s * k + c) * 3..(s * k + c) * 3 + 3];
+                let x = b[s * k + c] + m[0] * to_receiver[0] + m[1] * to_receiver[1] + m[2] * to_receiver[2];
+                value[c] += f * x;
+                grad[2 * c] += gu * x;
+                grad[2 * c + 1] += gv * x;
+                for j in 0..3 {
+                    w[3 * c + j] += f * x * to_source[j];
+                }
+            }
+        }
+    }
+}
+
 /// The hierarchical form-factor operator `F` on the leaves.
 #[derive(Debug, Clone)]
 pub struct Operator {
@@ -541,6 +747,8 @@ pub struct Operator {
     gradients: Vec<[f32; 2]>,
     /// Per node, its centroid's in-plane offset from its parent's centroid (m).
     offsets_to_parent: Vec<[f64; 2]>,
+    /// The entries with a volume cluster at either end, when the tree has volume clusters.
+    volume: Option<VolumeEntries>,
     /// Number of symmetric links.
     n_links: usize,
     /// Per leaf: the row scaling (applied to what it receives) and the column scaling (applied
@@ -556,31 +764,55 @@ impl Operator {
     /// The operator of `tree` with these links (in runs).
     pub fn new(tree: Tree, runs: &[Vec<Link>]) -> Self {
         let links = || runs.iter().flatten();
-        let n_links = links().count();
         let n_nodes = tree.nodes.len();
+        let has_volume = tree.nodes.iter().any(|n| n.volume);
+        let involves_volume =
+            |l: &Link| has_volume && (tree.nodes[l.a as usize].volume || tree.nodes[l.b as usize].volume);
         let mut counts = vec![0usize; n_nodes + 1];
+        let mut volume_counts = vec![0usize; n_nodes + 1];
         for l in links() {
+            let counts = if involves_volume(l) {
+                &mut volume_counts
+            } else {
+                &mut counts
+            };
             counts[l.a as usize + 1] += 1;
             counts[l.b as usize + 1] += 1;
         }
         for i in 0..n_nodes {
             counts[i + 1] += counts[i];
+            volume_counts[i + 1] += volume_counts[i];
         }
         let offsets = counts.clone();
         let gradient_start = gradient_starts(&tree, &offsets);
         let mut fill = counts;
-        let mut sources = vec![0u32; 2 * n_links];
-        let mut coefficients = vec![0f32; 2 * n_links];
+        let mut sources = vec![0u32; offsets[n_nodes]];
+        let mut coefficients = vec![0f32; offsets[n_nodes]];
         let mut gradients = vec![[0f32; 2]; gradient_start[n_nodes]];
+        let mut volume = has_volume.then(|| VolumeEntries::with_offsets(volume_counts.clone()));
+        let mut volume_fill = volume_counts;
         for l in links() {
             for (r, s, grad) in [(l.a, l.b, l.grad_a), (l.b, l.a, l.grad_b)] {
-                let r = r as usize;
-                let slot = fill[r];
-                fill[r] += 1;
-                sources[slot] = s;
-                coefficients[slot] = (f64::from(l.g) / tree.nodes[r].area) as f32;
-                if !tree.nodes[r].is_leaf() {
-                    gradients[gradient_start[r] + slot - offsets[r]] = grad;
+                let (ru, su) = (r as usize, s as usize);
+                let coefficient = (f64::from(l.g) / tree.nodes[ru].area) as f32;
+                if involves_volume(l) {
+                    let v = volume.as_mut().expect("made when the tree has volume clusters");
+                    let slot = volume_fill[ru];
+                    volume_fill[ru] += 1;
+                    let (nr, ns) = (&tree.nodes[ru], &tree.nodes[su]);
+                    v.sources[slot] = s;
+                    v.coefficients[slot] = coefficient;
+                    v.gradients[slot] = if nr.volume || nr.is_leaf() { [0.0; 2] } else { grad };
+                    v.to_source[slot] = facing_weight(nr, ns.centroid - nr.centroid);
+                    v.to_receiver[slot] = facing_weight(ns, nr.centroid - ns.centroid);
+                } else {
+                    let slot = fill[ru];
+                    fill[ru] += 1;
+                    sources[slot] = s;
+                    coefficients[slot] = coefficient;
+                    if !tree.nodes[ru].is_leaf() {
+                        gradients[gradient_start[ru] + slot - offsets[ru]] = grad;
+                    }
                 }
             }
         }
@@ -591,6 +823,7 @@ impl Operator {
             sources,
             coefficients,
             gradients,
+            volume,
             [vec![1.0; n], vec![1.0; n]],
         )
     }
@@ -603,6 +836,7 @@ impl Operator {
         sources: Vec<u32>,
         coefficients: Vec<f32>,
         gradients: Vec<[f32; 2]>,
+        mut volume: Option<VolumeEntries>,
         [row_scale, col_scale]: [Vec<f64>; 2],
     ) -> Self {
         let gradient_start = gradient_starts(&tree, &offsets);
@@ -618,15 +852,28 @@ impl Operator {
                 [d[u], d[v]]
             })
             .collect();
+        if let Some(v) = volume.as_mut() {
+            v.normal_offsets = tree
+                .nodes
+                .iter()
+                .map(|node| match node.parent {
+                    NONE => DVec3::ZERO,
+                    p if tree.nodes[p as usize].volume => node.normal - tree.nodes[p as usize].normal,
+                    _ => DVec3::ZERO,
+                })
+                .collect();
+        }
+        let n_links = (sources.len() + volume.as_ref().map_or(0, |v| v.sources.len())) / 2;
         Operator {
             tree,
             offsets,
-            n_links: sources.len() / 2,
+            n_links,
             sources,
             coefficients,
             gradient_start,
             gradients,
             offsets_to_parent,
+            volume,
             row_scale,
             col_scale,
             row_sums: OnceLock::new(),
@@ -643,6 +890,17 @@ impl Operator {
         w.f32s(self.gradients.as_flattened());
         w.f64s(&self.row_scale);
         w.f64s(&self.col_scale);
+        // The volume entries (none: an empty count list).
+        let v = self.volume.as_ref();
+        let counts: Vec<u32> = v.map_or(Vec::new(), |v| {
+            v.offsets.windows(2).map(|o| (o[1] - o[0]) as u32).collect()
+        });
+        w.u32s(&counts);
+        w.u32s(v.map_or(&[], |v| &v.sources));
+        w.f32s(v.map_or(&[], |v| &v.coefficients));
+        w.f32s(v.map_or(&[], |v| v.gradients.as_flattened()));
+        w.f32s(v.map_or(&[], |v| v.to_source.as_flattened()));
+        w.f32s(v.map_or(&[], |v| v.to_receiver.as_flattened()));
     }
 
     /// The operator [`Self::write_to`] wrote for this `tree`, or `None` when what is read does
@@ -655,23 +913,50 @@ impl Operator {
         let coefficients = r.f32s()?;
         let gradients = r.f32s()?;
         let scales = [r.f64s()?, r.f64s()?];
-        let mut offsets = Vec::with_capacity(n_nodes + 1);
-        offsets.push(0usize);
-        for &c in &counts {
-            offsets.push(offsets.last().expect("starts with 0") + c as usize);
-        }
+        let offsets = offsets_of(&counts);
+        let volume_counts = r.u32s()?;
+        let volume = [r.u32s()?];
+        let volume_values = [r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?];
+        let has_volume = tree.nodes.iter().any(|n| n.volume);
+        let volume_offsets = offsets_of(&volume_counts);
+        let [volume_sources] = volume;
+        let [volume_coefficients, volume_gradients, to_source, to_receiver] = volume_values;
+        let m = volume_sources.len();
         let fits = counts.len() == n_nodes
             && offsets[n_nodes] == sources.len()
             && sources.len() == coefficients.len()
-            && sources.len() % 2 == 0
             && sources.iter().all(|&s| (s as usize) < n_nodes)
             && gradients.len() == 2 * gradient_starts(&tree, &offsets)[n_nodes]
             && scales.iter().all(|s| s.len() == tree.n_leaves())
-            && coefficients.iter().chain(&gradients).all(|x| x.is_finite())
+            && volume_counts.len() == if has_volume { n_nodes } else { 0 }
+            && volume_offsets.last() == Some(&m)
+            && (sources.len() + m) % 2 == 0
+            && volume_sources.iter().all(|&s| (s as usize) < n_nodes)
+            && volume_coefficients.len() == m
+            && volume_gradients.len() == 2 * m
+            && to_source.len() == 3 * m
+            && to_receiver.len() == 3 * m
+            && coefficients
+                .iter()
+                .chain(&gradients)
+                .chain(&volume_coefficients)
+                .chain(&volume_gradients)
+                .chain(&to_source)
+                .chain(&to_receiver)
+                .all(|x| x.is_finite())
             && scales.iter().flatten().all(|x| x.is_finite());
         fits.then(|| {
             let gradients = gradients.chunks_exact(2).map(|g| [g[0], g[1]]).collect();
-            Self::from_entries(tree, offsets, sources, coefficients, gradients, scales)
+            let volume = has_volume.then(|| VolumeEntries {
+                offsets: volume_offsets,
+                sources: volume_sources,
+                coefficients: volume_coefficients,
+                gradients: volume_gradients.chunks_exact(2).map(|g| [g[0], g[1]]).collect(),
+                to_source: to_source.chunks_exact(3).map(|g| [g[0], g[1], g[2]]).collect(),
+                to_receiver: to_receiver.chunks_exact(3).map(|g| [g[0], g[1], g[2]]).collect(),
+                normal_offsets: Vec::new(),
+            });
+            Self::from_entries(tree, offsets, sources, coefficients, gradients, volume, scales)
         })
     }
 
@@ -694,6 +979,7 @@ impl Operator {
             + (self.offsets.len() + self.gradient_start.len()) * 8
             + self.tree.nodes.len() * std::mem::size_of::<Node>()
             + (self.row_scale.len() + self.col_scale.len() + self.row_sums.get().map_or(0, Vec::len)) * 8
+            + self.volume.as_ref().map_or(0, VolumeEntries::bytes)
     }
 
     /// `F·X` for a leaf-major block `X` of `width` columns (lx per unit radiosity): pull, gather,
@@ -727,14 +1013,40 @@ impl Operator {
                 b[i * k + c] = w0 * b[c0 * k + c] + w1 * b[c1 * k + c];
             }
         }
-        // Per node: k values then 2k gradient components (u, v per column).
-        let stride = 3 * k;
+        // The volume clusters' normal moments (3 per column), pulled like the radiosity.
+        let moment = match &self.volume {
+            Some(v) => {
+                let mut m = vec![0.0; nodes.len() * k * 3];
+                for (i, node) in nodes.iter().enumerate().rev() {
+                    if !node.volume {
+                        continue;
+                    }
+                    for child in node.children.map(|c| c as usize) {
+                        let w = nodes[child].area / node.area;
+                        let d = v.normal_offsets[child];
+                        for c in 0..k {
+                            let x = b[child * k + c];
+                            for j in 0..3 {
+                                m[(i * k + c) * 3 + j] += w * (m[(child * k + c) * 3 + j] + x * d[j]);
+                            }
+                        }
+                    }
+                }
+                m
+            }
+            None => Vec::new(),
+        };
+        // Per node: k values, 2k gradient components (u, v per column), and with volume
+        // clusters 3k components of the normal gradient.
+        let normal_parts = if self.volume.is_some() { 3 * k } else { 0 };
+        let stride = 3 * k + normal_parts;
         let mut h = vec![0.0; nodes.len() * stride];
         h.par_chunks_mut(stride)
             .enumerate()
             .with_min_len(512)
             .for_each(|(r, out)| {
-                let (value, grad) = out.split_at_mut(k);
+                let (value, rest) = out.split_at_mut(k);
+                let (grad, w) = rest.split_at_mut(2 * k);
                 let entries = self.offsets[r]..self.offsets[r + 1];
                 let links = (&self.sources[entries.clone()], &self.coefficients[entries]);
                 if nodes[r].is_leaf() {
@@ -743,8 +1055,12 @@ impl Operator {
                     let gradients = &self.gradients[self.gradient_start[r]..self.gradient_start[r + 1]];
                     gather(&b, k, links, Some(gradients), value, grad);
                 }
+                if let Some(v) = &self.volume {
+                    v.gather(r, &b, &moment, k, value, grad, w);
+                }
             });
-        // Push: a child gets its parent's linear field at its centroid, and the gradient.
+        // Push: a child gets its parent's linear field at its centroid, and the gradient; below
+        // a volume cluster, also the normal gradient times its normal's offset.
         for i in 0..nodes.len() {
             let p = nodes[i].parent;
             if p == NONE {
@@ -757,6 +1073,17 @@ impl Operator {
                 h[child + c] += h[parent + c] + gu * du + gv * dv;
                 h[child + k + 2 * c] += gu;
                 h[child + k + 2 * c + 1] += gv;
+            }
+            if let Some(v) = &self.volume {
+                let d = v.normal_offsets[i];
+                for c in 0..k {
+                    let (wp, wc) = (parent + 3 * k + 3 * c, child + 3 * k + 3 * c);
+                    let w = [h[wp], h[wp + 1], h[wp + 2]];
+                    h[child + c] += w[0] * d.x + w[1] * d.y + w[2] * d.z;
+                    for j in 0..3 {
+                        h[wc + j] += w[j];
+                    }
+                }
             }
         }
         for (leaf, &node) in self.tree.leaf_node.iter().enumerate() {
@@ -846,10 +1173,13 @@ impl Operator {
     /// transposed pull (a leaf gets its share `A_leaf/A_node` of each ancestor's value).
     fn apply_transpose_raw(&self, y: &[f64]) -> Vec<f64> {
         let nodes = &self.tree.nodes;
-        // Transposed push: per node the sum of its leaves' y and the in-plane moments
-        // Σ y (c_leaf − c_node), accumulated bottom-up.
+        let volume = self.volume.as_ref();
+        // Transposed push: per node the sum of its leaves' y, the in-plane moments
+        // Σ y (c_leaf − c_node) and (with volume clusters) the normal moments
+        // Σ y (n_leaf − n_node), accumulated bottom-up.
         let mut sum = vec![0.0; nodes.len()];
         let mut moment = vec![[0.0; 2]; nodes.len()];
+        let mut normal_moment = vec![DVec3::ZERO; if volume.is_some() { nodes.len() } else { 0 }];
         for (leaf, &node) in self.tree.leaf_node.iter().enumerate() {
             sum[node as usize] = y[leaf];
         }
@@ -864,16 +1194,22 @@ impl Operator {
             sum[p] += s_i;
             moment[p][0] += m_i[0] + s_i * du;
             moment[p][1] += m_i[1] + s_i * dv;
+            if let Some(v) = volume {
+                let m = normal_moment[i] + s_i * v.normal_offsets[i];
+                normal_moment[p] += m;
+            }
         }
-        // Transposed links: entry (r ← s) sends back coefficient × Σ_r y + gradient · moment_r.
-        // The links are stored by receiver, so the sources are scattered: a few contiguous runs
-        // of receivers each scatter into their own vector, summed afterwards in order (a fixed
-        // number of runs, so that the sums do not depend on the machine's thread count).
+        // Transposed links: entry (r ← s) sends back coefficient × Σ_r y + gradient · moment_r
+        // (and for a volume entry the normal terms). The links are stored by receiver, so the
+        // sources are scattered: a few contiguous runs of receivers each scatter into their own
+        // vectors, summed afterwards in order (a fixed number of runs, so that the sums do not
+        // depend on the machine's thread count).
         let per_run = nodes.len().div_ceil(TRANSPOSE_RUNS).max(1);
-        let runs: Vec<Vec<f64>> = (0..nodes.len().div_ceil(per_run))
+        let runs: Vec<(Vec<f64>, Vec<DVec3>)> = (0..nodes.len().div_ceil(per_run))
             .into_par_iter()
             .map(|run| {
                 let mut back = vec![0.0; nodes.len()];
+                let mut back_moment = vec![DVec3::ZERO; normal_moment.len()];
                 for r in run * per_run..((run + 1) * per_run).min(nodes.len()) {
                     let entries = self.offsets[r]..self.offsets[r + 1];
                     if nodes[r].is_leaf() {
@@ -881,27 +1217,52 @@ impl Operator {
                         for e in entries {
                             back[self.sources[e] as usize] += f64::from(self.coefficients[e]) * sum[r];
                         }
-                        continue;
+                    } else {
+                        let gradients = &self.gradients[self.gradient_start[r]..self.gradient_start[r + 1]];
+                        for (e, g) in entries.zip(gradients) {
+                            let [gu, gv] = g.map(f64::from);
+                            back[self.sources[e] as usize] += f64::from(self.coefficients[e]) * sum[r]
+                                + gu * moment[r][0]
+                                + gv * moment[r][1];
+                        }
                     }
-                    let gradients = &self.gradients[self.gradient_start[r]..self.gradient_start[r + 1]];
-                    for (e, g) in entries.zip(gradients) {
-                        let [gu, gv] = g.map(f64::from);
-                        back[self.sources[e] as usize] +=
-                            f64::from(self.coefficients[e]) * sum[r] + gu * moment[r][0] + gv * moment[r][1];
+                    let Some(v) = volume else { continue };
+                    for e in v.offsets[r]..v.offsets[r + 1] {
+                        let f = f64::from(v.coefficients[e]);
+                        let [gu, gv] = v.gradients[e].map(f64::from);
+                        let to_source = DVec3::from_array(v.to_source[e].map(f64::from));
+                        let to_receiver = DVec3::from_array(v.to_receiver[e].map(f64::from));
+                        let t = f * sum[r]
+                            + gu * moment[r][0]
+                            + gv * moment[r][1]
+                            + f * to_source.dot(normal_moment[r]);
+                        let s = v.sources[e] as usize;
+                        back[s] += t;
+                        back_moment[s] += t * to_receiver;
                     }
                 }
-                back
+                (back, back_moment)
             })
             .collect();
         let mut back = vec![0.0; nodes.len()];
-        for run in runs {
+        let mut back_moment = vec![DVec3::ZERO; normal_moment.len()];
+        for (run, run_moment) in runs {
             back.iter_mut().zip(run).for_each(|(b, x)| *b += x);
+            back_moment.iter_mut().zip(run_moment).for_each(|(b, x)| *b += x);
         }
-        // Transposed pull: top-down, each node passes its value to its children by area share.
+        // Transposed pull: top-down, each node passes its value to its children by area share
+        // (a volume cluster also its normal moment's share, through each child's normal offset).
         for i in 0..nodes.len() {
             let p = nodes[i].parent;
-            if p != NONE {
-                back[i] += back[p as usize] * nodes[i].area / nodes[p as usize].area;
+            if p == NONE {
+                continue;
+            }
+            let (p, share) = (p as usize, nodes[i].area / nodes[p as usize].area);
+            back[i] += back[p] * share;
+            if let Some(v) = volume.filter(|_| nodes[p].volume) {
+                let from_parent = share * back_moment[p];
+                back[i] += from_parent.dot(v.normal_offsets[i]);
+                back_moment[i] += from_parent;
             }
         }
         self.tree
@@ -928,6 +1289,23 @@ impl Operator {
         self.apply_scaled(x, width, false)
     }
 
+    /// Entries with a volume cluster at either end.
+    pub(crate) fn volume_links(&self) -> usize {
+        self.volume.as_ref().map_or(0, |v| v.sources.len() / 2)
+    }
+
+    /// The same operator with its volume entries' normal terms dropped (for tests).
+    pub(crate) fn without_normal_terms_for_test(&self) -> Self {
+        let mut flat = self.clone();
+        if let Some(v) = flat.volume.as_mut() {
+            v.to_source
+                .iter_mut()
+                .chain(&mut v.to_receiver)
+                .for_each(|w| *w = [0.0; 3]);
+        }
+        flat
+    }
+
     /// `Fᵀ·y` before balancing (for tests).
     pub(crate) fn apply_transpose_for_test(&self, y: &[f64]) -> Vec<f64> {
         self.apply_transpose_raw(y)
@@ -941,8 +1319,10 @@ mod tests {
 
     /// One OBJ-like surface of unit squares: two apart in the plane z = 0, one 10⁻¹⁰ m above
     /// it (the same plane within the tolerance), one in the parallel plane z = 0.5, one facing
-    /// +x. Its tree has a root per plane: the three squares of z = 0 under one, the others
-    /// alone; every node's leaves share its normal and offset.
+    /// +x. Its planar trees are one per plane: the three squares of z = 0 under one, the others
+    /// alone, every planar node's leaves sharing its normal and offset; over them one root, a
+    /// volume cluster whose normal is the direction of the area-weighted normal sum and whose
+    /// cone bounds the angle to every leaf's normal. Each leaf's plane root is its planar tree's.
     #[test]
     fn an_obj_surface_gets_a_tree_per_plane() {
         let mut mesh = PatchMesh {
@@ -988,16 +1368,47 @@ mod tests {
             out.sort_unstable();
             out
         };
-        let roots: Vec<Vec<u32>> = tree.roots.iter().map(|&r| leaves_of(r)).collect();
-        assert_eq!(roots, vec![vec![0, 2, 4], vec![1], vec![3]]);
-        for node in &tree.nodes {
-            assert!(
-                node.normal == DVec3::Z || node.normal == DVec3::X,
-                "{:?}",
-                node.normal
-            );
+        assert_eq!(tree.roots.len(), 1);
+        let mut planes: Vec<Vec<u32>> = (0..5)
+            .map(|leaf| tree.plane_root(tree.leaf_node[leaf]))
+            .collect::<std::collections::BTreeSet<u32>>()
+            .into_iter()
+            .map(leaves_of)
+            .collect();
+        planes.sort();
+        assert_eq!(planes, vec![vec![0, 2, 4], vec![1], vec![3]]);
+        let leaf_normals = |i: u32| {
+            leaves_of(i)
+                .into_iter()
+                .map(|l| tree.nodes[tree.leaf_node[l as usize] as usize].normal)
+                .collect::<Vec<DVec3>>()
+        };
+        for (i, node) in tree.nodes.iter().enumerate() {
+            let normals = leaf_normals(i as u32);
+            if node.volume {
+                for n in normals {
+                    assert!(
+                        n.dot(node.normal).clamp(-1.0, 1.0).acos() <= node.cone + 1e-12,
+                        "{node:?}"
+                    );
+                }
+            } else {
+                assert!(normals.iter().all(|&n| n == node.normal), "{node:?}");
+                assert!(
+                    node.normal == DVec3::Z || node.normal == DVec3::X,
+                    "{:?}",
+                    node.normal
+                );
+            }
         }
-        let top = &tree.nodes[tree.roots[0] as usize];
+        let root = &tree.nodes[tree.roots[0] as usize];
+        assert!(
+            root.volume && root.leaf_count == 5 && root.area == 5.0,
+            "{root:?}"
+        );
+        let sum = DVec3::new(1.0, 0.0, 4.0);
+        assert!(root.normal.distance(sum.normalize()) < 1e-12, "{:?}", root.normal);
+        let top = &tree.nodes[tree.plane_root(tree.leaf_node[0]) as usize];
         assert_eq!((top.leaf_count, top.area), (3, 3.0));
         assert!(top.lo.z == 0.0 && top.hi.z <= 1e-9);
     }

@@ -1,8 +1,10 @@
 //! Building the links of the hierarchical operator ([`crate::transport::hierarchy`]).
 //!
-//! Every pair of tree roots that can see each other is refined recursively: two nodes are linked
+//! Every pair of tree roots that can see each other is refined recursively (and the halves of a
+//! volume cluster with each other: a concave OBJ model sees itself): two nodes are linked
 //! directly when they are *admissible* — the larger diameter is at most `eta ×` the distance
-//! between their centroids — and otherwise the larger node is split. Two leaves that are not
+//! between their centroids, and a volume cluster's leaves all face the other node ([`faces`]) —
+//! and otherwise the larger node (or the volume cluster that does not face) is split. Two leaves that are not
 //! admissible are linked with the exact contour formula. So links grow about linearly with the
 //! leaves, and every link's geometric error is bounded by its admissibility.
 //!
@@ -22,7 +24,7 @@
 //! * A budget: at most `max_links` links are made; past it every task stops and the build
 //!   reports [`TooManyLinks`] instead of links (docs/DECISIONS.md "Resource budget").
 
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
 use glam::DVec3;
@@ -30,7 +32,7 @@ use rayon::prelude::*;
 
 use crate::scene::PatchMesh;
 use crate::transport::formfactor::{TargetPatch, kernel, point_to_polygon_with, triangle_quarters};
-use crate::transport::hierarchy::{Link, NONE, Node, Tree, plane_axes};
+use crate::transport::hierarchy::{Link, MIN_FACING, NONE, Node, Tree, plane_axes};
 use crate::transport::occlusion::{LocalOccluders, Occluders};
 use crate::transport::slopes::plane_gradient;
 use crate::transport::visibility::weighted_fraction;
@@ -162,7 +164,7 @@ impl NodeGeometry {
         if node.is_leaf() {
             return self.targets[node.leaf as usize].form_factor_with(p, n, f64::INFINITY, scratch);
         }
-        if node.normal.dot(p - node.centroid) <= 0.0 {
+        if !node.volume && node.normal.dot(p - node.centroid) <= 0.0 {
             return 0.0;
         }
         if node.full_rect {
@@ -301,6 +303,7 @@ pub fn build(
         .into_par_iter()
         .map(|i| {
             let mut run = Run::default();
+            ctx.refine_within(roots[i], &mut run);
             for &s in &roots[i + 1..] {
                 ctx.refine(roots[i], s, &mut run);
             }
@@ -382,12 +385,29 @@ fn fit_gradient(pieces: &[(f64, DVec3, f64)], centre: DVec3, axes: [usize; 2]) -
 
 /// True when some part of `node` lies strictly in front of the plane of `of`.
 fn in_front(node: &Node, of: &Node) -> bool {
+    if of.volume {
+        return true;
+    }
     let n = of.normal;
     // The largest n·x over the box [lo, hi].
     let top = (0..3)
         .map(|i| (n[i] * node.lo[i]).max(n[i] * node.hi[i]))
         .sum::<f64>();
     top - n.dot(of.centroid) > 1e-9
+}
+
+/// True unless `v` is a volume cluster some leaf of which may not face `other` (centroids
+/// `dist` apart): the angle from `v`'s normal to the direction of `other`, plus `v`'s cone, plus
+/// the angle either node spans seen from the other, stays short of 90° (docs/DECISIONS.md
+/// "Volume clusters").
+fn faces(v: &Node, other: &Node, dist: f64) -> bool {
+    if !v.volume {
+        return true;
+    }
+    let d = (other.centroid - v.centroid) / dist;
+    let span = (0.5 * (v.diameter + other.diameter) / dist).min(1.0).asin();
+    let margin = v.cone + span;
+    margin < FRAC_PI_2 && v.normal.dot(d) >= margin.sin().max(MIN_FACING)
 }
 
 impl Context<'_> {
@@ -410,6 +430,15 @@ impl Context<'_> {
         let whole = |n: &Node| n.is_leaf() || !n.hot;
         let admissible =
             nr.diameter.max(ns.diameter) <= self.options.eta_at(dist) * dist && whole(nr) && whole(ns);
+        if admissible {
+            // A volume cluster is linked as a whole only when all its leaves face the other.
+            if !faces(nr, ns, dist) {
+                return self.split_node(r, s, out);
+            }
+            if !faces(ns, nr, dist) {
+                return self.split_node(s, r, out);
+            }
+        }
         if admissible || both_leaves {
             let (g, grad_a, grad_b) = if admissible {
                 self.far(r, s)
@@ -467,7 +496,16 @@ impl Context<'_> {
         } else {
             !nr.is_leaf() && (ns.is_leaf() || nr.diameter >= ns.diameter)
         };
-        let (big, other) = if split_r { (nr, s) } else { (ns, r) };
+        if split_r {
+            self.split_node(r, s, out)
+        } else {
+            self.split_node(s, r, out)
+        }
+    }
+
+    /// Refines both children of cluster `big` against `other`.
+    fn split_node(&self, big: u32, other: u32, out: &mut Run) {
+        let big = self.node(big);
         let [c0, c1] = big.children;
         if big.leaf_count > 512 {
             let (mut a, mut b) = (Run::default(), Run::default());
@@ -481,6 +519,36 @@ impl Context<'_> {
         } else {
             self.refine(c0, other, out);
             self.refine(c1, other, out);
+        }
+    }
+
+    /// Links the leaves of volume cluster `v` that see each other (a concave mesh lights
+    /// itself): its two children against each other, and within each.
+    fn refine_within(&self, v: u32, out: &mut Run) {
+        let node = self.node(v);
+        if !node.volume {
+            return;
+        }
+        let [c0, c1] = node.children;
+        if node.leaf_count > 512 {
+            let (mut a, mut b, mut c) = (Run::default(), Run::default(), Run::default());
+            rayon::join(
+                || self.refine(c0, c1, &mut a),
+                || {
+                    rayon::join(
+                        || self.refine_within(c0, &mut b),
+                        || self.refine_within(c1, &mut c),
+                    )
+                },
+            );
+            out.close_list();
+            for run in [a, b, c] {
+                out.lists.extend(run.into_lists());
+            }
+        } else {
+            self.refine(c0, c1, out);
+            self.refine_within(c0, out);
+            self.refine_within(c1, out);
         }
     }
 
@@ -502,7 +570,7 @@ impl Context<'_> {
             }
             let values = &values[..*k];
             let g: f64 = values.iter().map(|(a, _, f)| a * f).sum();
-            let gradient = if node.is_leaf() || node.area <= 0.0 {
+            let gradient = if node.is_leaf() || node.volume || node.area <= 0.0 {
                 [0.0; 2]
             } else {
                 let axes = plane_axes(normal);

@@ -11,7 +11,7 @@
 use glam::DVec3;
 
 use crate::scene::mesher::AxisRect;
-use crate::scene::{Aabb, Scene, SurfaceKind};
+use crate::scene::{Aabb, Patch, Scene, SurfaceKind};
 use crate::transport::mesh_on_mesh::edges_on_meshes;
 
 /// How close (m) to a support's plane an OBJ vertex counts as lying on it.
@@ -65,6 +65,19 @@ fn supports(scene: &Scene) -> Vec<AxisRect> {
     out
 }
 
+/// The triangles of the OBJ meshes of `scene`'s coarse mesh: their corners (world, m) and the
+/// patch each belongs to.
+pub(crate) fn obj_triangles(scene: &Scene) -> impl Iterator<Item = ([DVec3; 3], &Patch)> {
+    scene.coarse.triangles().filter_map(|(corners, pid)| {
+        let patch = &scene.coarse.patches[pid as usize];
+        matches!(
+            scene.surfaces[patch.surface as usize].kind,
+            SurfaceKind::Mesh { .. }
+        )
+        .then(|| (corners.map(|i| scene.coarse.positions[i as usize]), patch))
+    })
+}
+
 /// The contact edges and triangles of a scene's OBJ meshes, and the supports they stand on.
 #[derive(Debug, Clone)]
 pub(crate) struct MeshContacts {
@@ -85,15 +98,7 @@ impl MeshContacts {
         let supports = supports(scene);
         let mut triangles = Vec::new();
         let mut edges = Vec::new();
-        for ([a, b, c], pid) in scene.coarse.triangles() {
-            let patch = &scene.coarse.patches[pid as usize];
-            if !matches!(
-                scene.surfaces[patch.surface as usize].kind,
-                SurfaceKind::Mesh { .. }
-            ) {
-                continue;
-            }
-            let t = [a, b, c].map(|i| scene.coarse.positions[i as usize]);
+        for (t, patch) in obj_triangles(scene) {
             triangles.push((t, patch.normal));
             for support in &supports {
                 let on = t.map(|p| support.holds(p, ON_PLANE_M));

@@ -141,12 +141,17 @@ impl TriangleGrid {
     }
 }
 
+/// Two OBJ triangles meet in a crease (a contact edge) only when their normals are more than
+/// about 45° apart (cosine below this): the folds between the facets of a curved model are
+/// gentler (docs/DECISIONS.md "Slots under OBJ objects").
+const CREASE_COS: f64 = 0.7;
+
 /// The segments of OBJ triangle edges that lie within `tolerance` (m) of another OBJ triangle
 /// (each with its unit normal, the lit side) and rise from it into its lit side: for every
 /// triangle `u` with two corners within `tolerance` of the plane of a triangle `t` and its
 /// third corner more than `tolerance` in front of it, the part of that edge inside `t` (grown
-/// by `tolerance`), when longer than `tolerance` and when `t` is seen in front of `u` there
-/// ([`seen_in_front`]).
+/// by `tolerance`), when longer than `tolerance`, when their normals are more than a crease
+/// apart ([`CREASE_COS`]) and when `t` is seen in front of `u` there ([`seen_in_front`]).
 pub(crate) fn edges_on_meshes(triangles: &[([DVec3; 3], DVec3)], tolerance: f64) -> Vec<[DVec3; 2]> {
     let groups = plane_groups(triangles, tolerance);
     let grid = TriangleGrid::new(triangles, tolerance, &groups);
@@ -163,6 +168,10 @@ pub(crate) fn edges_on_meshes(triangles: &[([DVec3; 3], DVec3)], tolerance: f64)
             }
             seen[ui] = ti;
             let (u, u_normal) = &triangles[ui];
+            if u_normal.dot(*normal) > CREASE_COS {
+                // A gentle fold of a curved surface, not a corner anything stands in.
+                return;
+            }
             let height = u.map(|p| normal.dot(p - t[0]));
             for e in 0..3 {
                 let (i, j, k) = (e, (e + 1) % 3, (e + 2) % 3);

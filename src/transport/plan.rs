@@ -222,9 +222,9 @@ pub fn plan_graded(scene: &Scene, options: PlanOptions) -> (Plan, Option<SolverM
         let planes = obj_planes(scene, &solver.mesh);
         if planes > MANY_OBJ_PLANES {
             hierarchical.reason += &format!(
-                "; the OBJ surfaces lie in {planes} planes (curved models), each a cluster root \
-                 linked with every root it sees: links and bake time grow with the square of that \
-                 (a simplified model bakes faster)"
+                "; the OBJ surfaces lie in {planes} planes (curved models): their facets are \
+                 linked one by one with everything closer than ten times their size, so links and \
+                 bake time grow with the number of facets (a simplified model bakes faster)"
             );
         }
     }
@@ -258,8 +258,9 @@ pub fn plan_graded(scene: &Scene, options: PlanOptions) -> (Plan, Option<SolverM
 }
 
 /// Above this many planes among the OBJ surfaces' leaves, the engine decision says what they
-/// cost: each plane is a cluster tree's root (docs/DECISIONS.md "OBJ surfaces clustered by
-/// plane"), and the roots that see each other are linked pair by pair.
+/// cost: each plane is a cluster tree of its own under the object's volume clusters
+/// (docs/DECISIONS.md "OBJ surfaces clustered by plane", "Volume clusters"), and facets near
+/// each other are linked one by one.
 const MANY_OBJ_PLANES: usize = 1000;
 
 /// Number of cluster trees the OBJ surfaces' leaves (patches of `mesh`) make: one per plane

@@ -227,7 +227,7 @@ impl SolverMesh {
         if self.contacts + self.slots > 0 && self.contact_leaves_added > 0 {
             let slots = if self.slots > 0 {
                 format!(
-                    " and {} slots (box faces standing up to {:.2} m off a room surface or another box)",
+                    " and {} slots (box faces or OBJ undersides standing up to {:.2} m off a room surface or another box)",
                     self.slots, self.slot_max_m
                 )
             } else {
@@ -344,20 +344,31 @@ enum EdgeKind {
 }
 
 /// A slot: a box face standing a little off a parallel room surface, or off the facing face of
-/// another box (up to [`RefineOptions::slot_max_m`], not touching it).
+/// another box (up to [`RefineOptions::slot_max_m`], not touching it); or an OBJ object's
+/// triangles facing a room surface from as close.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Slot {
     /// The axis both surfaces face along, and the coordinates on it of the surface the box
-    /// faces (a room surface or the other box's face) and of the box face.
+    /// faces (a room surface or the other box's face) and of the box face (of an OBJ object,
+    /// its facing triangles' nearest corner).
     axis: usize,
     room_side: f64,
     box_side: f64,
-    /// The slot's extent on the other two axes (the box's, or where the two boxes' faces
-    /// overlap).
+    /// The slot's extent on the other two axes (the box's, where the two boxes' faces overlap,
+    /// or the bounds of the OBJ object's facing triangles).
     bounds: Aabb,
+    /// True under an OBJ object: only the room surface's side is meshed as a slot (the
+    /// object's triangles are not cells of the mesher).
+    from_mesh: bool,
 }
 
 impl Slot {
+    /// The coordinates (on its axis) of the sides meshed as a slot: the room surface's, and a
+    /// box face's.
+    fn sides(&self) -> impl Iterator<Item = f64> {
+        std::iter::once(self.room_side).chain((!self.from_mesh).then_some(self.box_side))
+    }
+
     /// Width (m) between the box face and the room surface.
     fn gap(&self) -> f64 {
         (self.box_side - self.room_side).abs()
@@ -382,9 +393,8 @@ impl Slot {
     /// Whether `cell` lies on either side of the slot and overlaps it.
     fn holds(&self, cell: &Cell) -> bool {
         let r = &cell.rect;
-        if r.axis != self.axis
-            || ((r.offset - self.room_side).abs() > 1e-9 && (r.offset - self.box_side).abs() > 1e-9)
-        {
+        let on_box_side = !self.from_mesh && (r.offset - self.box_side).abs() <= 1e-9;
+        if r.axis != self.axis || ((r.offset - self.room_side).abs() > 1e-9 && !on_box_side) {
             return false;
         }
         let b = cell.bounds();
@@ -443,6 +453,7 @@ fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
             room_side,
             box_side,
             bounds: *b,
+            from_mesh: false,
         });
     // Box `a`'s upper face on `axis` facing box `b`'s lower face.
     let between = scene.boxes.iter().flat_map(|a| {
@@ -461,11 +472,75 @@ fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
                     room_side: b.min[axis],
                     box_side: a.max[axis],
                     bounds,
+                    from_mesh: false,
                 })
             })
         })
     });
-    to_room.chain(between).collect()
+    to_room
+        .chain(between)
+        .chain(mesh_slots(scene, slot_max_m))
+        .collect()
+}
+
+/// A triangle faces a room surface when its normal is within this cosine of the surface's
+/// opposite.
+const MESH_SLOT_FACING: f64 = 0.7;
+
+/// The slots under OBJ objects: per object and room surface, the triangles facing that surface
+/// ([`MESH_SLOT_FACING`]) whose corners all lie off it but within `slot_max_m` — a sofa's or
+/// a cabinet's underside on short legs, the lower half of a round thing just above the floor —
+/// as one slot over their bounds, as wide as their nearest corner's gap (docs/DECISIONS.md
+/// "Slots under OBJ objects").
+fn mesh_slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
+    let (size, eps) = (scene.room_size, touch_eps(scene.room_size));
+    // Per OBJ object, its slots against the room surfaces so far.
+    let mut found: Vec<(u32, Slot)> = Vec::new();
+    for (t, patch) in crate::transport::mesh_contacts::obj_triangles(scene) {
+        for axis in 0..3 {
+            // The room surface at 0 faces +axis, the one at the room's size −axis.
+            for (room_side, toward) in [(0.0, 1.0), (size[axis], -1.0)] {
+                if -patch.normal[axis] * toward < MESH_SLOT_FACING {
+                    continue;
+                }
+                let gaps = t.map(|p| (p[axis] - room_side).abs());
+                let near = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+                if near <= eps || gaps.iter().any(|&g| g > slot_max_m) {
+                    continue;
+                }
+                let bounds = Aabb {
+                    min: t[0].min(t[1]).min(t[2]),
+                    max: t[0].max(t[1]).max(t[2]),
+                };
+                let box_side = room_side + toward * near;
+                let same = |(surface, slot): &&mut (u32, Slot)| {
+                    *surface == patch.surface && slot.axis == axis && slot.room_side == room_side
+                };
+                match found.iter_mut().find(same) {
+                    Some((_, slot)) => {
+                        slot.bounds = Aabb {
+                            min: slot.bounds.min.min(bounds.min),
+                            max: slot.bounds.max.max(bounds.max),
+                        };
+                        if (box_side - room_side).abs() < slot.gap() {
+                            slot.box_side = box_side;
+                        }
+                    }
+                    None => found.push((
+                        patch.surface,
+                        Slot {
+                            axis,
+                            room_side,
+                            box_side,
+                            bounds,
+                            from_mesh: true,
+                        },
+                    )),
+                }
+            }
+        }
+    }
+    found.into_iter().map(|(_, slot)| slot).collect()
 }
 
 /// An axis-aligned rectangle cell of a surface, in its plane's `(u, v)` coordinates.
@@ -718,7 +793,7 @@ fn contact_index(contacts: &[Contact]) -> PlaneIndex {
 fn slot_index(slots: &[Slot]) -> PlaneIndex {
     let mut index = PlaneIndex::default();
     for (i, slot) in slots.iter().enumerate() {
-        for side in [slot.room_side, slot.box_side] {
+        for side in slot.sides() {
             index.file(slot.axis, side, &slot.bounds.min, &slot.bounds.max, i);
         }
     }
@@ -1681,7 +1756,7 @@ fn contact_edges(scene: &Scene, slots: &[Slot], room_edges: &[BendingPiece]) -> 
     // A slot's outline on both its sides, the room surface and the box face.
     for slot in slots {
         let b = &slot.bounds;
-        for side in [slot.room_side, slot.box_side] {
+        for side in slot.sides() {
             push_rect_edges(slot.axis, side, slot.gap(), b.min, b.max, DVec3::ZERO, size);
         }
     }
@@ -2584,6 +2659,63 @@ solver_patch_size = 0.5
             "{along} × {across} m"
         );
         assert!(!away.beam_edge.contains(&true));
+    }
+
+    /// An OBJ block 5 cm above the floor makes a slot under it as a box does: the floor under
+    /// it is meshed no coarser than twice the gap (0.1 m) and linked alone, the floor beside it
+    /// is not. Resting on the floor (a contact, not a slot) or 0.5 m up (beyond `slot_max_m`)
+    /// it makes none.
+    #[test]
+    fn slots_under_obj_objects_are_graded() {
+        let solved = |z0: f64| {
+            let obj = obj_block([1.0, 1.0, z0], [2.0, 1.8, z0 + 0.5], 1);
+            let scene = crate::transport::mesh_contacts::obj_room(&obj, "");
+            let solver = refine(&scene, &RefineOptions::default());
+            (scene, solver)
+        };
+        let floor_under = |solver: &SolverMesh| -> Vec<(usize, f64)> {
+            solver
+                .mesh
+                .patches
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.normal.z > 0.5 && p.centroid.z.abs() < 1e-9)
+                .filter(|(_, p)| (1.0..2.0).contains(&p.centroid.x) && (1.0..1.8).contains(&p.centroid.y))
+                .map(|(i, p)| {
+                    let corners = p.vertex_ids().iter().map(|&v| solver.mesh.positions[v as usize]);
+                    let (lo, hi) = corners.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), c| {
+                        (lo.min(c), hi.max(c))
+                    });
+                    (i, (hi - lo).max_element())
+                })
+                .collect()
+        };
+        let (scene, solver) = solved(0.05);
+        assert_eq!(solver.slots, 1);
+        let under = floor_under(&solver);
+        assert!(under.len() >= 10 * 8, "{} leaves", under.len());
+        for &(i, size) in &under {
+            assert!(
+                size <= 0.1 + 1e-9 && solver.alone[i] && solver.in_slot[i],
+                "{size} m"
+            );
+        }
+        let beside = solver
+            .mesh
+            .patches
+            .iter()
+            .position(|p| p.normal.z > 0.5 && p.centroid.z.abs() < 1e-9 && p.centroid.x > 3.0)
+            .expect("a floor leaf away from the block");
+        assert!(!solver.alone[beside] && !solver.in_slot[beside]);
+        assert!(solver.notes(&scene).join("\n").contains("and 1 slots"));
+        for z0 in [0.0, 0.5] {
+            let (_, solver) = solved(z0);
+            assert_eq!(solver.slots, 0, "{z0} m up");
+            assert!(
+                floor_under(&solver).iter().all(|&(i, _)| !solver.in_slot[i]),
+                "{z0} m up"
+            );
+        }
     }
 
     /// A box standing 5 cm in front of the wall y = 3 makes a slot: the wall behind it and the

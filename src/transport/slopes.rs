@@ -15,13 +15,13 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::transport::formfactor::TargetPatch;
-use crate::transport::hierarchy::{NONE, Tree, plane_axes};
+use crate::transport::hierarchy::{Tree, plane_axes};
 
 /// Bounds closer than this (m) touch.
 const TOUCH_M: f64 = 1e-6;
 
-/// Per leaf, the other leaves of its planar surface whose bounds touch its bounds (edge or
-/// corner neighbours; a leaf of a non-planar OBJ surface has none), in compressed rows.
+/// Per leaf, the other leaves of its plane's tree whose bounds touch its bounds (edge or
+/// corner neighbours; a leaf alone in its plane, as on a curved mesh, has none), in compressed rows.
 #[derive(Debug, Clone, Default)]
 pub struct LeafNeighbours {
     start: Vec<u32>,
@@ -38,12 +38,8 @@ impl LeafNeighbours {
                 let node = &tree.nodes[tree.leaf_node[leaf] as usize];
                 let pad = DVec3::splat(TOUCH_M);
                 let (lo, hi) = (node.lo - pad, node.hi + pad);
-                let mut root = tree.leaf_node[leaf];
-                while tree.nodes[root as usize].parent != NONE {
-                    root = tree.nodes[root as usize].parent;
-                }
                 let mut out = Vec::new();
-                let mut stack = vec![root];
+                let mut stack = vec![tree.plane_root(tree.leaf_node[leaf])];
                 while let Some(i) = stack.pop() {
                     let m = &tree.nodes[i as usize];
                     if m.lo.cmpgt(hi).any() || m.hi.cmplt(lo).any() {
@@ -229,6 +225,7 @@ pub fn plane_gradient(samples: impl IntoIterator<Item = (f64, [f64; 2], f64)>) -
 mod tests {
     use super::*;
     use crate::scene::{Scene, SurfaceKind};
+    use crate::transport::hierarchy::NONE;
 
     /// A 4 × 3 × 2.5 m room in 0.5 m patches: 8 × 6 on the floor.
     fn room() -> Scene {

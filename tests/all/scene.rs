@@ -678,8 +678,9 @@ fn degenerate_obj_faces_are_left_out_with_a_note_naming_them() {
 }
 
 /// A model of many planes (a curved surface cut into facets) is named in the plan's engine
-/// decision with the number of planes its leaves lie in — each a cluster root, linked pair by
-/// pair — and a model of few planes is not.
+/// decision with the number of planes its leaves lie in — each a planar tree under the model's
+/// volume clusters, its facets linked one by one with those near — and a model of few planes
+/// is not.
 #[test]
 fn the_plan_says_when_an_obj_lies_in_many_planes() {
     // A cone of `sides` facets on a floating base (z = 0 in the OBJ, lifted 0.2 m), apex up.

@@ -11,7 +11,8 @@
 //! each room to `target/random-rooms/room-<seed>.toml`. `HAIKO_RANDOM_ROOMS` also takes a list
 //! of seeds (`2,9,33`); `HAIKO_ENGINE` sets the engine's knobs as for
 //! `references::print_engine_variant`; `HAIKO_POINTS_FILE` (lines `x y z nx ny nz`) traces and
-//! prints those points instead of the random ones.
+//! prints those points instead of the random ones; `HAIKO_ROOM_FILES` (comma-separated paths)
+//! measures those rooms instead of random ones.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -439,11 +440,29 @@ fn print_random_rooms() {
         None => range.split(',').map(|s| s.trim().parse().unwrap()).collect(),
     };
     std::fs::create_dir_all(out_dir()).unwrap();
+    // Room files of one's own (`HAIKO_ROOM_FILES`, comma-separated) instead of random ones.
+    let files: Vec<PathBuf> = std::env::var("HAIKO_ROOM_FILES")
+        .map(|v| v.split(',').map(|f| PathBuf::from(f.trim())).collect())
+        .unwrap_or_default();
+    let jobs: Vec<(u64, PathBuf, Vec<Block>)> = if files.is_empty() {
+        seeds
+            .into_iter()
+            .map(|seed| {
+                let (text, blocks) = random_room(seed);
+                let path = out_dir().join(format!("room-{seed}.toml"));
+                std::fs::write(&path, &text).unwrap();
+                (seed, path, blocks)
+            })
+            .collect()
+    } else {
+        files
+            .into_iter()
+            .enumerate()
+            .map(|(i, f)| (i as u64, f, Vec::new()))
+            .collect()
+    };
     let mut rows = Vec::new();
-    for seed in seeds {
-        let (text, blocks) = random_room(seed);
-        let path = out_dir().join(format!("room-{seed}.toml"));
-        std::fs::write(&path, &text).unwrap();
+    for (seed, path, blocks) in jobs {
         let scene = match load(&path) {
             Ok(s) => s,
             Err(e) => {
@@ -493,7 +512,11 @@ fn print_random_rooms() {
         };
         let lux = super::references::engine_lux_at(&scene, &options, &receivers);
         let built = t.elapsed().as_secs_f64();
-        let name: &'static str = Box::leak(format!("room-{seed}").into_boxed_str());
+        let name = match path.file_stem() {
+            Some(stem) if !stem.to_string_lossy().starts_with("room-") => stem.to_string_lossy().into_owned(),
+            _ => format!("room-{seed}"),
+        };
+        let name: &'static str = Box::leak(name.into_boxed_str());
         let e = summarize(name, &refs, &lux);
         let worst_noise = refs.iter().map(|r| r.std_error / r.lux).fold(0.0, f64::max);
         println!(

@@ -8,7 +8,8 @@
 //! cove lighting on a ledge under the ceiling, an open bookshelf with a shelf light in one of
 //! its compartments, batwings under a low ceiling beside a column, lamps 1–2 cm from a ceiling,
 //! a wall and the floor, a white closet, puck lights 1 cm above a desk, an 8 m atrium's wall
-//! grazers, hard spots into corners, lamps at OBJ furniture),
+//! grazers, hard spots into corners, lamps at OBJ furniture, OBJ models hovering just above the
+//! floor),
 //! 148–268 points each on floors, box
 //! and mesh tops and faces, walls and ceilings, including points 1–20 cm from box and mesh faces
 //! and 2–15 cm from the room's floor and ceiling edges. Each `<room>.csv` holds `x,y,z,nx,ny,nz,lux,std_error,direct,paths`: the
@@ -41,7 +42,7 @@ use rayon::prelude::*;
 use super::tracer::{Estimate, Rng, Tracer};
 
 /// The reference rooms (file stems in `tests/data/references/`).
-pub const ROOMS: [&str; 32] = [
+pub const ROOMS: [&str; 33] = [
     "hotspot-box",
     "lamp-near-box",
     "wall-washers",
@@ -74,6 +75,7 @@ pub const ROOMS: [&str; 32] = [
     "obj-on-box",
     "obj-on-obj",
     "table-things",
+    "hovering-models",
 ];
 
 /// The environment variable that regenerates the references.
@@ -772,6 +774,33 @@ pub fn points(name: &str, scene: &Scene) -> Vec<(DVec3, DVec3)> {
             pts.add_beside_mesh(DVec3::new(x, y, 0.0), DVec3::Z);
         }
     }
+    if name == "hovering-models" {
+        // The floor under the torus's ring (centre (1.3, 1.4), radii 0.6 ± 0.25 m) and in its
+        // hole, its underside 5 cm above the floor (facing down), the floor under the cabinet (2.6–3.6 ×
+        // 3.0–3.5 m, 6 cm up) and just outside it, and the cabinet's underside.
+        for (dx, dy) in [(-1.0, 0.0), (0.0, 1.0), (0.7, -0.7)] {
+            for r in [0.2, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9] {
+                pts.add_beside_mesh(DVec3::new(1.3 + r * dx, 1.4 + r * dy, 0.0), DVec3::Z);
+            }
+        }
+        // Under the tube's lowest edge (z = 0.05 at the ring's radius) and 15 cm to each side.
+        for (r, z) in [(0.45, 0.055), (0.6, 0.05), (0.75, 0.055)] {
+            pts.add_beside_mesh(DVec3::new(1.3 - r, 1.4, z), DVec3::NEG_Z);
+        }
+        for (x, y) in [
+            (2.62, 3.2),
+            (2.7, 3.1),
+            (3.0, 3.25),
+            (3.5, 3.45),
+            (3.1, 2.95),
+            (3.1, 3.6),
+        ] {
+            pts.add_beside_mesh(DVec3::new(x, y, 0.0), DVec3::Z);
+        }
+        for (x, y) in [(2.65, 3.25), (3.1, 3.25), (3.55, 3.05)] {
+            pts.add_beside_mesh(DVec3::new(x, y, 0.06), DVec3::NEG_Z);
+        }
+    }
     if name == "sofa-corner" {
         // The floor in the L's inner corner around the up-light, the sofa's inner faces there,
         // the wall y = 0 above the sofa's back, and the seat under the reading light.
@@ -1200,7 +1229,10 @@ pub fn total_lux(direct: &[f64], indirect: &[[f64; 3]]) -> Vec<f64> {
 /// (docs/DECISIONS.md "Receivers beside a large leaf"): every room within 2.59 % at worst
 /// (`pictures` 4.33 → 1.06 %, `empty` 3.12 → 0.96 %, `lamp-near-box` 2.70 → 1.10 %). OBJ
 /// surfaces clustered by plane (twenty-seventh round) took `obj-on-box` from 2.59 to 1.28 %.
-const ENGINE_BOUNDS: [(&str, f64, f64); 32] = [
+/// The `hovering-models` room (twenty-ninth round: a faceted torus 5 cm and an OBJ cabinet 6 cm
+/// above the floor) was 46.8 % high on the floor under the torus's ring before OBJ undersides
+/// made slots (docs/DECISIONS.md "Slots under OBJ objects"); 2.01 % since.
+const ENGINE_BOUNDS: [(&str, f64, f64); 33] = [
     ("hotspot-box", 0.005, 0.016),
     ("lamp-near-box", 0.005, 0.015),
     ("wall-washers", 0.005, 0.017),
@@ -1233,6 +1265,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 32] = [
     ("obj-on-box", 0.005, 0.014),
     ("obj-on-obj", 0.005, 0.024),
     ("table-things", 0.005, 0.011),
+    ("hovering-models", 0.005, 0.025),
 ];
 
 /// The engine's options for reference room `name` as the plan sets them
