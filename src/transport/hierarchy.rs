@@ -233,18 +233,7 @@ impl Tree {
         if let [(_, leaves)] = groups {
             return self.subtree(mesh, hot, leaves, parent);
         }
-        let (clo, chi) = groups
-            .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), (c, _)| {
-                (lo.min(*c), hi.max(*c))
-            });
-        let axis = (chi - clo).max_position();
-        let mid = 0.5 * (clo[axis] + chi[axis]);
-        let mut split = partition(groups, |(c, _)| c[axis] < mid);
-        if split == 0 || split == groups.len() {
-            groups.sort_by(|a, b| a.0[axis].total_cmp(&b.0[axis]));
-            split = groups.len() / 2;
-        }
+        let split = halve(groups, |(c, _)| *c);
         let index = self.nodes.len() as u32;
         let surface = mesh.patches[groups[0].1[0] as usize].surface;
         self.nodes.push(Node::unjoined(surface, parent, DVec3::Z, true));
@@ -330,27 +319,7 @@ impl Tree {
             self.leaf_node[leaf as usize] = index;
             return index;
         }
-        // Halve the centroids' bounding box along its longest side (the median if one half
-        // would be empty).
-        let (clo, chi) = leaves
-            .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &l| {
-                let c = mesh.patches[l as usize].centroid;
-                (lo.min(c), hi.max(c))
-            });
-        let axis = (chi - clo).max_position();
-        let mid = 0.5 * (clo[axis] + chi[axis]);
-        let mut split = partition(leaves, |&l| mesh.patches[l as usize].centroid[axis] < mid);
-        if split == 0 || split == leaves.len() {
-            leaves.sort_by(|a, b| {
-                let (ca, cb) = (
-                    mesh.patches[*a as usize].centroid,
-                    mesh.patches[*b as usize].centroid,
-                );
-                ca[axis].total_cmp(&cb[axis])
-            });
-            split = leaves.len() / 2;
-        }
+        let split = halve(leaves, |&l| mesh.patches[l as usize].centroid);
         let patch = &mesh.patches[leaves[0] as usize];
         self.nodes
             .push(Node::unjoined(patch.surface, parent, patch.normal, false));
@@ -379,6 +348,25 @@ impl Tree {
             i = p;
         }
     }
+}
+
+/// Reorders `items` into two halves of their centroids' bounding box along its longest side
+/// (by the median when one half would be empty) and returns where the second half starts.
+fn halve<T>(items: &mut [T], centroid: impl Fn(&T) -> DVec3) -> usize {
+    let (lo, hi) = items
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), item| {
+            let c = centroid(item);
+            (lo.min(c), hi.max(c))
+        });
+    let axis = (hi - lo).max_position();
+    let mid = 0.5 * (lo[axis] + hi[axis]);
+    let split = partition(items, |item| centroid(item)[axis] < mid);
+    if split == 0 || split == items.len() {
+        items.sort_by(|a, b| centroid(a)[axis].total_cmp(&centroid(b)[axis]));
+        return items.len() / 2;
+    }
+    split
 }
 
 /// Area (m²) of the bounds `[lo, hi]` of an axis-aligned planar set with unit normal `normal`
@@ -698,19 +686,11 @@ impl VolumeEntries {
     }
 
     /// Adds receiving node `r`'s volume entries to its gather from the node radiosity `b` and
-    /// normal moments `moment` (`k` columns; 3 per column): `value`, the in-plane `grad`
-    /// (2 per column) and the normal gradient `w` (3 per column).
-    #[allow(clippy::too_many_arguments)]
-    fn gather(
-        &self,
-        r: usize,
-        b: &[f64],
-        moment: &[f64],
-        k: usize,
-        value: &mut [f64],
-        grad: &mut [f64],
-        w: &mut [f64],
-    ) {
+    /// normal moments `moment` (`k` columns; 3 per column) into `out`: `k` values, the in-plane
+    /// gradient (2 per column), then the normal gradient (3 per column).
+    fn gather(&self, r: usize, b: &[f64], moment: &[f64], k: usize, out: &mut [f64]) {
+        let (value, rest) = out.split_at_mut(k);
+        let (grad, w) = rest.split_at_mut(2 * k);
         for e in self.offsets[r]..self.offsets[r + 1] {
             let s = self.sources[e] as usize;
             let (f, [gu, gv]) = (f64::from(self.coefficients[e]), self.gradients[e].map(f64::from));
@@ -1045,8 +1025,7 @@ impl Operator {
             .enumerate()
             .with_min_len(512)
             .for_each(|(r, out)| {
-                let (value, rest) = out.split_at_mut(k);
-                let (grad, w) = rest.split_at_mut(2 * k);
+                let (value, grad) = out[..3 * k].split_at_mut(k);
                 let entries = self.offsets[r]..self.offsets[r + 1];
                 let links = (&self.sources[entries.clone()], &self.coefficients[entries]);
                 if nodes[r].is_leaf() {
@@ -1056,7 +1035,7 @@ impl Operator {
                     gather(&b, k, links, Some(gradients), value, grad);
                 }
                 if let Some(v) = &self.volume {
-                    v.gather(r, &b, &moment, k, value, grad, w);
+                    v.gather(r, &b, &moment, k, out);
                 }
             });
         // Push: a child gets its parent's linear field at its centroid, and the gradient; below

@@ -522,7 +522,7 @@ fn mesh_slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
                             min: slot.bounds.min.min(bounds.min),
                             max: slot.bounds.max.max(bounds.max),
                         };
-                        if (box_side - room_side).abs() < slot.gap() {
+                        if near < slot.gap() {
                             slot.box_side = box_side;
                         }
                     }
