@@ -180,6 +180,22 @@ fn room(c: &mut Criterion, name: &str, path: &str, time_build: bool, time_gamma:
     group.bench_function(format!("{name}_reaim_from_estimate"), |b| {
         edit(b, &mut engine, &reaimed)
     });
+    // A re-aim the editor prepared while its aim cursor rested there (docs/DECISIONS.md
+    // "Re-aims prepared where the aim cursor rests"): the light's values are taken, no solve,
+    // and interpolated to the vertices. Between two aims, the one left is kept prepared in turn
+    // (as for an undo), so every timed re-aim is a prepared one.
+    engine.set_light(0, &reaimed[0]).unwrap_or_else(|e| panic!("{e}"));
+    let job = engine.prepare(0, &reaimed[1]).expect("a re-aim to prepare");
+    assert!(engine.hold_prepared(0, job.run().unwrap_or_else(|e| panic!("{e}"))));
+    group.bench_function(format!("{name}_reaim_prepared"), |b| {
+        let mut k = 0;
+        b.iter(|| {
+            k ^= 1;
+            let job = engine.update_light(0, &reaimed[k]);
+            assert!(job.is_none(), "prepared: no solve");
+            black_box(engine.vertex_indirect(0))
+        })
+    });
     group.finish();
 }
 

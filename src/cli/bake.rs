@@ -336,6 +336,13 @@ fn format_hierarchical(engine: &Engine) -> String {
                 g.curve_s * 1e3,
             ));
         }
+        if let Some(p) = &c.aim_prepared {
+            s.push_str(&format!(
+                "that re-aim prepared first, as the editor does where its aim cursor rests: {:.2} ms, no solve (the preparation {:.1} ms in the background)\n",
+                p.aim_s * 1e3,
+                p.prepare_s * 1e3,
+            ));
+        }
         let e = &c.aim_estimate;
         s.push_str(&format!(
             "editor's estimate of that re-aim: {:.2} ms from the light's SH response (built in {:.1} ms), off the solve by {:.2} % of its peak indirect light (without it {:.2} %), {:.3} % of the total illuminance at worst, {:.4} % at the median vertex (without it {:.3} % at worst)\n",
@@ -421,6 +428,10 @@ fn bake_json(b: &Bake, plan_s: f64, engine: Option<&Engine>) -> serde_json::Valu
             "aim_estimate": c.aim_estimate.estimate_s,
             "estimate_build": c.aim_estimate.build_s,
         });
+        if let Some(p) = &c.aim_prepared {
+            doc["edit_s"]["aim_prepare"] = serde_json::json!(p.prepare_s);
+            doc["edit_s"]["aim_prepared"] = serde_json::json!(p.aim_s);
+        }
         if let Some(g) = &c.grown {
             doc["edit_s"]["response_grown"] = serde_json::json!(g.grow_s);
             doc["edit_s"]["response_grown_steps"] = serde_json::json!(g.steps);

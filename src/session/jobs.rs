@@ -1,6 +1,8 @@
 //! Work a session hands to another thread so that edits stay interactive (docs/ARCHITECTURE.md
 //! "The editor's threads"): a moved light's new SH basis columns, an edited light's solve through the
-//! hierarchical engine, a step of growing its curve response while the editor is idle, or the whole engine rebuilt when a move changes its graded mesh. Each
+//! hierarchical engine, a step of growing its curve response or the solve of a state it may be
+//! brought to next while the editor is idle, or the whole engine rebuilt when a move changes its
+//! graded mesh. Each
 //! [`BakeJob`] runs on any thread ([`BakeJob::run`]) and its [`BakeOutcome`] goes back to
 //! [`super::Session::finish_bake`], which installs it unless something newer superseded it.
 
@@ -42,8 +44,11 @@ pub(super) enum Work {
     /// A light's solve through the hierarchical engine.
     Solve(LightSolveJob),
     /// A step of growing a light's curve response while the editor is idle
-    /// ([`super::Session::queue_growth`]).
+    /// ([`super::Session::queue_idle_work`]).
     Grow(LightSolveJob),
+    /// A state a light may be brought to next, solved while the editor is idle
+    /// ([`super::Session::prepare`]).
+    Prepare(LightSolveJob),
     /// Lights moved, or were added or removed: the graded mesh checked, and the whole engine
     /// rebuilt when it no longer holds (the lights' own solves on the current engine are
     /// separate [`Work::Solve`] jobs, queued with it).
@@ -128,6 +133,8 @@ pub(super) enum Done {
     Solved(Box<LightSolve>),
     /// A light's curve response grown by a step (its values unchanged).
     Grown(Box<LightSolve>),
+    /// A light's prepared state (its values unchanged).
+    Prepared(Box<LightSolve>),
     /// The grading kept or the rebuilt engine, with the lights as the job found them and
     /// those whose own solve was queued beside it.
     Regraded {
@@ -172,6 +179,7 @@ impl BakeJob {
             }
             Work::Solve(job) => job.run().map(|solved| Done::Solved(Box::new(solved))),
             Work::Grow(job) => job.run().map(|grown| Done::Grown(Box::new(grown))),
+            Work::Prepare(job) => job.run().map(|solved| Done::Prepared(Box::new(solved))),
             Work::Regrade(job) => job.run().map(|placed| Done::Regraded {
                 placed,
                 snapshot: job.snapshot,

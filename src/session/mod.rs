@@ -48,7 +48,7 @@ use crate::error::{Error, Result};
 use crate::photometry::IncrementalWeights;
 use crate::relight::Relighter;
 use crate::render;
-use crate::scene::{Camera, DirectMode, Scene};
+use crate::scene::{Camera, DirectMode, Light, Scene};
 use crate::transport::bake::{
     Bake, BakeOptions, BakedLight, LightBakeSpec, Progress, bake_planned, plan_without_basis,
 };
@@ -204,11 +204,16 @@ pub struct Session {
     /// Bumped whenever the fine-vertex illuminance changes.
     illuminance_version: u64,
     jobs: Vec<BakeJob>,
-    /// The light whose curve response is being grown while the editor is idle, and its
-    /// generation then ([`Session::queue_growth`]); stale once that generation moved on.
-    growing: Option<(LightId, u64)>,
-    /// The light whose last growth step failed, and its generation then: not grown again
-    /// until it changes (a failing step would otherwise be asked again at every batch).
+    /// The light whose idle work (a step of growing its curve response, or a prepared state) is
+    /// running, and its generation then ([`Session::queue_idle_work`]); stale once that
+    /// generation moved on.
+    idle: Option<(LightId, u64)>,
+    /// The state a light may be brought to next, to solve while the editor is idle
+    /// ([`Session::prepare`]).
+    wanted: Option<(LightId, Light)>,
+    /// The light whose last idle work (a growth step or a prepared state) failed, and its
+    /// generation then: not grown again until it changes (a failing step would otherwise be
+    /// asked again at every batch).
     growth_failed: Option<(LightId, u64)>,
     buffers: FrameBuffers,
     /// The furniture that casts shadows (the bake's, else built on first need); `None` inside
@@ -373,7 +378,8 @@ impl Session {
             relighter: None,
             illuminance_version: 0,
             jobs: Vec::new(),
-            growing: None,
+            idle: None,
+            wanted: None,
             growth_failed: None,
             buffers: FrameBuffers::default(),
             occluders: None,
@@ -582,24 +588,48 @@ impl Session {
         }
     }
 
+    /// Asks for the state `command` would bring its light to — the aim under the editor's aim
+    /// cursor — to be solved while the editor is idle ([`Session::queue_idle_work`]), so that
+    /// the command, when it comes, lands exact at once instead of as an estimate followed by a
+    /// solve (docs/DECISIONS.md "Re-aims prepared where the aim cursor rests"). Changes nothing
+    /// shown; replaces an earlier wish. False, asking nothing, without the hierarchical engine
+    /// or for anything but a valid re-aim.
+    pub fn prepare(&mut self, command: Command) -> bool {
+        if self.hierarchical.is_none() || !matches!(command, Command::Aim { .. }) {
+            return false;
+        }
+        let mut lights = self.lights.clone();
+        let mut camera = self.camera;
+        let Ok(applied) = command.apply(&mut lights, &mut camera, &self.bounds) else {
+            return false;
+        };
+        let Some(i) = applied.change.light() else {
+            return false;
+        };
+        self.wanted = Some((self.slots[i].id, lights[i].to_light()));
+        true
+    }
+
     /// When nothing else is pending — no command unsolved, no job queued or running, no regrade
-    /// — queues the next step of growing a light's curve response towards a column for every
+    /// — queues one piece of work for the editor's idle time and returns whether it did: first
+    /// the state [`Session::prepare`] asked for (a solve the light keeps beside its values),
+    /// else the next step of growing a light's curve response towards a column for every
     /// control point, so that its curve edits are answered exactly from it without a solve
     /// ([`HierarchicalIndirect::grow_response`]; docs/DECISIONS.md "Interreflection",
     /// "Responses completed while the editor is idle"): the `selected` light's first (its
     /// response started if it has none), then the light with the latest values among those
-    /// whose curve was edited where they stand. One step at a time, each a few hundred ms on a
-    /// large floor, so that an edit waits at most one step. Returns whether a step was queued;
-    /// the editor calls it after each batch of work, headless use never does.
-    pub fn queue_growth(&mut self, selected: Option<usize>) -> bool {
+    /// whose curve was edited where they stand. One piece at a time, each a few hundred ms at
+    /// most on a large floor, so that an edit waits at most one. The editor calls it after
+    /// each batch of work, headless use never does.
+    pub fn queue_idle_work(&mut self, selected: Option<usize>) -> bool {
         let Some(h) = self.hierarchical.as_ref() else {
             return false;
         };
-        let growing = self.growing.is_some_and(|(id, generation)| {
+        let running = self.idle.is_some_and(|(id, generation)| {
             self.light_index(id)
                 .is_some_and(|i| self.slots[i].generation == generation)
         });
-        let busy = growing
+        let busy = running
             || !self.jobs.is_empty()
             || self.regrading.is_some()
             || self
@@ -608,6 +638,20 @@ impl Session {
                 .any(|s| s.generation != s.installed || s.solved != s.version);
         if busy {
             return false;
+        }
+        if let Some((id, light)) = self.wanted.take()
+            && let Some(i) = self.light_index(id)
+            && let Some(job) = h.prepare(i, &light)
+        {
+            let slot = &self.slots[i];
+            self.idle = Some((id, slot.generation));
+            self.jobs.push(BakeJob {
+                light: Some(id),
+                name: light.name,
+                generation: slot.generation,
+                work: Work::Prepare(job),
+            });
+            return true;
         }
         let mut order: Vec<usize> = (0..self.slots.len()).collect();
         order.sort_by_key(|&i| (Some(i) != selected, std::cmp::Reverse(h.light_revision(i))));
@@ -618,7 +662,7 @@ impl Session {
             }
             let light = self.lights[i].to_light();
             if let Some(job) = h.grow_response(i, &light, Some(i) == selected) {
-                self.growing = Some((slot.id, slot.generation));
+                self.idle = Some((slot.id, slot.generation));
                 self.jobs.push(BakeJob {
                     light: Some(slot.id),
                     name: light.name,
@@ -628,7 +672,7 @@ impl Session {
                 return true;
             }
         }
-        self.growing = None;
+        self.idle = None;
         false
     }
 
@@ -652,15 +696,15 @@ impl Session {
             result,
         } = outcome;
         let index = light.and_then(|id| self.light_index(id));
-        let grown = light.is_some_and(|id| self.growing == Some((id, generation)));
-        if grown {
-            self.growing = None;
+        let idle = light.is_some_and(|id| self.idle == Some((id, generation)));
+        if idle {
+            self.idle = None;
         }
         let done = match result {
             Ok(done) => done,
-            // A growth step that failed leaves the light's values as they are, and the light
-            // is not grown again until it changes.
-            Err(e) if grown => {
+            // Idle work that failed leaves the light's values as they are, and the light is not
+            // grown again until it changes.
+            Err(e) if idle => {
                 self.growth_failed = light.map(|id| (id, generation));
                 return Err(e);
             }
@@ -710,6 +754,15 @@ impl Session {
                     && let Some(h) = self.hierarchical.as_mut()
                 {
                     h.install_response(i, *grown);
+                }
+                Ok(None)
+            }
+            Done::Prepared(solved) => {
+                // Kept only on the engine it was made on, for the light where it stood.
+                if let Some(i) = index
+                    && let Some(h) = self.hierarchical.as_mut()
+                {
+                    h.hold_prepared(i, *solved);
                 }
                 Ok(None)
             }

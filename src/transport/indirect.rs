@@ -59,6 +59,10 @@ struct SolvedLight {
     /// While a re-aim's or curve edit's solve is pending: the light's values for its new state
     /// estimated from the solved values above and its SH response, shown instead of them.
     estimate: Option<Estimated>,
+    /// A state solved before it was asked for (where the editor's aim cursor rests, or the
+    /// state the last prepared edit left): an edit to exactly that state takes these values
+    /// without a solve (docs/DECISIONS.md "Re-aims prepared where the aim cursor rests").
+    prepared: Option<Arc<Prepared>>,
     /// Changes whenever the values above do; unique across lights and engines of a process.
     revision: u64,
 }
@@ -73,6 +77,28 @@ impl SolvedLight {
             && self.solved_for.as_ref().is_some_and(|(curve, aim, dimmer)| {
                 *curve == light.curve && *aim == light.aim && *dimmer == light.dimmer
             })
+    }
+}
+
+/// A light's values solved for a state it may be brought to next ([`SolvedLight::prepared`]).
+#[derive(Debug, Clone)]
+struct Prepared {
+    /// The state solved (where it stands, curve, aim, dimmer, colour).
+    light: Light,
+    /// Per channel the leaf radiosity, and per channel the leaf indirect irradiance (as
+    /// [`SolvedLight`] keeps them).
+    values: SolvedValues,
+}
+
+impl Prepared {
+    fn bytes(&self) -> usize {
+        4 * self
+            .values
+            .0
+            .iter()
+            .chain(&self.values.1)
+            .map(Vec::len)
+            .sum::<usize>()
     }
 }
 
@@ -136,6 +162,10 @@ pub const SH_RESPONSE_BUDGET_BYTES: usize = 128 << 20;
 /// whose curves were edited last keep theirs.
 pub const CURVE_RESPONSE_BUDGET_BYTES: usize = 128 << 20;
 
+/// Most bytes the lights' prepared states ([`HierarchicalIndirect::prepare`]) may hold together:
+/// 0.6 MB per light and channel on the open-plan floor.
+pub const PREPARED_BUDGET_BYTES: usize = 64 << 20;
+
 /// The source of [`HierarchicalIndirect::revision`]s.
 static REVISIONS: AtomicU64 = AtomicU64::new(1);
 
@@ -192,6 +222,10 @@ pub struct EditCosts {
     /// ([`ESTIMATE_ORDER`]), no solve: its time, the response's build (its columns' solve, as
     /// the editor's first solve of the light adds it) and its error against the solve.
     pub aim_estimate: Estimate,
+    /// The same re-aim prepared first, as the editor does where its aim cursor rests
+    /// ([`HierarchicalIndirect::prepare`]); `None` when the light cannot be prepared (its
+    /// direct cache was dropped).
+    pub aim_prepared: Option<PreparedAim>,
     /// A dimmer change to 0.8 of the current value.
     pub dimmer_s: f64,
     /// A 0.1 m move: the grading check, then the new direct cache and solve, or the whole
@@ -199,6 +233,15 @@ pub struct EditCosts {
     pub move_s: f64,
     /// True when the measured move needed the rebuild.
     pub move_rebuilt: bool,
+}
+
+/// What [`EditCosts::aim_prepared`] measured (wall seconds).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PreparedAim {
+    /// The preparation's solve (in the editor's background).
+    pub prepare_s: f64,
+    /// Then the re-aim, which takes the prepared values without a solve.
+    pub aim_s: f64,
 }
 
 /// What [`EditCosts::grown`] measured (wall seconds).
@@ -488,6 +531,7 @@ impl HierarchicalIndirect {
                 response: None,
                 sh_response: None,
                 estimate: None,
+                prepared: None,
                 revision: 0,
             };
             match cached[c].take() {
@@ -577,6 +621,18 @@ impl HierarchicalIndirect {
             self.revision = next_revision();
             return None;
         }
+        if old
+            .prepared
+            .as_ref()
+            .is_some_and(|p| prepared_for(&p.light, light))
+        {
+            self.take_prepared(i, light);
+            return None;
+        }
+        if moved {
+            self.lights[i].prepared = None;
+        }
+        let old = &self.lights[i];
         let response = (!moved).then(|| curve_edit_response(old, light)).flatten();
         let sh_missing = old.sh_response.as_ref().is_none_or(|r| !r.stands_as(light));
         let sh_response = self.estimate_order.filter(|_| !moved && sh_missing);
@@ -606,6 +662,112 @@ impl HierarchicalIndirect {
     /// and curve edits estimated at once"); `None` builds none (the responses held stay).
     pub fn set_estimates(&mut self, order: Option<usize>) {
         self.estimate_order = order;
+    }
+
+    /// A solve of light `i` in the state `light` before any edit asks for it — where the
+    /// editor's aim cursor rests — to run on any thread and hand to [`Self::hold_prepared`]; an
+    /// edit to exactly that state then takes its values at once, exact, with no solve (docs/
+    /// DECISIONS.md "Re-aims prepared where the aim cursor rests"). The values shown do not
+    /// change. `None` when the light does not stand where `light` does (a move solves anew), its
+    /// direct cache was dropped, it has no solve yet or one is pending, `light` is the state it
+    /// shows, or that state is already prepared. The solve starts from the light's estimate of
+    /// `light` when it holds an SH response, else from its solved values.
+    pub fn prepare(&self, i: usize, light: &Light) -> Option<LightSolveJob> {
+        let solved = self.lights.get(i)?;
+        let (curve, aim, dimmer) = solved.solved_for.as_ref()?;
+        let stands = solved.position == light.position && solved.radius_m == light.radius;
+        if !stands || solved.estimate.is_some() || solved.shows_solve_of(light) {
+            return None;
+        }
+        if solved
+            .prepared
+            .as_ref()
+            .is_some_and(|p| prepared_for(&p.light, light))
+        {
+            return None;
+        }
+        let cache = solved.cache.clone()?;
+        let indirect = match solved.sh_response.as_ref().filter(|r| r.stands_as(light)) {
+            Some(sh) => {
+                sh.estimate(
+                    (curve, *aim, *dimmer),
+                    light,
+                    &solved.radiosity,
+                    &solved.leaf_indirect,
+                )
+                .1
+            }
+            None => solved.leaf_indirect.clone(),
+        };
+        Some(LightSolveJob {
+            engine: Arc::clone(&self.engine),
+            cache: Some(cache),
+            light: light.clone(),
+            indirect,
+            tolerance: self.tolerance,
+            response: None,
+            sh_response: None,
+        })
+    }
+
+    /// Keeps a finished [`Self::prepare`] job as light `i`'s prepared state (replacing the one
+    /// held); false, keeping nothing, when it was made on another engine or the light moved
+    /// since.
+    pub fn hold_prepared(&mut self, i: usize, solved: LightSolve) -> bool {
+        let Some(light) = self.lights.get_mut(i) else {
+            return false;
+        };
+        let stands = light.position == solved.light.position && light.radius_m == solved.light.radius;
+        if !Arc::ptr_eq(&solved.engine, &self.engine) || !stands {
+            return false;
+        }
+        light.prepared = Some(Arc::new(Prepared {
+            light: solved.light,
+            values: solved.values.into_single(),
+        }));
+        trim_to_budget(
+            &mut self.lights,
+            i,
+            PREPARED_BUDGET_BYTES,
+            |l| &mut l.prepared,
+            Prepared::bytes,
+        );
+        true
+    }
+
+    /// Whether light `i` holds a prepared solve of the state `light`.
+    pub fn is_prepared(&self, i: usize, light: &Light) -> bool {
+        self.lights
+            .get(i)
+            .and_then(|l| l.prepared.as_ref())
+            .is_some_and(|p| prepared_for(&p.light, light))
+    }
+
+    /// Brings light `i` to its prepared state `light`, whose values become the solved ones; the
+    /// state solved before becomes the prepared one (an undo lands at once too).
+    fn take_prepared(&mut self, i: usize, light: &Light) {
+        let solved = &mut self.lights[i];
+        let Some(prepared) = solved.prepared.take() else {
+            return;
+        };
+        let previous = solved.solved_for.take().map(|(curve, aim, dimmer)| {
+            Arc::new(Prepared {
+                light: Light {
+                    curve,
+                    aim,
+                    dimmer,
+                    color: solved.color,
+                    ..prepared.light.clone()
+                },
+                values: (
+                    std::mem::take(&mut solved.radiosity),
+                    std::mem::take(&mut solved.leaf_indirect),
+                ),
+            })
+        });
+        store_values(solved, Arc::unwrap_or_clone(prepared).values, light);
+        solved.prepared = previous;
+        self.revision = next_revision();
     }
 
     /// Whether light `i`'s values are an estimate whose solve is pending.
@@ -804,6 +966,7 @@ impl HierarchicalIndirect {
                 response: None,
                 sh_response: None,
                 estimate: None,
+                prepared: None,
                 revision: next_revision(),
             },
         );
@@ -913,6 +1076,22 @@ impl HierarchicalIndirect {
         let (aim_s, dimmer_s) = (timed(&aim)?, timed(&dimmer)?);
         let mut copy = self.clone();
         let t = Instant::now();
+        let aim_prepared = match copy.prepare(i, &aim) {
+            Some(job) => {
+                copy.hold_prepared(i, job.run()?);
+                let prepare_s = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                copy.set_light(i, &aim)?;
+                let _ = copy.vertex_indirect(i);
+                Some(PreparedAim {
+                    prepare_s,
+                    aim_s: t.elapsed().as_secs_f64(),
+                })
+            }
+            None => None,
+        };
+        let mut copy = self.clone();
+        let t = Instant::now();
         copy.set_light(i, &curve)?;
         let _ = copy.vertex_indirect(i);
         let curve_s = t.elapsed().as_secs_f64();
@@ -997,6 +1176,7 @@ impl HierarchicalIndirect {
             grown,
             aim_s,
             aim_estimate,
+            aim_prepared,
             dimmer_s,
             move_s,
             move_rebuilt,
@@ -1096,6 +1276,7 @@ impl HierarchicalIndirect {
             .iter()
             .map(|l| {
                 l.cache.as_ref().map_or(0, |c| c.bytes())
+                    + l.prepared.as_ref().map_or(0, |p| p.bytes())
                     + l.response.as_ref().map_or(0, |r| r.bytes())
                     + l.sh_response.as_ref().map_or(0, |r| r.bytes())
                     + 4 * l
@@ -1228,11 +1409,19 @@ fn curve_edit_response(old: &SolvedLight, light: &Light) -> Option<ResponseReque
 /// True when `a` and `b` are the same state of a light: where it stands, its curve, aim and
 /// dimmer (what its solve depends on).
 fn same_state(a: &Light, b: &Light) -> bool {
-    a.position == b.position
-        && a.radius == b.radius
-        && a.curve == b.curve
-        && a.aim == b.aim
-        && a.dimmer == b.dimmer
+    same_but_aim(a, b) && a.aim == b.aim
+}
+
+/// True when a light's values prepared for the state `prepared` are those of `light`: the same
+/// state, its aim allowed to differ by rounding (a target aimed at again, an aim undone: 10⁻¹²
+/// rad, far below the solve's tolerance).
+fn prepared_for(prepared: &Light, light: &Light) -> bool {
+    same_but_aim(prepared, light) && prepared.aim.distance(light.aim) <= 1e-12
+}
+
+/// [`same_state`] but for the aim.
+fn same_but_aim(a: &Light, b: &Light) -> bool {
+    a.position == b.position && a.radius == b.radius && a.curve == b.curve && a.dimmer == b.dimmer
 }
 
 /// Bumped whenever a light's solve makes something else of the same engine and state: the
@@ -1725,6 +1914,52 @@ solver_patch_size = 0.5
         );
         assert!(engine.install(0, job.run().expect("solves")));
         assert_matches_fresh(&engine, &reaimed, "re-aimed from the estimate");
+    }
+
+    /// A re-aim prepared before it is asked for lands at once, exact, with no solve; the state
+    /// left becomes the prepared one (its undo lands at once too); another aim, or a move, is
+    /// solved as before, and a move drops what was prepared.
+    #[test]
+    fn a_prepared_re_aim_lands_without_a_solve() {
+        let scene = room();
+        let mut engine = build(&scene);
+        engine.set_estimates(Some(ESTIMATE_ORDER));
+        let mut first = scene.clone();
+        first.lights[0].aim = DVec3::new(0.2, 0.1, -1.0).normalize();
+        engine.set_light(0, &first.lights[0]).expect("solves");
+        let mut reaimed = first.clone();
+        reaimed.lights[0].aim = DVec3::new(-0.4, 0.3, -1.0).normalize();
+        let shown = radiosity(&engine, 0);
+        assert!(engine.prepare(0, &first.lights[0]).is_none(), "the state shown");
+        let job = engine.prepare(0, &reaimed.lights[0]).expect("a job");
+        assert!(engine.hold_prepared(0, job.run().expect("solves")));
+        assert_eq!(radiosity(&engine, 0), shown, "preparing changes nothing shown");
+        assert!(
+            engine.prepare(0, &reaimed.lights[0]).is_none(),
+            "already prepared"
+        );
+        assert!(engine.update_light(0, &reaimed.lights[0]).is_none(), "no solve");
+        assert!(!engine.is_estimated(0));
+        assert_matches_fresh(&engine, &reaimed, "the prepared re-aim");
+        // Back to the first aim (an undo): the state left was kept.
+        assert!(engine.is_prepared(0, &first.lights[0]));
+        assert!(
+            engine.update_light(0, &first.lights[0]).is_none(),
+            "the undo: no solve"
+        );
+        assert_eq!(radiosity(&engine, 0), shown);
+        // An aim nobody prepared is solved.
+        let mut other = first.clone();
+        other.lights[0].aim = DVec3::new(0.5, -0.2, -1.0).normalize();
+        assert!(engine.update_light(0, &other.lights[0]).is_some());
+        // A move drops the prepared state (and solves anew), and a preparation made on the
+        // old place is refused.
+        let job = engine.prepare(0, &reaimed.lights[0]);
+        assert!(job.is_none(), "not while a solve is pending");
+        let mut moved = reaimed.clone();
+        moved.lights[0].position += DVec3::new(0.1, 0.0, 0.0);
+        assert!(engine.update_light(0, &moved.lights[0]).is_some());
+        assert!(!engine.is_prepared(0, &first.lights[0]));
     }
 
     /// An edit of more than [`RESPONSE_POINTS_PER_SOLVE`] points (a new shape) is solved without

@@ -328,7 +328,10 @@ impl App {
         match event {
             AppEvent::Input(event) => match input_msg(event) {
                 Some(msg) => {
-                    if matches!(msg, Msg::Key(_) | Msg::Click { .. }) {
+                    let aiming = matches!(self.model.mode, Mode::Aim { .. });
+                    if matches!(msg, Msg::Key(_) | Msg::Click { .. })
+                        || (aiming && matches!(msg, Msg::Hover { .. }))
+                    {
                         self.last_input = Instant::now();
                     }
                     self.dispatch(msg)
@@ -407,6 +410,9 @@ impl App {
                         pixel,
                         preview_px: self.model.preview_px,
                         aim,
+                        // The aim cursor read: an Enter would aim the selected light there.
+                        prepare_aim: (!aim && matches!(self.model.mode, Mode::Aim { .. }))
+                            .then_some(self.model.selected_light),
                     }),
                     Effect::Save { curves, overwrite } => queue.push_back(self.save(curves, overwrite)),
                     Effect::SaveAs(name) => queue.push_back(self.save_as(&name)),
@@ -629,6 +635,12 @@ fn input_msg(event: Event) -> Option<Msg> {
             row,
             ..
         }) => Some(Msg::Click { column, row }),
+        Event::Mouse(MouseEvent {
+            kind: MouseEventKind::Moved,
+            column,
+            row,
+            ..
+        }) => Some(Msg::Hover { column, row }),
         Event::Resize(width, height) => Some(Msg::Resize { width, height }),
         _ => None,
     }
@@ -706,7 +718,11 @@ mod tests {
             Some(Msg::Click { column: 7, row: 3 })
         );
         assert_eq!(input_msg(mouse(MouseEventKind::Down(MouseButton::Right))), None);
-        assert_eq!(input_msg(mouse(MouseEventKind::Moved)), None);
+        assert_eq!(
+            input_msg(mouse(MouseEventKind::Moved)),
+            Some(Msg::Hover { column: 7, row: 3 })
+        );
+        assert_eq!(input_msg(mouse(MouseEventKind::Drag(MouseButton::Left))), None);
         assert_eq!(
             input_msg(Event::Resize(120, 40)),
             Some(Msg::Resize {

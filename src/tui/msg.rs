@@ -24,6 +24,14 @@ pub enum Msg {
         /// Row of the cell.
         row: u16,
     },
+    /// The mouse moved over a terminal cell (column, row; 0-based from the top-left) with no
+    /// button held: in aim mode the aim cursor follows it.
+    Hover {
+        /// Column of the cell.
+        column: u16,
+        /// Row of the cell.
+        row: u16,
+    },
     /// The terminal was resized to `width × height` cells.
     Resize {
         /// Columns.

@@ -34,6 +34,7 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
     match msg {
         Msg::Key(event) => on_key(model, &event),
         Msg::Click { column, row } => on_click(model, Position::new(column, row)),
+        Msg::Hover { column, row } => on_hover(model, Position::new(column, row)),
         Msg::Resize { width, height } => {
             model.terminal_size = (width, height);
             let before = model.preview_px;
@@ -600,6 +601,25 @@ fn on_click(model: &mut Model, cell: Position) -> Vec<Effect> {
         }
         Some(pixel) => vec![Effect::Pick { pixel, aim: false }],
         None => Vec::new(),
+    }
+}
+
+/// In aim mode the aim cursor follows the mouse over the preview, read as the arrow keys'
+/// cursor is (so that a click where it rests aims at the point read, its aim prepared: docs/
+/// DECISIONS.md "Re-aims prepared where the aim cursor rests").
+fn on_hover(model: &mut Model, cell: Position) -> Vec<Effect> {
+    let Mode::Aim { cursor } = &mut model.mode else {
+        return Vec::new();
+    };
+    let (w, h) = model.terminal_size;
+    let area = preview_rect(Rect::new(0, 0, w, h));
+    let (pw, ph) = model.preview_px;
+    match cell_to_pixel(cell, area, pw, ph) {
+        Some(pixel) if pixel != *cursor => {
+            *cursor = pixel;
+            vec![Effect::Render, Effect::Pick { pixel, aim: false }]
+        }
+        _ => Vec::new(),
     }
 }
 

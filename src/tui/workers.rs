@@ -19,7 +19,7 @@ use tiny_skia::Pixmap;
 use glam::DVec3;
 
 use crate::report::{ReportOptions, report_html};
-use crate::scene::{Receiver as Point, Scene};
+use crate::scene::{AimSpec, Receiver as Point, Scene};
 use crate::session::{
     BakeJob, BakeOutcome, Change, Command, FrameSpec, LightStatus, Session, SessionOptions, WatchId,
 };
@@ -97,6 +97,9 @@ pub enum EngineRequest {
         preview_px: (u32, u32),
         /// True when the pick aims the selected light.
         aim: bool,
+        /// The light aim mode would aim at the point (the pick reads the aim cursor's): its
+        /// aim there is solved while the editor is idle ([`Session::prepare`]).
+        prepare_aim: Option<usize>,
     },
     /// A bake the bake worker finished.
     Baked(Box<BakeOutcome>),
@@ -156,6 +159,7 @@ pub fn spawn_engine(
             events,
             bakes,
             cursor: None,
+            aim_read: None,
         };
         if engine.start().is_some() {
             while let Ok(first) = queue.recv() {
@@ -180,6 +184,19 @@ struct Engine {
     bakes: Sender<BakeJob>,
     /// The point under the cursor, kept lit for the numbers panel.
     cursor: Option<(WatchId, DVec3)>,
+    /// The aim cursor's last read (the point whose aim was prepared): an aim at that pixel
+    /// lands on that point, whatever frame size was drawn since; forgotten at any command or
+    /// change of view.
+    aim_read: Option<AimRead>,
+}
+
+/// The point the aim cursor read at a preview pixel.
+#[derive(Debug, Clone, Copy)]
+struct AimRead {
+    /// The preview pixel, and the preview's size it refers to.
+    pixel: (u32, u32),
+    preview_px: (u32, u32),
+    point: Point,
 }
 
 impl Engine {
@@ -264,6 +281,7 @@ impl Engine {
             match request {
                 EngineRequest::Stop => return None,
                 EngineRequest::Commands(commands) => {
+                    self.aim_read = None;
                     for command in commands {
                         match self.session.apply(command) {
                             Ok(applied) => {
@@ -293,6 +311,9 @@ impl Engine {
                     }
                 }
                 EngineRequest::Frame(spec) => {
+                    if self.spec.is_some_and(|old| old.view != spec.view) {
+                        self.aim_read = None;
+                    }
                     redraw |= self.spec != Some(spec);
                     self.spec = Some(spec);
                 }
@@ -300,7 +321,8 @@ impl Engine {
                     pixel,
                     preview_px,
                     aim,
-                } => picks.push((pixel, preview_px, aim)),
+                    prepare_aim,
+                } => picks.push((pixel, preview_px, aim, prepare_aim)),
                 EngineRequest::Report(path) => reports.push(path),
                 EngineRequest::Baked(outcome) => {
                     status_changed = true;
@@ -332,8 +354,27 @@ impl Engine {
             })?;
         }
         let picked = !picks.is_empty();
-        for (pixel, preview_px, aim) in picks {
-            let hit = self.pick(pixel, preview_px);
+        for (pixel, preview_px, aim, prepare_aim) in picks {
+            let read = self
+                .aim_read
+                .filter(|r| aim && (r.pixel, r.preview_px) == (pixel, preview_px))
+                .map(|r| r.point);
+            let hit = match read {
+                Some(point) => self.set_cursor(point).map(|lux| (point, lux)),
+                None => self.pick(pixel, preview_px),
+            };
+            if let (Some(light), Some((point, _))) = (prepare_aim, hit) {
+                self.aim_read = Some(AimRead {
+                    pixel,
+                    preview_px,
+                    point,
+                });
+                self.session.prepare(Command::Aim {
+                    light,
+                    spec: AimSpec::Target(point.point),
+                });
+            }
+            let hit = hit.map(|(point, lux)| (point.point, lux));
             self.send(Msg::Picked { pixel, hit, aim })?;
         }
         if relit || picked {
@@ -344,7 +385,7 @@ impl Engine {
         // Idle: the selected light's curve response (else an edited one's) grown a step
         // (docs/DECISIONS.md "Interreflection", "Responses completed while the editor is idle").
         self.session
-            .queue_growth(self.spec.and_then(|s| s.selected_light));
+            .queue_idle_work(self.spec.and_then(|s| s.selected_light));
         for job in self.session.take_bake_jobs() {
             status_changed = true;
             // The bake worker outlives the engine's use of it; a closed queue means shutdown.
@@ -392,7 +433,7 @@ impl Engine {
     /// The point under preview `pixel` (scaled from `preview_px` to the latest frame's size)
     /// and its illuminance as `haiko probe` gives it; the point becomes the cursor the numbers
     /// follow.
-    fn pick(&mut self, pixel: (u32, u32), (w, h): (u32, u32)) -> Option<(DVec3, f64)> {
+    fn pick(&mut self, pixel: (u32, u32), (w, h): (u32, u32)) -> Option<(Point, f64)> {
         let (frame, _) = self.session.latest_frame()?;
         let scale = |p: u32, from: u32, to: u32| {
             u32::try_from(u64::from(p) * u64::from(to) / u64::from(from.max(1))).unwrap_or(u32::MAX)
@@ -402,11 +443,11 @@ impl Engine {
             scale(pixel.1, h, frame.pixmap.height()),
         );
         let hit = self.session.pick(at)?;
-        let lux = self.set_cursor(Point {
+        let point = Point {
             point: hit.point,
             normal: hit.normal,
-        })?;
-        Some((hit.point, lux))
+        };
+        Some((point, self.set_cursor(point)?))
     }
 }
 

@@ -598,6 +598,8 @@ fn bake_json_reports_the_engine_and_a_plain_room_needs_no_refinement() {
         "move",
         "aim_estimate",
         "estimate_build",
+        "aim_prepare",
+        "aim_prepared",
     ] {
         let t = v["edit_s"][edit].as_f64().unwrap();
         assert!(t.is_finite() && t > 0.0, "{edit}: {t}");

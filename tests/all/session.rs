@@ -498,6 +498,71 @@ fn run_jobs(s: &mut Session) -> usize {
     n
 }
 
+/// The editor's session solves the aim under its aim cursor while idle (`Session::prepare`):
+/// nothing shown changes and the light stays `Ready`; the aim, when it comes, queues no solve
+/// and gives a synchronous session's light, and so does its undo; a wish made while an edit is
+/// unsolved waits for it, and an aim nobody prepared is solved as before.
+#[test]
+fn an_aim_prepared_while_idle_lands_without_a_solve() {
+    let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
+    let mut sync = planned_session(paper());
+    let target = |x: f64, y: f64| Command::Aim {
+        light: 1,
+        spec: AimSpec::Target(DVec3::new(x, y, 0.0)),
+    };
+    let first = s.lights()[1].aim_spec;
+    let before = s.vertex_illuminance().to_vec();
+    assert!(!s.prepare(Command::Move {
+        light: 1,
+        position: DVec3::new(5.0, 0.5, 2.6),
+    }));
+    assert!(s.prepare(target(4.5, 1.5)));
+    assert!(s.queue_idle_work(None));
+    assert_eq!(run_jobs(&mut s), 1);
+    assert!(s.relight().is_empty(), "preparing changes no values");
+    assert_eq!(s.vertex_illuminance(), &before[..]);
+    assert_eq!(s.light_status(1), LightStatus::Ready);
+
+    apply_both(&mut s, &mut sync, target(4.5, 1.5));
+    assert_eq!(s.relight(), vec![1]);
+    assert_eq!(run_jobs(&mut s), 0, "prepared: no solve");
+    assert_eq!(s.light_status(1), LightStatus::Ready);
+    sync.relight();
+    let aimed = s.vertex_illuminance().to_vec();
+    assert_fields_within(&aimed, sync.vertex_illuminance(), 2e-3);
+    assert!(
+        aimed.iter().zip(&before).any(|(a, b)| (a[0] - b[0]).abs() > 1.0),
+        "the aim changed the light"
+    );
+
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::Aim {
+            light: 1,
+            spec: first,
+        },
+    );
+    assert_eq!(s.relight(), vec![1]);
+    assert_eq!(run_jobs(&mut s), 0, "the undo: no solve");
+    // Back to the values before, to rounding (the aim undone to its last bits).
+    assert_fields_within(s.vertex_illuminance(), &before, 1e-7);
+
+    // Asked while an edit is unsolved: the edit first, then the wish.
+    apply_both(&mut s, &mut sync, target(3.5, 0.5));
+    assert!(s.prepare(target(4.0, 2.0)));
+    assert!(!s.queue_idle_work(None), "an edit is unsolved");
+    s.relight();
+    assert_eq!(run_jobs(&mut s), 1, "an aim nobody prepared is solved");
+    assert!(s.queue_idle_work(None), "then the wish");
+    assert_eq!(run_jobs(&mut s), 1);
+    apply_both(&mut s, &mut sync, target(4.0, 2.0));
+    s.relight();
+    assert_eq!(run_jobs(&mut s), 0);
+    sync.relight();
+    assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+}
+
 /// The editor's session grows a light's curve response while it is idle, once a curve edit
 /// was solved where the light stands (the selected light's from nothing): never while a command is unsolved or a job is out, one
 /// step at a time with the light `Ready` throughout and its values unchanged, a step asked
@@ -508,7 +573,7 @@ fn run_jobs(s: &mut Session) -> usize {
 fn idle_growth_answers_curve_edits_of_every_point_at_once() {
     let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
     let mut sync = planned_session(paper());
-    assert!(!s.queue_growth(None), "no curve edited yet");
+    assert!(!s.queue_idle_work(None), "no curve edited yet");
     let shape = Curve::new(&[
         (0.0, 2600.0),
         (10.0, 2500.0),
@@ -528,21 +593,21 @@ fn idle_growth_answers_curve_edits_of_every_point_at_once() {
     );
     s.relight();
     assert_eq!(run_jobs(&mut s), 1, "a new shape is solved");
-    assert!(!s.queue_growth(None), "a new shape holds no response");
+    assert!(!s.queue_idle_work(None), "a new shape holds no response");
     let intensity = |point: usize, candela: f64| Command::SetIntensity {
         light: 0,
         point,
         candela,
     };
     apply_both(&mut s, &mut sync, intensity(2, 2000.0));
-    assert!(!s.queue_growth(None), "the edit is not solved yet");
+    assert!(!s.queue_idle_work(None), "the edit is not solved yet");
     s.relight();
-    assert!(!s.queue_growth(None), "its solve is queued");
+    assert!(!s.queue_idle_work(None), "its solve is queued");
     assert_eq!(run_jobs(&mut s), 1, "the point's first edit is solved");
 
     // A step asked, then an edit of the point it already holds (no solve): the step is dropped.
-    assert!(s.queue_growth(None));
-    assert!(!s.queue_growth(None), "one step at a time");
+    assert!(s.queue_idle_work(None));
+    assert!(!s.queue_idle_work(None), "one step at a time");
     let stale = s.take_bake_jobs();
     assert_eq!(stale.len(), 1);
     apply_both(&mut s, &mut sync, intensity(2, 2100.0));
@@ -553,7 +618,7 @@ fn idle_growth_answers_curve_edits_of_every_point_at_once() {
         assert_eq!(s.finish_bake(job.run(&mut |_| {})).unwrap(), None);
     }
     let mut steps = 0;
-    while s.queue_growth(None) {
+    while s.queue_idle_work(None) {
         steps += 1;
         assert_eq!(run_jobs(&mut s), 1);
         assert_eq!(s.light_status(0), LightStatus::Ready);
@@ -584,14 +649,14 @@ fn idle_growth_answers_curve_edits_of_every_point_at_once() {
 
     // The selected light, never edited, is grown from nothing: its four points in one step,
     // its values unchanged; then its first curve edit needs no solve either.
-    assert!(!s.queue_growth(None), "light 0 complete, light 1 never edited");
+    assert!(!s.queue_idle_work(None), "light 0 complete, light 1 never edited");
     let before = s.vertex_illuminance().to_vec();
-    assert!(s.queue_growth(Some(1)), "the selected light is started");
+    assert!(s.queue_idle_work(Some(1)), "the selected light is started");
     assert_eq!(run_jobs(&mut s), 1);
     assert!(s.relight().is_empty(), "growing changes no values");
     assert_eq!(s.vertex_illuminance(), &before[..]);
     assert_eq!(s.light_status(1), LightStatus::Ready);
-    assert!(!s.queue_growth(Some(1)), "four points: complete in one step");
+    assert!(!s.queue_idle_work(Some(1)), "four points: complete in one step");
     for (point, candela) in [(0, 2000.0), (2, 900.0)] {
         apply_both(
             &mut s,

@@ -556,6 +556,50 @@ fn mouse_click_in_the_preview_picks_its_pixel_and_aims_only_in_aim_mode() {
         ]
     );
     assert_eq!(m.mode, Mode::Normal);
+    // Outside aim mode the mouse moving does nothing; in aim mode the cursor follows it over
+    // the preview (read there, as the arrow keys' cursor), and a click where it rests aims there.
+    let hover = |m: &mut Model, cell: Position| {
+        update(
+            m,
+            Msg::Hover {
+                column: cell.x,
+                row: cell.y,
+            },
+        )
+    };
+    assert_eq!(hover(&mut m, cell), vec![]);
+    update(&mut m, ch('a'));
+    let next = Position::new(cell.x + 1, cell.y);
+    assert_eq!(
+        hover(&mut m, next),
+        vec![
+            Effect::Render,
+            Effect::Pick {
+                pixel: (36, 40),
+                aim: false
+            }
+        ]
+    );
+    assert_eq!(m.mode, Mode::Aim { cursor: (36, 40) });
+    assert_eq!(hover(&mut m, next), vec![], "the same pixel: nothing new");
+    assert_eq!(hover(&mut m, Position::new(0, 0)), vec![], "outside the preview");
+    assert_eq!(m.mode, Mode::Aim { cursor: (36, 40) });
+    assert_eq!(
+        update(
+            &mut m,
+            Msg::Click {
+                column: next.x,
+                row: next.y
+            }
+        ),
+        vec![
+            Effect::Render,
+            Effect::Pick {
+                pixel: (36, 40),
+                aim: true
+            }
+        ]
+    );
     // Outside the preview: nothing.
     assert_eq!(update(&mut m, Msg::Click { column: 0, row: 0 }), vec![]);
     // During help: nothing.
