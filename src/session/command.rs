@@ -4,7 +4,7 @@
 //! apply the very same function to their own copies. World frame: metres, z up
 //! (docs/METHOD.md §1).
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 
 use crate::photometry::{Curve, CurveError, LuminousShape};
 use crate::scene::enclosure::Neighbourhood;
@@ -547,6 +547,46 @@ pub fn aim_axis(spec: AimSpec, position: DVec3) -> Option<(DVec3, AimSpec)> {
     }
 }
 
+/// The re-aims of a group of lights aimed together (one undo step in the editor): light
+/// `selected` aimed at `point` (world, m), every other light of `group` turned by the rotation
+/// that takes the selected light's axis to its new one — a target stays a target, turned about
+/// its light; a direction stays a direction. One entry per light of `group`, in its order, with
+/// `None` where no aim is formed (the point at the selected light itself, for every light; a
+/// half turn, for the others).
+pub fn group_aims(
+    lights: &[LightEdit],
+    selected: usize,
+    group: &[usize],
+    point: DVec3,
+) -> Vec<(usize, Option<Command>)> {
+    let from = lights.get(selected).map(|light| light.aim);
+    let to = lights
+        .get(selected)
+        .and_then(|light| (point - light.position).try_normalize());
+    let rotation = from
+        .zip(to)
+        .filter(|(from, to)| from.dot(*to) > -1.0 + 1e-12)
+        .map(|(from, to)| DQuat::from_rotation_arc(from, to));
+    group
+        .iter()
+        .map(|&i| {
+            let spec = if i == selected {
+                to.map(|_| AimSpec::Target(point))
+            } else {
+                rotation
+                    .zip(lights.get(i))
+                    .map(|(rotation, light)| match light.aim_spec {
+                        AimSpec::Target(t) => {
+                            AimSpec::Target(light.position + rotation * (t - light.position))
+                        }
+                        AimSpec::Direction(d) => AimSpec::Direction(rotation * d),
+                    })
+            };
+            (i, spec.map(|spec| Command::Aim { light: i, spec }))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -592,6 +632,47 @@ mod tests {
             target: DVec3::new(2.0, 1.5, 0.8),
             fov_deg: 60.0,
         }
+    }
+
+    /// A group aimed together: the selected light aims at the point, a direction turns by the
+    /// selected light's rotation, a target turns about its own light; a point at the selected
+    /// light aims nobody, and a half turn leaves the others unaimed.
+    #[test]
+    fn a_group_turns_with_its_selected_light() {
+        let selected = light("a");
+        let mut beside = light("b");
+        beside.position = DVec3::new(3.0, 1.0, 2.5);
+        let mut targeted = light("c");
+        targeted.position = DVec3::new(2.0, 2.0, 2.5);
+        targeted.aim_spec = AimSpec::Target(DVec3::new(2.0, 2.0, 0.0));
+        let lights = [selected, beside, targeted];
+        // The selected light at (1, 1, 2.5) turns from straight down to (1, 0, -2.5)/|·|.
+        let point = DVec3::new(2.0, 1.0, 0.0);
+        let aims = group_aims(&lights, 0, &[0, 1, 2], point);
+        let spec = |k: usize| match &aims[k] {
+            (i, Some(Command::Aim { light, spec })) if *i == k && *light == k => *spec,
+            other => panic!("light {k}: {other:?}"),
+        };
+        assert_eq!(spec(0), AimSpec::Target(point));
+        let turned = DVec3::new(1.0, 0.0, -2.5).normalize();
+        let AimSpec::Direction(d) = spec(1) else {
+            panic!("a direction stays a direction")
+        };
+        assert!((d - turned).length() < 1e-12, "{d}");
+        // The target 2.5 m below light c turns to 2.5 m along the turned axis.
+        let AimSpec::Target(t) = spec(2) else {
+            panic!("a target stays a target")
+        };
+        assert!(
+            (t - (DVec3::new(2.0, 2.0, 2.5) + 2.5 * turned)).length() < 1e-12,
+            "{t}"
+        );
+
+        let at_itself = group_aims(&lights, 0, &[0, 1], lights[0].position);
+        assert!(at_itself.iter().all(|(_, c)| c.is_none()));
+        let straight_up = group_aims(&lights, 0, &[0, 1], DVec3::new(1.0, 1.0, 2.7));
+        assert!(matches!(straight_up[0].1, Some(Command::Aim { light: 0, .. })));
+        assert!(straight_up[1].1.is_none(), "a half turn is undefined");
     }
 
     /// Every command, applied and then undone by its inverse, restores the lights and camera

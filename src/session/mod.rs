@@ -36,7 +36,7 @@ pub mod series;
 use std::path::Path;
 use std::sync::Arc;
 
-pub use command::{Applied, Change, Command, CommandError, RoomBounds};
+pub use command::{Applied, Change, Command, CommandError, RoomBounds, group_aims};
 pub use frame::{ExposureChoice, FrameSpec, MAX_SIDE_PX, PixelHit, ViewChoice, work_plane_height};
 pub use jobs::{BakeJob, BakeOutcome};
 pub use light::{DEFAULT_ORDER, LightEdit, MAX_ORDER, WindowChoice};
@@ -208,9 +208,9 @@ pub struct Session {
     /// running, and its generation then ([`Session::queue_idle_work`]); stale once that
     /// generation moved on.
     idle: Option<(LightId, u64)>,
-    /// The state a light may be brought to next, to solve while the editor is idle
-    /// ([`Session::prepare`]).
-    wanted: Option<(LightId, Light)>,
+    /// The states lights may be brought to next, to solve while the editor is idle, in the
+    /// order asked ([`Session::prepare`]).
+    wanted: Vec<(LightId, Light)>,
     /// The light whose last idle work (a growth step or a prepared state) failed, and its
     /// generation then: not grown again until it changes (a failing step would otherwise be
     /// asked again at every batch).
@@ -379,7 +379,7 @@ impl Session {
             illuminance_version: 0,
             jobs: Vec::new(),
             idle: None,
-            wanted: None,
+            wanted: Vec::new(),
             growth_failed: None,
             buffers: FrameBuffers::default(),
             occluders: None,
@@ -439,6 +439,8 @@ impl Session {
         if let Some(slot) = applied.change.light().and_then(|i| self.slots.get_mut(i)) {
             slot.version += 1;
             slot.edits += 1;
+            // The states wished for were the lights as they stood ([`Session::prepare`]).
+            self.wanted.clear();
         }
         match applied.change {
             Change::Point { light, point } => {
@@ -588,31 +590,38 @@ impl Session {
         }
     }
 
-    /// Asks for the state `command` would bring its light to — the aim under the editor's aim
-    /// cursor — to be solved while the editor is idle ([`Session::queue_idle_work`]), so that
-    /// the command, when it comes, lands exact at once instead of as an estimate followed by a
-    /// solve (docs/DECISIONS.md "Re-aims prepared where the aim cursor rests"). Changes nothing
-    /// shown; replaces an earlier wish. False, asking nothing, without the hierarchical engine
-    /// or for anything but a valid re-aim.
-    pub fn prepare(&mut self, command: Command) -> bool {
-        if self.hierarchical.is_none() || !matches!(command, Command::Aim { .. }) {
-            return false;
+    /// Asks for the states `commands` would bring their lights to — the aims under the
+    /// editor's aim cursor, of the selected light and of the rest of its group — to be solved
+    /// while the editor is idle ([`Session::queue_idle_work`]), in this order, so that the
+    /// commands, when they come, land exact at once instead of as an estimate followed by a
+    /// solve (docs/DECISIONS.md "Re-aims prepared where the aim cursor rests"). Each command
+    /// is applied on its own to the lights as they stand. Changes nothing shown; replaces the
+    /// earlier wishes. Returns how many states were asked for: none without the hierarchical
+    /// engine, and none for anything but valid re-aims.
+    pub fn prepare(&mut self, commands: &[Command]) -> usize {
+        self.wanted.clear();
+        if self.hierarchical.is_none() {
+            return 0;
         }
-        let mut lights = self.lights.clone();
-        let mut camera = self.camera;
-        let Ok(applied) = command.apply(&mut lights, &mut camera, &self.bounds) else {
-            return false;
-        };
-        let Some(i) = applied.change.light() else {
-            return false;
-        };
-        self.wanted = Some((self.slots[i].id, lights[i].to_light()));
-        true
+        for command in commands {
+            if !matches!(command, Command::Aim { .. }) {
+                continue;
+            }
+            let mut lights = self.lights.clone();
+            let mut camera = self.camera;
+            let Ok(applied) = command.apply(&mut lights, &mut camera, &self.bounds) else {
+                continue;
+            };
+            if let Some(i) = applied.change.light() {
+                self.wanted.push((self.slots[i].id, lights[i].to_light()));
+            }
+        }
+        self.wanted.len()
     }
 
     /// When nothing else is pending — no command unsolved, no job queued or running, no regrade
     /// — queues one piece of work for the editor's idle time and returns whether it did: first
-    /// the state [`Session::prepare`] asked for (a solve the light keeps beside its values),
+    /// the states [`Session::prepare`] asked for (a solve the light keeps beside its values),
     /// else the next step of growing a light's curve response towards a column for every
     /// control point, so that its curve edits are answered exactly from it without a solve
     /// ([`HierarchicalIndirect::grow_response`]; docs/DECISIONS.md "Interreflection",
@@ -639,19 +648,21 @@ impl Session {
         if busy {
             return false;
         }
-        if let Some((id, light)) = self.wanted.take()
-            && let Some(i) = self.light_index(id)
-            && let Some(job) = h.prepare(i, &light)
-        {
-            let slot = &self.slots[i];
-            self.idle = Some((id, slot.generation));
-            self.jobs.push(BakeJob {
-                light: Some(id),
-                name: light.name,
-                generation: slot.generation,
-                work: Work::Prepare(job),
-            });
-            return true;
+        while !self.wanted.is_empty() {
+            let (id, light) = self.wanted.remove(0);
+            if let Some(i) = self.light_index(id)
+                && let Some(job) = h.prepare(i, &light)
+            {
+                let slot = &self.slots[i];
+                self.idle = Some((id, slot.generation));
+                self.jobs.push(BakeJob {
+                    light: Some(id),
+                    name: light.name,
+                    generation: slot.generation,
+                    work: Work::Prepare(job),
+                });
+                return true;
+            }
         }
         let mut order: Vec<usize> = (0..self.slots.len()).collect();
         order.sort_by_key(|&i| (Some(i) != selected, std::cmp::Reverse(h.light_revision(i))));

@@ -412,7 +412,7 @@ impl App {
                         aim,
                         // The aim cursor read: an Enter would aim the selected light there.
                         prepare_aim: (!aim && matches!(self.model.mode, Mode::Aim { .. }))
-                            .then_some(self.model.selected_light),
+                            .then(|| (self.model.selected_light, luminaires::group(&self.model))),
                     }),
                     Effect::Save { curves, overwrite } => queue.push_back(self.save(curves, overwrite)),
                     Effect::SaveAs(name) => queue.push_back(self.save_as(&name)),

@@ -4,7 +4,6 @@
 
 use glam::DVec3;
 
-use crate::scene::AimSpec;
 use crate::session::{Command, LightEdit, MAX_ORDER};
 
 /// Intensity step base (cd) for a curve whose peak is 0, where "5 % of the peak" would be 0.
@@ -140,17 +139,6 @@ pub fn step_dimmer(light: &LightEdit, i: usize, delta: f64) -> Command {
         light: i,
         dimmer: next.max(0.0) / 10.0,
     }
-}
-
-/// Aims the light at `point` (world, m): the file form becomes an `aim = point` target.
-pub fn aim_at(light: &LightEdit, i: usize, point: DVec3) -> Result<Command, EditError> {
-    if (point - light.position).try_normalize().is_none() {
-        return Err(EditError::AimAtItself(light.name.clone()));
-    }
-    Ok(Command::Aim {
-        light: i,
-        spec: AimSpec::Target(point),
-    })
 }
 
 /// Moves the light by `offset_m` (world, m), kept [`MOVE_MARGIN_M`] inside the room box

@@ -9,12 +9,12 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 
 use crate::photometry::{ASYMMETRY_WARNING, CSpread, Curve, LidFile, LuminousShape, read_lid_file};
 use crate::scene::{AimSpec, LidSource};
-use crate::session::{Command, LightEdit, RoomBounds};
-use crate::tui::edits::{self, EditError, MOVE_MARGIN_M};
+use crate::session::{Command, LightEdit, RoomBounds, group_aims};
+use crate::tui::edits::{EditError, MOVE_MARGIN_M};
 use crate::tui::keys::Action;
 use crate::tui::model::{Mode, Model};
 use crate::tui::msg::{CurveSave, Effect};
@@ -158,20 +158,6 @@ pub fn parse_dimmer_percent(text: &str) -> Result<f64, EditError> {
         Ok(percent) if percent.is_finite() && percent >= 0.0 => Ok(percent / 100.0),
         _ => Err(EditError::NotADimmer(text.to_string())),
     }
-}
-
-/// The aim of `other` turned by the rotation that takes `from` to `to` (unit axes): the aim
-/// offset of a group aimed together. A target stays a target (turned about the light), a
-/// direction stays a direction. `None` when the rotation is undefined (opposite axes).
-pub fn turned_aim(other: &LightEdit, from: DVec3, to: DVec3) -> Option<AimSpec> {
-    if from.dot(to) <= -1.0 + 1e-12 {
-        return None;
-    }
-    let rotation = DQuat::from_rotation_arc(from, to);
-    Some(match other.aim_spec {
-        AimSpec::Target(t) => AimSpec::Target(other.position + rotation * (t - other.position)),
-        AimSpec::Direction(d) => AimSpec::Direction(rotation * d),
-    })
 }
 
 /// The lights whose curve came from a photometric file and was edited since: a save offers to
@@ -424,25 +410,14 @@ pub(crate) fn on_lid_loaded(
 }
 
 /// Aims the selected light at `point` (world, m) and turns the other lights of the group by
-/// the same rotation (one undo step).
+/// the same rotation ([`group_aims`]; one undo step).
 pub(crate) fn aim_group_at(model: &mut Model, point: DVec3) -> Vec<Effect> {
-    let selected = model.selected_light;
-    let Some(light) = model.lights.get(selected) else {
-        return Vec::new();
-    };
-    let from = light.aim;
-    let Some(to) = (point - light.position).try_normalize() else {
-        model.message = Some(EditError::AimAtItself(light.name.clone()).to_string());
-        return Vec::new();
-    };
+    let aims = group_aims(&model.lights, model.selected_light, &group(model), point);
     edit(model, |l, i| {
-        if i == selected {
-            edits::aim_at(l, i, point)
-        } else {
-            turned_aim(l, from, to)
-                .map(|spec| Command::Aim { light: i, spec })
-                .ok_or_else(|| EditError::AimAtItself(l.name.clone()))
-        }
+        aims.iter()
+            .find(|(j, _)| *j == i)
+            .and_then(|(_, command)| command.clone())
+            .ok_or_else(|| EditError::AimAtItself(l.name.clone()))
     })
 }
 

@@ -19,9 +19,10 @@ use tiny_skia::Pixmap;
 use glam::DVec3;
 
 use crate::report::{ReportOptions, report_html};
-use crate::scene::{AimSpec, Receiver as Point, Scene};
+use crate::scene::{Receiver as Point, Scene};
 use crate::session::{
     BakeJob, BakeOutcome, Change, Command, FrameSpec, LightStatus, Session, SessionOptions, WatchId,
+    group_aims,
 };
 use crate::transport::bake::Progress;
 use crate::tui::frame_budget::FramePlan;
@@ -97,9 +98,10 @@ pub enum EngineRequest {
         preview_px: (u32, u32),
         /// True when the pick aims the selected light.
         aim: bool,
-        /// The light aim mode would aim at the point (the pick reads the aim cursor's): its
-        /// aim there is solved while the editor is idle ([`Session::prepare`]).
-        prepare_aim: Option<usize>,
+        /// The lights aim mode would aim at the point (the pick reads the aim cursor's): the
+        /// selected light, and its group (the selected light among them). Their aims there
+        /// ([`group_aims`]) are solved while the editor is idle ([`Session::prepare`]).
+        prepare_aim: Option<(usize, Vec<usize>)>,
     },
     /// A bake the bake worker finished.
     Baked(Box<BakeOutcome>),
@@ -363,16 +365,17 @@ impl Engine {
                 Some(point) => self.set_cursor(point).map(|lux| (point, lux)),
                 None => self.pick(pixel, preview_px),
             };
-            if let (Some(light), Some((point, _))) = (prepare_aim, hit) {
+            if let (Some((selected, group)), Some((point, _))) = (prepare_aim, hit) {
                 self.aim_read = Some(AimRead {
                     pixel,
                     preview_px,
                     point,
                 });
-                self.session.prepare(Command::Aim {
-                    light,
-                    spec: AimSpec::Target(point.point),
-                });
+                // The selected light first: its aim is the one most surely asked for.
+                let mut aims = group_aims(self.session.lights(), selected, &group, point.point);
+                aims.sort_by_key(|(i, _)| *i != selected);
+                let commands: Vec<Command> = aims.into_iter().filter_map(|(_, c)| c).collect();
+                self.session.prepare(&commands);
             }
             let hit = hit.map(|(point, lux)| (point.point, lux));
             self.send(Msg::Picked { pixel, hit, aim })?;

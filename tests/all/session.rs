@@ -9,7 +9,9 @@ use haiko::photometry::Curve;
 use haiko::render::shade::luma;
 use haiko::render::{DisplayMode, render_attributes, vertex_attributes};
 use haiko::scene::{self, AimSpec, Scene};
-use haiko::session::{Command, FrameSpec, LightEdit, LightStatus, Session, SessionOptions, WindowChoice};
+use haiko::session::{
+    Command, FrameSpec, LightEdit, LightStatus, Session, SessionOptions, WindowChoice, group_aims,
+};
 use haiko::transport::bake::BakeOptions;
 use haiko::transport::cache::BakeCache;
 use haiko::transport::plan::{EngineChoice, PlanOptions};
@@ -501,7 +503,8 @@ fn run_jobs(s: &mut Session) -> usize {
 /// The editor's session solves the aim under its aim cursor while idle (`Session::prepare`):
 /// nothing shown changes and the light stays `Ready`; the aim, when it comes, queues no solve
 /// and gives a synchronous session's light, and so does its undo; a wish made while an edit is
-/// unsolved waits for it, and an aim nobody prepared is solved as before.
+/// unsolved waits for it, and an aim nobody prepared is solved as before; a group's aims are
+/// prepared one light at a time and land together without a solve; an edit drops a wish.
 #[test]
 fn an_aim_prepared_while_idle_lands_without_a_solve() {
     let mut s = Session::new(paper(), SessionOptions::default().interactive(), &mut |_| {}).unwrap();
@@ -512,11 +515,12 @@ fn an_aim_prepared_while_idle_lands_without_a_solve() {
     };
     let first = s.lights()[1].aim_spec;
     let before = s.vertex_illuminance().to_vec();
-    assert!(!s.prepare(Command::Move {
+    let moved = Command::Move {
         light: 1,
         position: DVec3::new(5.0, 0.5, 2.6),
-    }));
-    assert!(s.prepare(target(4.5, 1.5)));
+    };
+    assert_eq!(s.prepare(&[moved]), 0, "only re-aims are prepared");
+    assert_eq!(s.prepare(&[target(4.5, 1.5)]), 1);
     assert!(s.queue_idle_work(None));
     assert_eq!(run_jobs(&mut s), 1);
     assert!(s.relight().is_empty(), "preparing changes no values");
@@ -550,7 +554,7 @@ fn an_aim_prepared_while_idle_lands_without_a_solve() {
 
     // Asked while an edit is unsolved: the edit first, then the wish.
     apply_both(&mut s, &mut sync, target(3.5, 0.5));
-    assert!(s.prepare(target(4.0, 2.0)));
+    assert_eq!(s.prepare(&[target(4.0, 2.0)]), 1);
     assert!(!s.queue_idle_work(None), "an edit is unsolved");
     s.relight();
     assert_eq!(run_jobs(&mut s), 1, "an aim nobody prepared is solved");
@@ -561,6 +565,43 @@ fn an_aim_prepared_while_idle_lands_without_a_solve() {
     assert_eq!(run_jobs(&mut s), 0);
     sync.relight();
     assert_fields_within(s.vertex_illuminance(), sync.vertex_illuminance(), 2e-3);
+
+    // A group aimed together: both lights' aims prepared, one idle job each, the selected
+    // light's first; the group's aim then queues no solve.
+    let aims = group_aims(s.lights(), 1, &[0, 1], DVec3::new(2.0, 1.0, 0.0));
+    let commands: Vec<Command> = aims.into_iter().filter_map(|(_, c)| c).collect();
+    assert_eq!(s.prepare(&commands), 2);
+    for _ in 0..2 {
+        assert!(s.queue_idle_work(None));
+        assert_eq!(run_jobs(&mut s), 1);
+    }
+    let before = s.vertex_illuminance().to_vec();
+    for command in commands {
+        apply_both(&mut s, &mut sync, command);
+    }
+    assert_eq!(s.relight(), vec![0, 1]);
+    assert_eq!(run_jobs(&mut s), 0, "both prepared: no solve");
+    sync.relight();
+    let aimed = s.vertex_illuminance().to_vec();
+    assert_fields_within(&aimed, sync.vertex_illuminance(), 2e-3);
+    assert!(
+        aimed.iter().zip(&before).any(|(a, b)| (a[0] - b[0]).abs() > 1.0),
+        "the group's aim changed the lights"
+    );
+
+    // A wish is for the lights as they stood: any edit drops it.
+    assert_eq!(s.prepare(&[target(1.0, 1.0)]), 1);
+    apply_both(
+        &mut s,
+        &mut sync,
+        Command::SetDimmer {
+            light: 0,
+            dimmer: 0.5,
+        },
+    );
+    s.relight();
+    run_jobs(&mut s);
+    assert!(!s.queue_idle_work(None), "the wish was dropped with the edit");
 }
 
 /// The editor's session grows a light's curve response while it is idle, once a curve edit
