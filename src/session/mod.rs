@@ -594,21 +594,21 @@ impl Session {
     /// editor's aim cursor, of the selected light and of the rest of its group — to be solved
     /// while the editor is idle ([`Session::queue_idle_work`]), in this order, so that the
     /// commands, when they come, land exact at once instead of as an estimate followed by a
-    /// solve (docs/DECISIONS.md "Re-aims prepared where the aim cursor rests"). Each command
-    /// is applied on its own to the lights as they stand. Changes nothing shown; replaces the
-    /// earlier wishes. Returns how many states were asked for: none without the hierarchical
-    /// engine, and none for anything but valid re-aims.
+    /// solve (docs/DECISIONS.md "Re-aims prepared where the aim cursor rests"). The commands
+    /// are applied in turn to a copy of the lights (a group's re-aims, one per light). Changes
+    /// nothing shown; replaces the earlier wishes. Returns how many states were asked for: none
+    /// without the hierarchical engine, and none for anything but valid re-aims.
     pub fn prepare(&mut self, commands: &[Command]) -> usize {
         self.wanted.clear();
         if self.hierarchical.is_none() {
             return 0;
         }
+        let mut lights = self.lights.clone();
+        let mut camera = self.camera;
         for command in commands {
             if !matches!(command, Command::Aim { .. }) {
                 continue;
             }
-            let mut lights = self.lights.clone();
-            let mut camera = self.camera;
             let Ok(applied) = command.apply(&mut lights, &mut camera, &self.bounds) else {
                 continue;
             };

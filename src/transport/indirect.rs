@@ -68,11 +68,32 @@ struct SolvedLight {
 }
 
 impl SolvedLight {
+    /// True when the light stands where `light` does (position and luminous radius).
+    fn stands_as(&self, light: &Light) -> bool {
+        self.position == light.position && self.radius_m == light.radius
+    }
+
+    /// The light's values (per channel the leaf radiosity, and per channel the leaf indirect
+    /// irradiance) for the state `light` estimated from its solved ones by its SH response;
+    /// `None` without a solve, or without a response made where `light` stands.
+    fn estimate_of(&self, light: &Light) -> Option<SolvedValues> {
+        let (sh, (curve, aim, dimmer)) = self
+            .sh_response
+            .as_ref()
+            .filter(|r| r.stands_as(light))
+            .zip(self.solved_for.as_ref())?;
+        Some(sh.estimate(
+            (curve, *aim, *dimmer),
+            light,
+            &self.radiosity,
+            &self.leaf_indirect,
+        ))
+    }
+
     /// True when the values shown are the solve of `light`'s state (where it stands, its
     /// curve, aim and dimmer), not an estimate of a pending edit.
     fn shows_solve_of(&self, light: &Light) -> bool {
-        self.position == light.position
-            && self.radius_m == light.radius
+        self.stands_as(light)
             && self.estimate.is_none()
             && self.solved_for.as_ref().is_some_and(|(curve, aim, dimmer)| {
                 *curve == light.curve && *aim == light.aim && *dimmer == light.dimmer
@@ -674,9 +695,11 @@ impl HierarchicalIndirect {
     /// `light` when it holds an SH response, else from its solved values.
     pub fn prepare(&self, i: usize, light: &Light) -> Option<LightSolveJob> {
         let solved = self.lights.get(i)?;
-        let (curve, aim, dimmer) = solved.solved_for.as_ref()?;
-        let stands = solved.position == light.position && solved.radius_m == light.radius;
-        if !stands || solved.estimate.is_some() || solved.shows_solve_of(light) {
+        if solved.solved_for.is_none()
+            || !solved.stands_as(light)
+            || solved.estimate.is_some()
+            || solved.shows_solve_of(light)
+        {
             return None;
         }
         if solved
@@ -687,18 +710,9 @@ impl HierarchicalIndirect {
             return None;
         }
         let cache = solved.cache.clone()?;
-        let indirect = match solved.sh_response.as_ref().filter(|r| r.stands_as(light)) {
-            Some(sh) => {
-                sh.estimate(
-                    (curve, *aim, *dimmer),
-                    light,
-                    &solved.radiosity,
-                    &solved.leaf_indirect,
-                )
-                .1
-            }
-            None => solved.leaf_indirect.clone(),
-        };
+        let indirect = solved
+            .estimate_of(light)
+            .map_or_else(|| solved.leaf_indirect.clone(), |(_, indirect)| indirect);
         Some(LightSolveJob {
             engine: Arc::clone(&self.engine),
             cache: Some(cache),
@@ -711,14 +725,13 @@ impl HierarchicalIndirect {
     }
 
     /// Keeps a finished [`Self::prepare`] job as light `i`'s prepared state (replacing the one
-    /// held); false, keeping nothing, when it was made on another engine or the light moved
-    /// since.
+    /// held); false, keeping nothing, when it was made on another engine or the light stands
+    /// elsewhere since (its move's solve installed).
     pub fn hold_prepared(&mut self, i: usize, solved: LightSolve) -> bool {
         let Some(light) = self.lights.get_mut(i) else {
             return false;
         };
-        let stands = light.position == solved.light.position && light.radius_m == solved.light.radius;
-        if !Arc::ptr_eq(&solved.engine, &self.engine) || !stands {
+        if !Arc::ptr_eq(&solved.engine, &self.engine) || !light.stands_as(&solved.light) {
             return false;
         }
         light.prepared = Some(Arc::new(Prepared {
@@ -781,20 +794,9 @@ impl HierarchicalIndirect {
     /// stands; else leaves what it shows.
     fn show_estimate(&mut self, i: usize, light: &Light) {
         let solved = &mut self.lights[i];
-        let Some((sh, (curve, aim, dimmer))) = solved
-            .sh_response
-            .as_ref()
-            .filter(|r| r.stands_as(light))
-            .zip(solved.solved_for.as_ref())
-        else {
+        let Some((radiosity, leaf_indirect)) = solved.estimate_of(light) else {
             return;
         };
-        let (radiosity, leaf_indirect) = sh.estimate(
-            (curve, *aim, *dimmer),
-            light,
-            &solved.radiosity,
-            &solved.leaf_indirect,
-        );
         solved.estimate = Some(Estimated {
             light: light.clone(),
             radiosity,
@@ -1880,21 +1882,27 @@ solver_patch_size = 0.5
         assert_matches_fresh(&engine, &reaimed, "re-aimed");
     }
 
+    /// The test room's engine with the SH estimates on, light 0 re-aimed once and solved (which
+    /// builds its SH response); that scene, and the scene with light 0 aimed elsewhere again.
+    fn estimating_engine_reaimed_once() -> (HierarchicalIndirect, Scene, Scene) {
+        let scene = room();
+        let mut engine = build(&scene);
+        engine.set_estimates(Some(ESTIMATE_ORDER));
+        let mut first = scene.clone();
+        first.lights[0].aim = DVec3::new(0.2, 0.1, -1.0).normalize();
+        engine.set_light(0, &first.lights[0]).expect("solves");
+        let mut reaimed = first.clone();
+        reaimed.lights[0].aim = DVec3::new(-0.4, 0.3, -1.0).normalize();
+        (engine, first, reaimed)
+    }
+
     /// With the estimates on, a re-aim's solve starts from the estimate of the new aim, not from
     /// the values solved for the old one: a start nearer the solution (fewer GMRES steps), and
     /// the solve from it ends at a fresh engine's answer.
     #[test]
     fn a_re_aims_solve_starts_from_its_estimate() {
-        let scene = room();
-        let mut engine = build(&scene);
-        engine.set_estimates(Some(ESTIMATE_ORDER));
-        // A first re-aim, solved, builds the light's SH response.
-        let mut first = scene.clone();
-        first.lights[0].aim = DVec3::new(0.2, 0.1, -1.0).normalize();
-        engine.set_light(0, &first.lights[0]).expect("solves");
+        let (mut engine, _, reaimed) = estimating_engine_reaimed_once();
         let solved = engine.lights[0].leaf_indirect.clone();
-        let mut reaimed = first.clone();
-        reaimed.lights[0].aim = DVec3::new(-0.4, 0.3, -1.0).normalize();
         let job = engine
             .update_light(0, &reaimed.lights[0])
             .expect("a re-aim is solved");
@@ -1921,14 +1929,7 @@ solver_patch_size = 0.5
     /// solved as before, and a move drops what was prepared.
     #[test]
     fn a_prepared_re_aim_lands_without_a_solve() {
-        let scene = room();
-        let mut engine = build(&scene);
-        engine.set_estimates(Some(ESTIMATE_ORDER));
-        let mut first = scene.clone();
-        first.lights[0].aim = DVec3::new(0.2, 0.1, -1.0).normalize();
-        engine.set_light(0, &first.lights[0]).expect("solves");
-        let mut reaimed = first.clone();
-        reaimed.lights[0].aim = DVec3::new(-0.4, 0.3, -1.0).normalize();
+        let (mut engine, first, reaimed) = estimating_engine_reaimed_once();
         let shown = radiosity(&engine, 0);
         assert!(engine.prepare(0, &first.lights[0]).is_none(), "the state shown");
         let job = engine.prepare(0, &reaimed.lights[0]).expect("a job");
@@ -1948,18 +1949,27 @@ solver_patch_size = 0.5
             "the undo: no solve"
         );
         assert_eq!(radiosity(&engine, 0), shown);
-        // An aim nobody prepared is solved.
+        assert!(engine.is_prepared(0, &reaimed.lights[0]), "the state left, again");
+        // A preparation made where the light stands now, held only after the move below.
+        let mut elsewhere = first.clone();
+        elsewhere.lights[0].aim = DVec3::new(-0.3, -0.3, -1.0).normalize();
+        let stale = engine.prepare(0, &elsewhere.lights[0]).expect("a job");
+        // An aim nobody prepared is solved; nothing is prepared while its solve is pending.
         let mut other = first.clone();
         other.lights[0].aim = DVec3::new(0.5, -0.2, -1.0).normalize();
         assert!(engine.update_light(0, &other.lights[0]).is_some());
-        // A move drops the prepared state (and solves anew), and a preparation made on the
-        // old place is refused.
-        let job = engine.prepare(0, &reaimed.lights[0]);
-        assert!(job.is_none(), "not while a solve is pending");
+        assert!(
+            engine.prepare(0, &reaimed.lights[0]).is_none(),
+            "not while a solve is pending"
+        );
+        // A move drops the prepared state (and solves anew); once its solve is in, the
+        // preparation made on the old place is refused.
         let mut moved = reaimed.clone();
         moved.lights[0].position += DVec3::new(0.1, 0.0, 0.0);
-        assert!(engine.update_light(0, &moved.lights[0]).is_some());
-        assert!(!engine.is_prepared(0, &first.lights[0]));
+        let job = engine.update_light(0, &moved.lights[0]).expect("a solve");
+        assert!(!engine.is_prepared(0, &reaimed.lights[0]));
+        assert!(engine.install(0, job.run().expect("solves")));
+        assert!(!engine.hold_prepared(0, stale.run().expect("solves")));
     }
 
     /// An edit of more than [`RESPONSE_POINTS_PER_SOLVE`] points (a new shape) is solved without
