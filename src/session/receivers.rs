@@ -283,7 +283,7 @@ impl ReceiverSet {
             }
             Some(Gather::Leaves(engine, near)) => {
                 // Every light's direct irradiance at the near field's pieces, colour applied.
-                let mut direct = vec![[0.0; 3]; near.len()];
+                let mut direct = vec![[0.0; 3]; near.points.len()];
                 for (light, input) in self.lights.iter().zip(inputs) {
                     let Some(light) = light else { continue };
                     let color = input.light.color;
@@ -291,7 +291,15 @@ impl ReceiverSet {
                         (0..3).for_each(|ch| d[ch] += color[ch] * e);
                     }
                 }
-                engine.gather_near(&radiosity, &self.receivers, near, &direct)
+                // The leaves' indirect irradiance, when a piece resolves it.
+                let mut leaf_indirect = Vec::new();
+                if near.resolves_indirect() {
+                    leaf_indirect = vec![[0.0; 3]; n_patches];
+                    for leaves in inputs.iter().filter_map(|input| input.radiosity) {
+                        leaves.add_indirect_to(&mut leaf_indirect);
+                    }
+                }
+                engine.gather_near(&radiosity, &leaf_indirect, &self.receivers, near, &direct)
             }
             None => return,
         };

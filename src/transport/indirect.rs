@@ -996,8 +996,10 @@ impl HierarchicalIndirect {
     /// its estimate while its solve is pending ([`Self::is_estimated`]).
     pub fn light_radiosity(&self, i: usize) -> LeafRadiosity<'_> {
         let light = &self.lights[i];
+        let (channels, indirect) = light.shown();
         LeafRadiosity {
-            channels: light.shown().0,
+            channels,
+            indirect,
             color: light.color,
         }
     }
@@ -1508,13 +1510,17 @@ fn store_values(solved: &mut SolvedLight, (radiosity, leaf_indirect): SolvedValu
     solved.revision = next_revision();
 }
 
-/// One light's leaf radiosity in linear RGB, read from its per-channel solution and colour
-/// (kept once, in the engine: receiver sets sum it without copies).
+/// One light's leaf radiosity and leaf indirect irradiance in linear RGB, read from its
+/// per-channel solution and colour (kept once, in the engine: receiver sets sum them without
+/// copies).
 #[derive(Debug, Clone, Copy)]
 pub struct LeafRadiosity<'a> {
     /// Per solved channel, one value per leaf (lm/m², colour not applied); empty before the
     /// light's first solve.
     channels: &'a [Vec<f32>],
+    /// Per solved channel, the leaves' indirect irradiance `H − E` (lx, colour not applied);
+    /// empty before the light's first solve.
+    indirect: &'a [Vec<f32>],
     /// The light's colour (linear RGB).
     color: [f64; 3],
 }
@@ -1523,12 +1529,13 @@ impl LeafRadiosity<'_> {
     /// Adds the light's leaf radiosity (lm/m², linear RGB, colour applied) to `sum`, one entry
     /// per leaf; adds nothing before its first solve.
     pub fn add_to(&self, sum: &mut [[f64; 3]]) {
-        let Some(last) = self.channels.len().checked_sub(1) else {
-            return;
-        };
-        for (p, b) in sum.iter_mut().enumerate() {
-            (0..3).for_each(|ch| b[ch] += self.color[ch] * f64::from(self.channels[ch.min(last)][p]));
-        }
+        add_coloured(self.channels, self.color, sum);
+    }
+
+    /// Adds the light's leaf indirect irradiance (lx, linear RGB, colour applied) to `sum`, one
+    /// entry per leaf; adds nothing before its first solve.
+    pub fn add_indirect_to(&self, sum: &mut [[f64; 3]]) {
+        add_coloured(self.indirect, self.color, sum);
     }
 
     /// The light's leaf radiosity (lm/m², linear RGB, colour applied) over `n_leaves` leaves.
@@ -1536,6 +1543,17 @@ impl LeafRadiosity<'_> {
         let mut values = vec![[0.0; 3]; n_leaves];
         self.add_to(&mut values);
         values
+    }
+}
+
+/// Adds per-channel leaf values `channels` (colour not applied; one channel stands for all
+/// three, none adds nothing) times `color` to `sum`, one entry per leaf.
+fn add_coloured(channels: &[Vec<f32>], color: [f64; 3], sum: &mut [[f64; 3]]) {
+    let Some(last) = channels.len().checked_sub(1) else {
+        return;
+    };
+    for (p, b) in sum.iter_mut().enumerate() {
+        (0..3).for_each(|ch| b[ch] += color[ch] * f64::from(channels[ch.min(last)][p]));
     }
 }
 

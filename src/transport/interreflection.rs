@@ -286,6 +286,15 @@ impl OperatorEntry {
     }
 }
 
+/// What every leaf holds for all of a scene's lights ([`Interreflection::scene_leaves`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneLeaves {
+    /// Radiosity per leaf (lm/m², linear RGB, colours applied).
+    pub radiosity: Vec<[f64; 3]>,
+    /// Indirect irradiance `H − E` per leaf (lx, linear RGB, colours applied).
+    pub indirect: Vec<[f64; 3]>,
+}
+
 /// The shared interreflection engine of one scene.
 #[derive(Debug, Clone)]
 pub struct Interreflection {
@@ -628,18 +637,32 @@ impl Interreflection {
     /// Radiosity (lm/m², linear RGB) of every leaf with all of `scene`'s lights in their
     /// current states (hybrid mode; light colours applied).
     pub fn scene_radiosity(&self, scene: &Scene, tolerance: f64) -> Result<Vec<[f64; 3]>> {
-        let mut b = vec![[0.0; 3]; self.n_leaves()];
+        Ok(self.scene_leaves(scene, tolerance)?.radiosity)
+    }
+
+    /// The radiosity and indirect irradiance of every leaf with all of `scene`'s lights in
+    /// their current states (light colours applied), each light solved to `tolerance`.
+    pub fn scene_leaves(&self, scene: &Scene, tolerance: f64) -> Result<SceneLeaves> {
+        let n = self.n_leaves();
+        let mut leaves = SceneLeaves {
+            radiosity: vec![[0.0; 3]; n],
+            indirect: vec![[0.0; 3]; n],
+        };
         for light in &scene.lights {
             let cache = self.direct_cache(light);
-            let solutions = self.solve_light(&cache, &LightState::from(light), None, tolerance)?;
+            let state = LightState::from(light);
+            let direct = cache.emission(&state);
+            let solutions = self.solve_light(&cache, &state, None, tolerance)?;
             for ch in 0..3 {
                 let sol = &solutions[ch.min(solutions.len() - 1)];
-                for (leaf, out) in b.iter_mut().enumerate() {
-                    out[ch] += light.color[ch] * sol.radiosity.get(leaf, 0);
+                let color = light.color[ch];
+                for leaf in 0..n {
+                    leaves.radiosity[leaf][ch] += color * sol.radiosity.get(leaf, 0);
+                    leaves.indirect[leaf][ch] += color * (sol.irradiance.get(leaf, 0) - direct.values[leaf]);
                 }
             }
         }
-        Ok(b)
+        Ok(leaves)
     }
 
     /// Indirect illuminance (lx, linear RGB) at each receiver, gathered from the leaves'

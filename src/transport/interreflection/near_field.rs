@@ -7,9 +7,18 @@
 //! times its exact direct light plus its own gather. The receiver adds the piece's form factor
 //! times the difference to the leaf's linear radiosity there.
 //!
+//! A receiver a few centimetres from a leaf up to one and a half times that leaf's size
+//! ([`NEAR_CLOSE_M`], [`NEAR_CLOSE_SHARE`]) has its pieces resolve the indirect light only
+//! (docs/DECISIONS.md "Indirect light beside a box face"): a far link ending at a cluster of
+//! floor strips pushes one irradiance down to every strip, those a box hides from half the room
+//! as much as the open floor, and a face beside the strips sees that at its own scale. Such a
+//! piece adds its reflectance times its own gather less the leaf's solved indirect irradiance;
+//! the leaf's direct light stays its exact mean over the leaf, which one point per piece would
+//! only make worse where a beam edge or a shadow line crosses it.
+//!
 //! The pieces depend only on the receivers and the leaves, so a set of receivers keeps them
 //! ([`NearField`]); what changes edit by edit is the direct light at the pieces (the caller's,
-//! exact in the lights' current state) and the leaves' radiosity.
+//! exact in the lights' current state) and the leaves' radiosity and indirect irradiance.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -33,23 +42,77 @@ const PIECE_DEPTH: u32 = 8;
 /// office, the slot between two cupboards 2.62 % at worst instead of 2.46 %; none at all:
 /// 5.22 %).
 const PIECE_DOUBT: f64 = 0.02;
+/// A receiver not near a leaf by [`NEAR_SHARE`] still has the leaf's indirect light resolved
+/// when its distance to the leaf's bounds is below both this distance (m) and this share of
+/// the leaf's size; leaves in slots excepted, whose partly visible links are refined further
+/// already and whose pieces' gathers, each with less care than a leaf's, were worse there
+/// (docs/DECISIONS.md "Indirect light beside a box face").
+const NEAR_CLOSE_M: f64 = 0.1;
+const NEAR_CLOSE_SHARE: f64 = 1.5;
+
+/// What a piece of a leaf resolves for its receiver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Resolves {
+    /// The leaf's radiosity where the piece lies: reflectance times the exact direct light at
+    /// its point plus its own gather, less the leaf's linear radiosity there.
+    Radiosity,
+    /// The leaf's indirect light where the piece lies: reflectance times its own gather less
+    /// the leaf's solved indirect irradiance.
+    Indirect,
+}
+
+/// One piece of a leaf near a receiver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Piece {
+    leaf: u32,
+    /// The piece's form factor from its receiver.
+    form_factor: f64,
+    resolves: Resolves,
+}
+
+/// What a leaf of `size` (m) whose bounds are `gap` (m) from a receiver resolves for it;
+/// `None` when it is far enough to be gathered whole. `in_slot`: the leaf lies in a slot.
+fn resolves(gap: f64, size: f64, in_slot: bool) -> Option<Resolves> {
+    if gap < NEAR_SHARE * size {
+        Some(Resolves::Radiosity)
+    } else if !in_slot && gap < close_reach(size) {
+        Some(Resolves::Indirect)
+    } else {
+        None
+    }
+}
+
+/// How far (m) from a leaf of `size` (m) a receiver may be for its indirect light to be
+/// resolved.
+fn close_reach(size: f64) -> f64 {
+    NEAR_CLOSE_M.min(NEAR_CLOSE_SHARE * size)
+}
 
 /// The pieces of the leaves near each of a set of receivers.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct NearField {
     /// Per receiver, where its pieces start in `pieces`; one entry more than receivers.
     starts: Vec<u32>,
-    /// Per piece, its leaf and its form factor from its receiver (visible pieces only).
-    pieces: Vec<(u32, f64)>,
-    /// Per piece, its centroid on its leaf with the leaf's normal (world, m): where the
-    /// caller evaluates the direct light ([`Interreflection::gather_near`]).
+    /// The visible pieces, receiver by receiver.
+    pieces: Vec<Piece>,
+    /// Per piece, its centroid on its leaf with the leaf's normal (world, m): where its own
+    /// gather is evaluated.
+    centres: Vec<Receiver>,
+    /// The centres of the pieces that resolve the leaf's radiosity, in order: where the caller
+    /// evaluates the direct light ([`Interreflection::gather_near`]).
     pub points: Vec<Receiver>,
 }
 
 impl NearField {
-    /// Number of pieces (and of points).
+    /// Number of pieces.
     pub fn len(&self) -> usize {
         self.pieces.len()
+    }
+
+    /// True when some piece resolves the indirect light only: [`Interreflection::gather_near`]
+    /// then reads the leaves' indirect irradiance.
+    pub fn resolves_indirect(&self) -> bool {
+        self.pieces.iter().any(|p| p.resolves == Resolves::Indirect)
     }
 
     /// True when no receiver is near a leaf large for its distance.
@@ -61,7 +124,7 @@ impl NearField {
 impl Interreflection {
     /// The pieces of the leaves near each of `receivers` (module doc).
     pub fn near_field(&self, receivers: &[Receiver]) -> NearField {
-        let per_receiver: Vec<Vec<(u32, f64, DVec3)>> =
+        let per_receiver: Vec<Vec<(Piece, DVec3)>> =
             receivers.par_iter().map(|rx| self.near_pieces(rx)).collect();
         let tree = &self.operator.tree;
         let mut near = NearField {
@@ -69,18 +132,22 @@ impl Interreflection {
             ..NearField::default()
         };
         for pieces in per_receiver {
-            for (leaf, f, point) in pieces {
-                let normal = tree.nodes[tree.leaf_node[leaf as usize] as usize].normal;
-                near.pieces.push((leaf, f));
-                near.points.push(Receiver { point, normal });
+            for (piece, point) in pieces {
+                let normal = tree.nodes[tree.leaf_node[piece.leaf as usize] as usize].normal;
+                let centre = Receiver { point, normal };
+                near.pieces.push(piece);
+                near.centres.push(centre);
+                if piece.resolves == Resolves::Radiosity {
+                    near.points.push(centre);
+                }
             }
             near.starts.push(near.pieces.len() as u32);
         }
         near
     }
 
-    /// The visible pieces (leaf, form factor, centroid) of the leaves near `rx`.
-    fn near_pieces(&self, rx: &Receiver) -> Vec<(u32, f64, DVec3)> {
+    /// The visible pieces of the leaves near `rx`, each with its centroid.
+    fn near_pieces(&self, rx: &Receiver) -> Vec<(Piece, DVec3)> {
         let tree = &self.operator.tree;
         let (p, n) = (rx.point + rx.normal * RECEIVER_LIFT_M, rx.normal);
         let mut out = Vec::new();
@@ -90,23 +157,30 @@ impl Interreflection {
             let node = &tree.nodes[i as usize];
             // A leaf below is at most the node's diameter in size.
             let gap = p.distance(p.clamp(node.lo, node.hi));
-            if gap >= NEAR_SHARE * node.diameter || !node.seen_from(p, n) {
+            let reach = (NEAR_SHARE * node.diameter).max(close_reach(node.diameter));
+            if gap >= reach || !node.seen_from(p, n) {
                 continue;
             }
             if !node.is_leaf() {
                 stack.extend(node.children);
                 continue;
             }
-            let target = &self.geometry.targets[node.leaf as usize];
-            if gap >= NEAR_SHARE * target.size {
+            let leaf = node.leaf;
+            let target = &self.geometry.targets[leaf as usize];
+            let Some(what) = resolves(gap, target.size, self.solver.in_slot[leaf as usize]) else {
                 continue;
-            }
+            };
             target.pieces_toward(p, PIECE_ACCEPT, PIECE_DEPTH, |corners, centroid| {
                 let f = point_to_polygon_with(p, n, corners, &mut scratch);
                 let lifted = centroid + node.normal * RECEIVER_LIFT_M;
                 let visible = self.occluders.as_ref().is_none_or(|o| o.visible(p, lifted));
                 if f > 0.0 && visible {
-                    out.push((node.leaf, f, centroid));
+                    let piece = Piece {
+                        leaf,
+                        form_factor: f,
+                        resolves: what,
+                    };
+                    out.push((piece, centroid));
                 }
             });
         }
@@ -116,10 +190,13 @@ impl Interreflection {
     /// [`Self::gather`] at `receivers` with the near field `near` (made by
     /// [`Self::near_field`] for these receivers) resolved: `direct` is the direct irradiance
     /// (lx, linear RGB, colour applied) at `near.points` in the state the leaves' radiosity
-    /// `radiosity` was solved for.
+    /// `radiosity` was solved for, and `leaf_indirect` the leaves' indirect irradiance `H − E`
+    /// in that state (lx, linear RGB, colour applied; read only when
+    /// [`NearField::resolves_indirect`], and may be empty otherwise).
     pub fn gather_near(
         &self,
         radiosity: &[[f64; 3]],
+        leaf_indirect: &[[f64; 3]],
         receivers: &[Receiver],
         near: &NearField,
         direct: &[[f64; 3]],
@@ -129,38 +206,51 @@ impl Interreflection {
             receivers.len() + 1,
             "a near field of these receivers"
         );
-        assert_eq!(direct.len(), near.points.len(), "direct light at every piece");
+        assert_eq!(
+            direct.len(),
+            near.points.len(),
+            "direct light at every piece's point"
+        );
+        assert!(
+            !near.resolves_indirect() || leaf_indirect.len() == radiosity.len(),
+            "the leaves' indirect irradiance for the pieces that resolve it"
+        );
         let prepared = self.prepare_gather(radiosity);
         let mut gathered = self.gather_prepared(&prepared, receivers, self.options.gather_doubt);
         if near.is_empty() {
             return gathered;
         }
-        let at_pieces = self.gather_prepared(&prepared, &near.points, PIECE_DOUBT);
+        let at_pieces = self.gather_prepared(&prepared, &near.centres, PIECE_DOUBT);
         let tree = &self.operator.tree;
         let channels = self.reflectance.len();
-        // Per piece: what it reflects where it lies, less the leaf's linear radiosity there.
+        // Per piece: what it reflects where it lies, less what the leaf's solve gave there.
+        let mut direct = direct.iter();
         let residual: Vec<[f64; 3]> = near
             .pieces
             .iter()
-            .zip(&near.points)
-            .zip(direct.iter().zip(&at_pieces))
-            .map(|((&(leaf, _), piece), (d, g))| {
-                let leaf = leaf as usize;
+            .zip(&near.centres)
+            .zip(&at_pieces)
+            .map(|((piece, centre), g)| {
+                let leaf = piece.leaf as usize;
+                let rho = |ch: usize| self.reflectance[ch.min(channels - 1)][leaf];
+                if piece.resolves == Resolves::Indirect {
+                    return std::array::from_fn(|ch| rho(ch) * (g[ch] - leaf_indirect[leaf][ch]));
+                }
+                let d = direct.next().expect("a direct value per radiosity piece");
                 let centroid = tree.nodes[tree.leaf_node[leaf] as usize].centroid;
                 let slopes = prepared.linear.as_ref().map(|l| l.slopes(leaf));
                 std::array::from_fn(|ch| {
-                    let rho = self.reflectance[ch.min(channels - 1)][leaf];
                     let model =
-                        radiosity[leaf][ch] + slopes.map_or(0.0, |s| s[ch].dot(piece.point - centroid));
-                    rho * (d[ch] + g[ch]) - model
+                        radiosity[leaf][ch] + slopes.map_or(0.0, |s| s[ch].dot(centre.point - centroid));
+                    rho(ch) * (d[ch] + g[ch]) - model
                 })
             })
             .collect();
         for (r, e) in gathered.iter_mut().enumerate() {
             let pieces = near.starts[r] as usize..near.starts[r + 1] as usize;
-            for (&(_, f), res) in near.pieces[pieces.clone()].iter().zip(&residual[pieces]) {
+            for (piece, res) in near.pieces[pieces.clone()].iter().zip(&residual[pieces]) {
                 for ch in 0..3 {
-                    e[ch] += f * res[ch];
+                    e[ch] += piece.form_factor * res[ch];
                 }
             }
             e.iter_mut().for_each(|v| *v = v.max(0.0));
@@ -217,7 +307,7 @@ solver_patch_size = 1.0
         assert_eq!(near.starts, vec![0, near.len() as u32, near.len() as u32]);
         assert!(near.len() > 10, "{} pieces", near.len());
         let p = beside.point + beside.normal * RECEIVER_LIFT_M;
-        let mut leaves: Vec<u32> = near.pieces.iter().map(|&(leaf, _)| leaf).collect();
+        let mut leaves: Vec<u32> = near.pieces.iter().map(|piece| piece.leaf).collect();
         leaves.dedup();
         for leaf in leaves {
             let node = &engine.operator.tree.nodes[engine.operator.tree.leaf_node[leaf as usize] as usize];
@@ -226,8 +316,8 @@ solver_patch_size = 1.0
             let sum: f64 = near
                 .pieces
                 .iter()
-                .filter(|(l, _)| *l == leaf)
-                .map(|(_, f)| f)
+                .filter(|piece| piece.leaf == leaf)
+                .map(|piece| piece.form_factor)
                 .sum();
             let whole = point_to_polygon(p, beside.normal, target.corners());
             assert!(
@@ -237,10 +327,86 @@ solver_patch_size = 1.0
         }
         // The pieces nearest the receiver are the smallest.
         let nearest = near
-            .points
+            .centres
             .iter()
             .map(|q| q.point.distance(p))
             .fold(f64::INFINITY, f64::min);
         assert!(nearest < 0.03, "{nearest}");
+    }
+
+    /// Which leaves a receiver resolves: within half a leaf's size its radiosity; past that,
+    /// within 10 cm and 1.5 times its size, its indirect light (not in a slot); else nothing.
+    #[test]
+    fn close_leaves_resolve_their_indirect_light() {
+        assert_eq!(resolves(0.01, 0.04, false), Some(Resolves::Radiosity));
+        assert_eq!(resolves(0.01, 0.04, true), Some(Resolves::Radiosity));
+        assert_eq!(resolves(0.03, 0.04, false), Some(Resolves::Indirect));
+        assert_eq!(resolves(0.03, 0.04, true), None);
+        assert_eq!(resolves(0.07, 0.04, false), None, "beyond 1.5 sizes");
+        assert_eq!(resolves(0.3, 1.0, false), Some(Resolves::Radiosity));
+        assert_eq!(resolves(0.09, 0.1, false), Some(Resolves::Indirect));
+        assert_eq!(resolves(0.11, 0.1, false), None, "beyond 10 cm");
+    }
+
+    /// A receiver on a box face 3 cm above the graded floor beside it: some floor leaves are
+    /// close enough to have their indirect light resolved, only the pieces resolving radiosity
+    /// have a direct-light point, and the indirect pieces tile their leaves too.
+    #[test]
+    fn a_box_face_above_graded_floor_strips_resolves_their_indirect_light() {
+        let scene = crate::scene::load::test_room(
+            r#"version = 1
+[room]
+size = [4.0, 3.0, 2.5]
+[room.reflectance]
+floor = 0.3
+walls = 0.6
+ceiling = 0.8
+[[box]]
+min = [1.0, 1.0, 0.0]
+max = [2.0, 2.0, 0.8]
+reflectance = 0.5
+[[light]]
+name = "l"
+position = [3.0, 1.5, 2.0]
+lid = [[0, 800], [180, 100]]
+[settings]
+patch_size = 0.1
+solver_patch_size = 0.5
+"#,
+        );
+        let engine = Interreflection::build(&scene, 1, true, &InterreflectionOptions::default()).unwrap();
+        let face = Receiver {
+            point: DVec3::new(2.0, 1.5, 0.03),
+            normal: DVec3::X,
+        };
+        let near = engine.near_field(&[face]);
+        let indirect: Vec<&Piece> = near
+            .pieces
+            .iter()
+            .filter(|p| p.resolves == Resolves::Indirect)
+            .collect();
+        assert!(!indirect.is_empty(), "{} pieces, none indirect", near.len());
+        assert!(near.resolves_indirect());
+        assert_eq!(near.points.len(), near.len() - indirect.len());
+        let p = face.point + face.normal * RECEIVER_LIFT_M;
+        let mut leaves: Vec<u32> = indirect.iter().map(|piece| piece.leaf).collect();
+        leaves.dedup();
+        for leaf in leaves {
+            let node = &engine.operator.tree.nodes[engine.operator.tree.leaf_node[leaf as usize] as usize];
+            assert_eq!(node.normal, DVec3::Z, "floor leaves");
+            let target = &engine.geometry.targets[leaf as usize];
+            let gap = p.distance(p.clamp(node.lo, node.hi));
+            assert!(gap >= NEAR_SHARE * target.size && gap < close_reach(target.size));
+            let sum: f64 = indirect
+                .iter()
+                .filter(|q| q.leaf == leaf)
+                .map(|q| q.form_factor)
+                .sum();
+            let whole = point_to_polygon(p, face.normal, target.corners());
+            assert!(
+                (sum - whole).abs() <= 1e-9 * whole,
+                "leaf {leaf}: {sum} vs {whole}"
+            );
+        }
     }
 }

@@ -1136,13 +1136,19 @@ fn engine_lux(name: &str, options: &InterreflectionOptions) -> (Vec<Reference>, 
 pub fn engine_lux_at(scene: &Scene, options: &InterreflectionOptions, receivers: &[Receiver]) -> Vec<f64> {
     let p = plan(scene, PlanOptions::default());
     let engine = Interreflection::build(scene, p.channels, p.visibility.on, options).unwrap();
-    let b = engine
-        .scene_radiosity(scene, SolveOptions::default().tolerance)
+    let leaves = engine
+        .scene_leaves(scene, SolveOptions::default().tolerance)
         .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
     let near = engine.near_field(receivers);
     let occluders = Occluders::of_scene(scene);
     let near_direct = lights_direct_rgb_at(scene, occluders.as_ref(), &near.points, Dimmers::AsSet);
-    let indirect = engine.gather_near(&b, receivers, &near, &near_direct);
+    let indirect = engine.gather_near(
+        &leaves.radiosity,
+        &leaves.indirect,
+        receivers,
+        &near,
+        &near_direct,
+    );
     total_lux(&scene_direct_at(scene, receivers), &indirect)
 }
 
