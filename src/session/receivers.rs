@@ -33,8 +33,8 @@ pub struct LightInput<'a> {
     pub weights: &'a ZonalWeights,
     /// Its baked basis, if the session has a bake.
     pub baked: Option<&'a BakedLight>,
-    /// Its leaf radiosity (lm/m², linear RGB, colour applied) when the hierarchical engine
-    /// carries the indirect light.
+    /// Its leaf radiosity (lm/m², linear RGB, colour applied) and leaf indirect irradiance
+    /// when the hierarchical engine carries the indirect light.
     pub radiosity: Option<LeafRadiosity<'a>>,
     /// A number that changes whenever anything above changes (the set recomputes the light
     /// when it differs from the one it last saw).
@@ -53,8 +53,9 @@ struct SetLight {
     /// Irradiance of every coarse patch (lx, linear RGB, colour applied) for the basis gather;
     /// empty otherwise (the leaves' gather reads each light's radiosity from the engine).
     irradiance: Vec<[f64; 3]>,
-    /// The geometry of the leaves' near-field pieces ([`NearField::points`]) seen from the
-    /// light, and its direct illuminance there (lx, colour not applied); empty without them.
+    /// The geometry of the near-field pieces that resolve their leaf's radiosity
+    /// ([`NearField::points`]) seen from the light, and its direct illuminance there (lx,
+    /// colour not applied); empty without them.
     near_cache: DirectCache,
     near_direct: Vec<f64>,
 }
@@ -75,7 +76,7 @@ pub enum IndirectSource {
 enum Gather {
     Coarse(GatherOperator),
     /// The engine's leaves, with the pieces of leaves large for their distance to a receiver
-    /// (empty when the direct light comes from the SH series).
+    /// or close to it (empty when the direct light comes from the SH series).
     Leaves(Arc<Interreflection>, NearField),
 }
 
@@ -248,7 +249,8 @@ impl ReceiverSet {
     }
 
     /// Redoes the sums from the lights as computed and, for the leaves' gather, their
-    /// current leaf radiosity in `inputs`.
+    /// current leaf radiosity (and leaf indirect irradiance, when the near field reads it) in
+    /// `inputs`.
     fn resum(&mut self, inputs: &[LightInput<'_>]) {
         let lights: Vec<&SetLight> = self.lights.iter().flatten().collect();
         for (r, total) in self.total.iter_mut().enumerate() {

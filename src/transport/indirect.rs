@@ -992,8 +992,9 @@ impl HierarchicalIndirect {
         self.lights[i].revision
     }
 
-    /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied), read where it is kept:
-    /// its estimate while its solve is pending ([`Self::is_estimated`]).
+    /// Light `i`'s leaf radiosity (lm/m², linear RGB, colour applied) and leaf indirect
+    /// irradiance, read where they are kept: its estimate while its solve is pending
+    /// ([`Self::is_estimated`]).
     pub fn light_radiosity(&self, i: usize) -> LeafRadiosity<'_> {
         let light = &self.lights[i];
         let (channels, indirect) = light.shown();
@@ -1519,7 +1520,7 @@ pub struct LeafRadiosity<'a> {
     /// light's first solve.
     channels: &'a [Vec<f32>],
     /// Per solved channel, the leaves' indirect irradiance `H − E` (lx, colour not applied);
-    /// empty before the light's first solve.
+    /// empty or zero before the light's first solve.
     indirect: &'a [Vec<f32>],
     /// The light's colour (linear RGB).
     color: [f64; 3],

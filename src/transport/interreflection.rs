@@ -650,9 +650,8 @@ impl Interreflection {
         };
         for light in &scene.lights {
             let cache = self.direct_cache(light);
-            let state = LightState::from(light);
-            let direct = cache.emission(&state);
-            let solutions = self.solve_light(&cache, &state, None, tolerance)?;
+            let direct = cache.emission(&LightState::from(light));
+            let solutions = self.solve(&direct, None, tolerance)?;
             for ch in 0..3 {
                 let sol = &solutions[ch.min(solutions.len() - 1)];
                 let color = light.color[ch];

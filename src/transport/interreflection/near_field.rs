@@ -43,11 +43,12 @@ const PIECE_DEPTH: u32 = 8;
 /// 5.22 %).
 const PIECE_DOUBT: f64 = 0.02;
 /// A receiver not near a leaf by [`NEAR_SHARE`] still has the leaf's indirect light resolved
-/// when its distance to the leaf's bounds is below both this distance (m) and this share of
-/// the leaf's size; leaves in slots excepted, whose partly visible links are refined further
-/// already and whose pieces' gathers, each with less care than a leaf's, were worse there
-/// (docs/DECISIONS.md "Indirect light beside a box face").
+/// when its distance to the leaf's bounds is below both this distance (m) and
+/// [`NEAR_CLOSE_SHARE`] of the leaf's size; leaves in slots excepted, whose partly visible
+/// links are refined further already and whose pieces' gathers, each with less care than a
+/// leaf's, were worse there (docs/DECISIONS.md "Indirect light beside a box face").
 const NEAR_CLOSE_M: f64 = 0.1;
+/// The share of a leaf's size within which [`NEAR_CLOSE_M`] applies.
 const NEAR_CLOSE_SHARE: f64 = 1.5;
 
 /// What a piece of a leaf resolves for its receiver.
@@ -57,7 +58,9 @@ enum Resolves {
     /// its point plus its own gather, less the leaf's linear radiosity there.
     Radiosity,
     /// The leaf's indirect light where the piece lies: reflectance times its own gather less
-    /// the leaf's solved indirect irradiance.
+    /// the leaf's solved indirect irradiance. The slope of the leaf's linear radiosity, which
+    /// the receiver's own gather reads, stays: it comes from the neighbours' total radiosity,
+    /// direct and indirect together, and cannot be split.
     Indirect,
 }
 
@@ -101,6 +104,8 @@ pub struct NearField {
     /// The centres of the pieces that resolve the leaf's radiosity, in order: where the caller
     /// evaluates the direct light ([`Interreflection::gather_near`]).
     pub points: Vec<Receiver>,
+    /// True when some piece resolves the indirect light only.
+    resolves_indirect: bool,
 }
 
 impl NearField {
@@ -112,10 +117,10 @@ impl NearField {
     /// True when some piece resolves the indirect light only: [`Interreflection::gather_near`]
     /// then reads the leaves' indirect irradiance.
     pub fn resolves_indirect(&self) -> bool {
-        self.pieces.iter().any(|p| p.resolves == Resolves::Indirect)
+        self.resolves_indirect
     }
 
-    /// True when no receiver is near a leaf large for its distance.
+    /// True when no receiver is near a leaf large for its distance or close to it.
     pub fn is_empty(&self) -> bool {
         self.pieces.is_empty()
     }
@@ -137,8 +142,9 @@ impl Interreflection {
                 let centre = Receiver { point, normal };
                 near.pieces.push(piece);
                 near.centres.push(centre);
-                if piece.resolves == Resolves::Radiosity {
-                    near.points.push(centre);
+                match piece.resolves {
+                    Resolves::Radiosity => near.points.push(centre),
+                    Resolves::Indirect => near.resolves_indirect = true,
                 }
             }
             near.starts.push(near.pieces.len() as u32);
