@@ -272,6 +272,28 @@ mod tests {
     use crate::transport::interreflection::InterreflectionOptions;
     use crate::transport::refine::RefineOptions;
 
+    /// Asserts that the form factors of the pieces of `leaf` among `pieces`, seen from `rx`, sum
+    /// to the leaf's exact factor (the contour integral is additive over a partition).
+    fn assert_pieces_tile_leaf<'a>(
+        engine: &Interreflection,
+        pieces: impl IntoIterator<Item = &'a Piece>,
+        leaf: u32,
+        rx: &Receiver,
+    ) {
+        let p = rx.point + rx.normal * RECEIVER_LIFT_M;
+        let sum: f64 = pieces
+            .into_iter()
+            .filter(|piece| piece.leaf == leaf)
+            .map(|piece| piece.form_factor)
+            .sum();
+        let corners = engine.geometry.targets[leaf as usize].corners();
+        let whole = point_to_polygon(p, rx.normal, corners);
+        assert!(
+            (sum - whole).abs() <= 1e-9 * whole,
+            "leaf {leaf}: {sum} vs {whole}"
+        );
+    }
+
     /// A receiver on the floor 2 cm from a wall of 1 m leaves (no refinement, no occluders):
     /// only that wall's leaves beside it are near, their pieces' factors sum to each leaf's exact
     /// factor (the contour integral is additive over a partition), and the finest lie within
@@ -318,18 +340,7 @@ solver_patch_size = 1.0
         for leaf in leaves {
             let node = &engine.operator.tree.nodes[engine.operator.tree.leaf_node[leaf as usize] as usize];
             assert_eq!(node.normal, DVec3::Y, "only the wall y = 0 is near");
-            let target = &engine.geometry.targets[leaf as usize];
-            let sum: f64 = near
-                .pieces
-                .iter()
-                .filter(|piece| piece.leaf == leaf)
-                .map(|piece| piece.form_factor)
-                .sum();
-            let whole = point_to_polygon(p, beside.normal, target.corners());
-            assert!(
-                (sum - whole).abs() <= 1e-9 * whole,
-                "leaf {leaf}: {sum} vs {whole}"
-            );
+            assert_pieces_tile_leaf(&engine, &near.pieces, leaf, &beside);
         }
         // The pieces nearest the receiver are the smallest.
         let nearest = near
@@ -403,16 +414,7 @@ solver_patch_size = 0.5
             let target = &engine.geometry.targets[leaf as usize];
             let gap = p.distance(p.clamp(node.lo, node.hi));
             assert!(gap >= NEAR_SHARE * target.size && gap < close_reach(target.size));
-            let sum: f64 = indirect
-                .iter()
-                .filter(|q| q.leaf == leaf)
-                .map(|q| q.form_factor)
-                .sum();
-            let whole = point_to_polygon(p, face.normal, target.corners());
-            assert!(
-                (sum - whole).abs() <= 1e-9 * whole,
-                "leaf {leaf}: {sum} vs {whole}"
-            );
+            assert_pieces_tile_leaf(&engine, indirect.iter().copied(), leaf, &face);
         }
     }
 }
