@@ -4,8 +4,9 @@
 //! corner of a slot — where one value per leaf, even a linear one, is the mean of a profile
 //! that bends. Such a leaf is cut into pieces towards the receiver (each at most its distance
 //! in size), and each visible piece's radiosity is evaluated where it lies: its reflectance
-//! times its exact direct light plus its own gather. The receiver adds the piece's form factor
-//! times the difference to the leaf's linear radiosity there.
+//! times its exact direct light (the mean at its quarters' centres) plus its own gather. The
+//! receiver adds the piece's form factor times the difference to the leaf's linear radiosity
+//! there.
 //!
 //! A receiver a few centimetres from a leaf up to one and a half times that leaf's size
 //! ([`NEAR_CLOSE_M`], [`NEAR_CLOSE_SHARE`]) has its pieces resolve the indirect light only
@@ -51,11 +52,26 @@ const NEAR_CLOSE_M: f64 = 0.1;
 /// The share of a leaf's size within which [`NEAR_CLOSE_M`] applies.
 const NEAR_CLOSE_SHARE: f64 = 1.5;
 
+/// A piece that resolves its leaf's radiosity reads its direct light as the mean of this
+/// many points, the centres of its quarters ([`quarter_centres`]): a shadow line or a beam edge
+/// crossing a piece as large as its distance to the receiver then shifts the piece's direct
+/// light by a quarter at a time, not all or nothing (docs/DECISIONS.md "Direct light of a
+/// near piece").
+const DIRECT_POINTS: usize = 4;
+
+/// The centres of the four quarters of a piece with `corners` (three or four, convex) and
+/// `centroid`: halfway from the centroid to each corner, which on a parallelogram is the centre
+/// of the corner's quarter and on a triangle the centroid of its corner's quarter; a triangle's
+/// fourth, middle quarter is centred on the centroid itself. Equal areas, so equal weights.
+fn quarter_centres(corners: &[DVec3], centroid: DVec3) -> [DVec3; DIRECT_POINTS] {
+    std::array::from_fn(|k| corners.get(k).map_or(centroid, |&c| 0.5 * (centroid + c)))
+}
+
 /// What a piece of a leaf resolves for its receiver.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Resolves {
     /// The leaf's radiosity where the piece lies: reflectance times the exact direct light at
-    /// its point plus its own gather, less the leaf's linear radiosity there.
+    /// its quarters' centres plus its own gather, less the leaf's linear radiosity there.
     Radiosity,
     /// The leaf's indirect light where the piece lies: reflectance times its own gather less
     /// the leaf's solved indirect irradiance. The slope of the leaf's linear radiosity, which
@@ -101,8 +117,9 @@ pub struct NearField {
     /// Per piece, its centroid on its leaf with the leaf's normal (world, m): where its own
     /// gather is evaluated.
     centres: Vec<Receiver>,
-    /// The centres of the pieces that resolve the leaf's radiosity, in order: where the caller
-    /// evaluates the direct light ([`Interreflection::gather_near`]).
+    /// The [`DIRECT_POINTS`] direct-light points of each piece that resolves the leaf's
+    /// radiosity, piece by piece: where the caller evaluates the direct light
+    /// ([`Interreflection::gather_near`]), whose mean is the piece's.
     pub points: Vec<Receiver>,
     /// True when some piece resolves the indirect light only.
     resolves_indirect: bool,
@@ -129,7 +146,7 @@ impl NearField {
 impl Interreflection {
     /// The pieces of the leaves near each of `receivers` (module doc).
     pub fn near_field(&self, receivers: &[Receiver]) -> NearField {
-        let per_receiver: Vec<Vec<(Piece, DVec3)>> =
+        let per_receiver: Vec<Vec<(Piece, DVec3, [DVec3; DIRECT_POINTS])>> =
             receivers.par_iter().map(|rx| self.near_pieces(rx)).collect();
         let tree = &self.operator.tree;
         let mut near = NearField {
@@ -137,13 +154,14 @@ impl Interreflection {
             ..NearField::default()
         };
         for pieces in per_receiver {
-            for (piece, point) in pieces {
+            for (piece, point, quarters) in pieces {
                 let normal = tree.nodes[tree.leaf_node[piece.leaf as usize] as usize].normal;
-                let centre = Receiver { point, normal };
                 near.pieces.push(piece);
-                near.centres.push(centre);
+                near.centres.push(Receiver { point, normal });
                 match piece.resolves {
-                    Resolves::Radiosity => near.points.push(centre),
+                    Resolves::Radiosity => near
+                        .points
+                        .extend(quarters.map(|point| Receiver { point, normal })),
                     Resolves::Indirect => near.resolves_indirect = true,
                 }
             }
@@ -152,8 +170,9 @@ impl Interreflection {
         near
     }
 
-    /// The visible pieces of the leaves near `rx`, each with its centroid.
-    fn near_pieces(&self, rx: &Receiver) -> Vec<(Piece, DVec3)> {
+    /// The visible pieces of the leaves near `rx`, each with its centroid and its
+    /// [`DIRECT_POINTS`] direct-light points.
+    fn near_pieces(&self, rx: &Receiver) -> Vec<(Piece, DVec3, [DVec3; DIRECT_POINTS])> {
         let tree = &self.operator.tree;
         let (p, n) = (rx.point + rx.normal * RECEIVER_LIFT_M, rx.normal);
         let mut out = Vec::new();
@@ -186,7 +205,7 @@ impl Interreflection {
                         form_factor: f,
                         resolves: what,
                     };
-                    out.push((piece, centroid));
+                    out.push((piece, centroid, quarter_centres(corners, centroid)));
                 }
             });
         }
@@ -230,7 +249,7 @@ impl Interreflection {
         let tree = &self.operator.tree;
         let channels = self.reflectance.len();
         // Per piece: what it reflects where it lies, less what the leaf's solve gave there.
-        let mut direct = direct.iter();
+        let mut direct = direct.chunks_exact(DIRECT_POINTS);
         let residual: Vec<[f64; 3]> = near
             .pieces
             .iter()
@@ -242,7 +261,11 @@ impl Interreflection {
                 if piece.resolves == Resolves::Indirect {
                     return std::array::from_fn(|ch| rho(ch) * (g[ch] - leaf_indirect[leaf][ch]));
                 }
-                let d = direct.next().expect("a direct value per radiosity piece");
+                let d = direct
+                    .next()
+                    .expect("direct values at every radiosity piece's points");
+                let d: [f64; 3] =
+                    std::array::from_fn(|ch| d.iter().map(|v| v[ch]).sum::<f64>() / DIRECT_POINTS as f64);
                 let centroid = tree.nodes[tree.leaf_node[leaf] as usize].centroid;
                 let slopes = prepared.linear.as_ref().map(|l| l.slopes(leaf));
                 std::array::from_fn(|ch| {
@@ -351,6 +374,34 @@ solver_patch_size = 1.0
         assert!(nearest < 0.03, "{nearest}");
     }
 
+    /// The direct-light points of a piece are the centres of its four equal quarters: of a
+    /// parallelogram its four sub-parallelograms, of a triangle its three corner triangles and
+    /// the middle one (centred on the centroid).
+    #[test]
+    fn direct_points_are_the_quarters_centres() {
+        let a = DVec3::new(0.0, 0.0, 1.0);
+        let (u, v) = (DVec3::new(0.4, 0.0, 0.0), DVec3::new(0.1, 0.2, 0.0));
+        let quad = [a, a + u, a + u + v, a + v];
+        let got = quarter_centres(&quad, a + 0.5 * (u + v));
+        let want = [(0.25, 0.25), (0.75, 0.25), (0.75, 0.75), (0.25, 0.75)].map(|(s, t)| a + s * u + t * v);
+        for (g, w) in got.iter().zip(&want) {
+            assert!(g.distance(*w) < 1e-15, "{g} vs {w}");
+        }
+        let (b, c) = (a + u, a + v);
+        let centroid = (a + b + c) / 3.0;
+        let got = quarter_centres(&[a, b, c], centroid);
+        let corner_quarter = |p: DVec3, q: DVec3, r: DVec3| (p + 0.5 * (p + q) + 0.5 * (p + r)) / 3.0;
+        let want = [
+            corner_quarter(a, b, c),
+            corner_quarter(b, c, a),
+            corner_quarter(c, a, b),
+            centroid,
+        ];
+        for (g, w) in got.iter().zip(&want) {
+            assert!(g.distance(*w) < 1e-15, "{g} vs {w}");
+        }
+    }
+
     /// Which leaves a receiver resolves: within half a leaf's size its radiosity; past that,
     /// within 10 cm and 1.5 times its size, its indirect light (not in a slot); else nothing.
     #[test]
@@ -404,7 +455,7 @@ solver_patch_size = 0.5
             .collect();
         assert!(!indirect.is_empty(), "{} pieces, none indirect", near.len());
         assert!(near.resolves_indirect());
-        assert_eq!(near.points.len(), near.len() - indirect.len());
+        assert_eq!(near.points.len(), DIRECT_POINTS * (near.len() - indirect.len()));
         let p = face.point + face.normal * RECEIVER_LIFT_M;
         let mut leaves: Vec<u32> = indirect.iter().map(|piece| piece.leaf).collect();
         leaves.dedup();

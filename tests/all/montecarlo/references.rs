@@ -1237,7 +1237,12 @@ pub fn total_lux(direct: &[f64], indirect: &[[f64; 3]]) -> Vec<f64> {
 /// surfaces clustered by plane (twenty-seventh round) took `obj-on-box` from 2.59 to 1.28 %.
 /// The `hovering-models` room (twenty-ninth round: a faceted torus 5 cm and an OBJ cabinet 6 cm
 /// above the floor) was 46.8 % high on the floor under the torus's ring before OBJ undersides
-/// made slots (docs/DECISIONS.md "Slots under OBJ objects"); 2.01 % since.
+/// made slots (docs/DECISIONS.md "Slots under OBJ objects"); 2.01 % since. Thirty-second
+/// round: a near piece's direct light is the mean over its quarters (docs/DECISIONS.md "Direct
+/// light of a near piece"). `closet`'s two faces beside its door, mirror images, read 107.82
+/// and 108.70 lx 5 cm up with one point per piece, 108.66 and 108.70 lx since, against traces
+/// of 106.65 and 107.11 (the references' own mirror difference, 0.43 %, is their noise): its
+/// worst 1.49 → 1.89 %, so its bound is 2.1 %.
 const ENGINE_BOUNDS: [(&str, f64, f64); 33] = [
     ("hotspot-box", 0.005, 0.016),
     ("lamp-near-box", 0.005, 0.015),
@@ -1262,7 +1267,7 @@ const ENGINE_BOUNDS: [(&str, f64, f64); 33] = [
     ("shelves", 0.005, 0.026),
     ("batwing", 0.005, 0.014),
     ("near-surfaces", 0.005, 0.013),
-    ("closet", 0.005, 0.019),
+    ("closet", 0.005, 0.021),
     ("desk-lamps", 0.005, 0.013),
     ("atrium", 0.005, 0.014),
     ("corners", 0.005, 0.017),
