@@ -53,9 +53,9 @@ struct SetLight {
     /// Irradiance of every coarse patch (lx, linear RGB, colour applied) for the basis gather;
     /// empty otherwise (the leaves' gather reads each light's radiosity from the engine).
     irradiance: Vec<[f64; 3]>,
-    /// The geometry of the near-field pieces that resolve their leaf's radiosity
-    /// ([`NearField::points`]) seen from the light, and its direct illuminance there (lx,
-    /// colour not applied); empty without them.
+    /// The geometry of the direct-light points of the near-field pieces that resolve their
+    /// leaf's radiosity (four per piece, [`NearField::points`]) seen from the light, and its
+    /// direct illuminance there (lx, colour not applied); empty without them.
     near_cache: DirectCache,
     near_direct: Vec<f64>,
 }
@@ -284,7 +284,7 @@ impl ReceiverSet {
                 gather.apply(&radiosity)
             }
             Some(Gather::Leaves(engine, near)) => {
-                // Every light's direct irradiance at the near field's pieces, colour applied.
+                // Every light's direct irradiance at the near field's points, colour applied.
                 let mut direct = vec![[0.0; 3]; near.points.len()];
                 for (light, input) in self.lights.iter().zip(inputs) {
                     let Some(light) = light else { continue };

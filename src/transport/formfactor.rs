@@ -223,9 +223,9 @@ impl TargetPatch {
             return Some(DVec3::ZERO);
         }
         let mut moment = DVec3::ZERO;
-        self.pieces_toward(p, MOMENT_ACCEPT, MOMENT_DEPTH, |corners, centroid| {
-            let f = contour_form_factor(p, n, corners, scratch);
-            moment += f * (centroid - self.centroid);
+        self.pieces_toward(p, MOMENT_ACCEPT, MOMENT_DEPTH, |piece| {
+            let f = contour_form_factor(p, n, piece.corners(), scratch);
+            moment += f * (piece.centroid() - self.centroid);
         });
         Some(moment)
     }
@@ -237,21 +237,20 @@ impl TargetPatch {
 
     /// Cuts the patch into pieces, each split in four at its edge midpoints until its size is
     /// at most `accept` times the distance from `p` to its centroid (at most `depth` times),
-    /// and calls `each` with every piece's corners and centroid (world, m): fine where `p` is
-    /// close, coarse where it is far.
-    pub fn pieces_toward(&self, p: DVec3, accept: f64, depth: u32, mut each: impl FnMut(&[DVec3], DVec3)) {
+    /// and calls `each` with every piece: fine where `p` is close, coarse where it is far.
+    pub fn pieces_toward(&self, p: DVec3, accept: f64, depth: u32, mut each: impl FnMut(&PatchPiece)) {
         let mut stack = vec![(self.whole(), 0u32)];
         while let Some((piece, level)) = stack.pop() {
             if level < depth && !piece.accepted(p, accept) {
                 stack.extend(piece.quarters().map(|q| (q, level + 1)));
                 continue;
             }
-            each(piece.corners(), piece.centroid());
+            each(&piece);
         }
     }
 
-    fn whole(&self) -> Piece {
-        Piece {
+    fn whole(&self) -> PatchPiece {
+        PatchPiece {
             corners: self.corners,
             n: self.n_corners,
         }
@@ -330,20 +329,28 @@ pub fn triangle_quarters([a, b, c]: [DVec3; 3]) -> [[DVec3; 3]; 4] {
 const MOMENT_ACCEPT: f64 = 0.25;
 const MOMENT_DEPTH: u32 = 6;
 
-/// A quad or triangle piece of a patch (world, m).
+/// A piece of a patch (world, m): the patch itself or a quarter of a piece, so a rectangle
+/// (the mesher's cells) or a triangle (an OBJ face).
 #[derive(Debug, Clone, Copy)]
-struct Piece {
+pub struct PatchPiece {
     corners: [DVec3; 4],
     n: usize,
 }
 
-impl Piece {
-    fn corners(&self) -> &[DVec3] {
+impl PatchPiece {
+    /// Its three or four corners.
+    pub fn corners(&self) -> &[DVec3] {
         &self.corners[..self.n]
     }
 
-    fn centroid(&self) -> DVec3 {
+    /// Its centroid: the mean of its corners (exact on a parallelogram and a triangle).
+    pub fn centroid(&self) -> DVec3 {
         self.corners().iter().sum::<DVec3>() / self.n as f64
+    }
+
+    /// The centroids of its four quarters ([`Self::quarters`]), which have equal areas.
+    pub fn quarter_centres(&self) -> [DVec3; 4] {
+        self.quarters().map(|q| q.centroid())
     }
 
     /// At most `accept` times its distance to `p` in size.
@@ -358,7 +365,7 @@ impl Piece {
     }
 
     /// The four pieces of a split at the edge midpoints (and the centre of a quad).
-    fn quarters(&self) -> [Piece; 4] {
+    fn quarters(&self) -> [PatchPiece; 4] {
         let c = &self.corners;
         if self.n == 4 {
             let m = [
@@ -374,9 +381,9 @@ impl Piece {
                 [o, m[1], c[2], m[2]],
                 [m[3], o, m[2], c[3]],
             ]
-            .map(|corners| Piece { corners, n: 4 })
+            .map(|corners| PatchPiece { corners, n: 4 })
         } else {
-            triangle_quarters([c[0], c[1], c[2]]).map(|t| Piece {
+            triangle_quarters([c[0], c[1], c[2]]).map(|t| PatchPiece {
                 corners: [t[0], t[1], t[2], DVec3::ZERO],
                 n: 3,
             })
@@ -642,6 +649,38 @@ mod tests {
             }],
         };
         TargetPatch::new(&mesh, &mesh.patches[0])
+    }
+
+    /// A piece's quarter centres are the centroids of its four equal quarters: of a
+    /// parallelogram its 2 × 2 sub-parallelograms, of a triangle its three corner triangles and
+    /// the middle one (centred on the triangle's centroid).
+    #[test]
+    fn quarter_centres_of_a_parallelogram_and_a_triangle() {
+        let a = DVec3::new(0.0, 0.0, 1.0);
+        let (u, v) = (DVec3::new(0.4, 0.0, 0.0), DVec3::new(0.1, 0.2, 0.0));
+        let quad = PatchPiece {
+            corners: [a, a + u, a + u + v, a + v],
+            n: 4,
+        };
+        let want = [(0.25, 0.25), (0.75, 0.25), (0.75, 0.75), (0.25, 0.75)].map(|(s, t)| a + s * u + t * v);
+        for (g, w) in quad.quarter_centres().iter().zip(&want) {
+            assert!(g.distance(*w) < 1e-15, "{g} vs {w}");
+        }
+        let (b, c) = (a + u, a + v);
+        let triangle = PatchPiece {
+            corners: [a, b, c, DVec3::ZERO],
+            n: 3,
+        };
+        let corner_quarter = |p: DVec3, q: DVec3, r: DVec3| (p + 0.5 * (p + q) + 0.5 * (p + r)) / 3.0;
+        let want = [
+            corner_quarter(a, b, c),
+            corner_quarter(b, c, a),
+            corner_quarter(c, a, b),
+            (a + b + c) / 3.0,
+        ];
+        for (g, w) in triangle.quarter_centres().iter().zip(&want) {
+            assert!(g.distance(*w) < 1e-15, "{g} vs {w}");
+        }
     }
 
     /// A 2 × 1 m rectangle: `A a²/12`, `A b²/12`; the right triangle with legs 1: variance 1/18

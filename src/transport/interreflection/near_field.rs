@@ -14,8 +14,8 @@
 //! floor strips pushes one irradiance down to every strip, those a box hides from half the room
 //! as much as the open floor, and a face beside the strips sees that at its own scale. Such a
 //! piece adds its reflectance times its own gather less the leaf's solved indirect irradiance;
-//! the leaf's direct light stays its exact mean over the leaf, which one point per piece would
-//! only make worse where a beam edge or a shadow line crosses it.
+//! the leaf's direct light stays its exact mean over the leaf, which a few points per piece
+//! would only make worse where a beam edge or a shadow line crosses it.
 //!
 //! The pieces depend only on the receivers and the leaves, so a set of receivers keeps them
 //! ([`NearField`]); what changes edit by edit is the direct light at the pieces (the caller's,
@@ -52,20 +52,12 @@ const NEAR_CLOSE_M: f64 = 0.1;
 /// The share of a leaf's size within which [`NEAR_CLOSE_M`] applies.
 const NEAR_CLOSE_SHARE: f64 = 1.5;
 
-/// A piece that resolves its leaf's radiosity reads its direct light as the mean of this
-/// many points, the centres of its quarters ([`quarter_centres`]): a shadow line or a beam edge
-/// crossing a piece as large as its distance to the receiver then shifts the piece's direct
-/// light by a quarter at a time, not all or nothing (docs/DECISIONS.md "Direct light of a
-/// near piece").
+/// A piece that resolves its leaf's radiosity reads its direct light as the mean at this many
+/// points, the centroids of its quarters (`PatchPiece::quarter_centres`, equal areas): a shadow
+/// line or a beam edge crossing a piece as large as its distance to the receiver then shifts
+/// the piece's direct light a quarter at a time, not all or nothing (docs/DECISIONS.md "Direct
+/// light of a near piece").
 const DIRECT_POINTS: usize = 4;
-
-/// The centres of the four quarters of a piece with `corners` (three or four, convex) and
-/// `centroid`: halfway from the centroid to each corner, which on a parallelogram is the centre
-/// of the corner's quarter and on a triangle the centroid of its corner's quarter; a triangle's
-/// fourth, middle quarter is centred on the centroid itself. Equal areas, so equal weights.
-fn quarter_centres(corners: &[DVec3], centroid: DVec3) -> [DVec3; DIRECT_POINTS] {
-    std::array::from_fn(|k| corners.get(k).map_or(centroid, |&c| 0.5 * (centroid + c)))
-}
 
 /// What a piece of a leaf resolves for its receiver.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -195,8 +187,9 @@ impl Interreflection {
             let Some(what) = resolves(gap, target.size, self.solver.in_slot[leaf as usize]) else {
                 continue;
             };
-            target.pieces_toward(p, PIECE_ACCEPT, PIECE_DEPTH, |corners, centroid| {
-                let f = point_to_polygon_with(p, n, corners, &mut scratch);
+            target.pieces_toward(p, PIECE_ACCEPT, PIECE_DEPTH, |patch_piece| {
+                let f = point_to_polygon_with(p, n, patch_piece.corners(), &mut scratch);
+                let centroid = patch_piece.centroid();
                 let lifted = centroid + node.normal * RECEIVER_LIFT_M;
                 let visible = self.occluders.as_ref().is_none_or(|o| o.visible(p, lifted));
                 if f > 0.0 && visible {
@@ -205,7 +198,7 @@ impl Interreflection {
                         form_factor: f,
                         resolves: what,
                     };
-                    out.push((piece, centroid, quarter_centres(corners, centroid)));
+                    out.push((piece, centroid, patch_piece.quarter_centres()));
                 }
             });
         }
@@ -234,7 +227,7 @@ impl Interreflection {
         assert_eq!(
             direct.len(),
             near.points.len(),
-            "direct light at every piece's point"
+            "direct light at every radiosity piece's points"
         );
         assert!(
             !near.resolves_indirect() || leaf_indirect.len() == radiosity.len(),
@@ -372,34 +365,6 @@ solver_patch_size = 1.0
             .map(|q| q.point.distance(p))
             .fold(f64::INFINITY, f64::min);
         assert!(nearest < 0.03, "{nearest}");
-    }
-
-    /// The direct-light points of a piece are the centres of its four equal quarters: of a
-    /// parallelogram its four sub-parallelograms, of a triangle its three corner triangles and
-    /// the middle one (centred on the centroid).
-    #[test]
-    fn direct_points_are_the_quarters_centres() {
-        let a = DVec3::new(0.0, 0.0, 1.0);
-        let (u, v) = (DVec3::new(0.4, 0.0, 0.0), DVec3::new(0.1, 0.2, 0.0));
-        let quad = [a, a + u, a + u + v, a + v];
-        let got = quarter_centres(&quad, a + 0.5 * (u + v));
-        let want = [(0.25, 0.25), (0.75, 0.25), (0.75, 0.75), (0.25, 0.75)].map(|(s, t)| a + s * u + t * v);
-        for (g, w) in got.iter().zip(&want) {
-            assert!(g.distance(*w) < 1e-15, "{g} vs {w}");
-        }
-        let (b, c) = (a + u, a + v);
-        let centroid = (a + b + c) / 3.0;
-        let got = quarter_centres(&[a, b, c], centroid);
-        let corner_quarter = |p: DVec3, q: DVec3, r: DVec3| (p + 0.5 * (p + q) + 0.5 * (p + r)) / 3.0;
-        let want = [
-            corner_quarter(a, b, c),
-            corner_quarter(b, c, a),
-            corner_quarter(c, a, b),
-            centroid,
-        ];
-        for (g, w) in got.iter().zip(&want) {
-            assert!(g.distance(*w) < 1e-15, "{g} vs {w}");
-        }
     }
 
     /// Which leaves a receiver resolves: within half a leaf's size its radiosity; past that,
