@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use super::{Interreflection, RECEIVER_LIFT_M};
 use crate::transport::direct::Receiver;
-use crate::transport::formfactor::point_to_polygon_with;
+use crate::transport::formfactor::{PatchPiece, point_to_polygon_with};
 use crate::transport::visibility::Visibility;
 
 /// A receiver is near a leaf when its distance to the leaf's bounds is below this share of the
@@ -138,7 +138,7 @@ impl NearField {
 impl Interreflection {
     /// The pieces of the leaves near each of `receivers` (module doc).
     pub fn near_field(&self, receivers: &[Receiver]) -> NearField {
-        let per_receiver: Vec<Vec<(Piece, DVec3, [DVec3; DIRECT_POINTS])>> =
+        let per_receiver: Vec<Vec<(Piece, PatchPiece)>> =
             receivers.par_iter().map(|rx| self.near_pieces(rx)).collect();
         let tree = &self.operator.tree;
         let mut near = NearField {
@@ -146,14 +146,16 @@ impl Interreflection {
             ..NearField::default()
         };
         for pieces in per_receiver {
-            for (piece, point, quarters) in pieces {
+            for (piece, patch_piece) in pieces {
                 let normal = tree.nodes[tree.leaf_node[piece.leaf as usize] as usize].normal;
+                let on_leaf = |point| Receiver { point, normal };
                 near.pieces.push(piece);
-                near.centres.push(Receiver { point, normal });
+                near.centres.push(on_leaf(patch_piece.centroid()));
                 match piece.resolves {
-                    Resolves::Radiosity => near
-                        .points
-                        .extend(quarters.map(|point| Receiver { point, normal })),
+                    Resolves::Radiosity => {
+                        let points: [DVec3; DIRECT_POINTS] = patch_piece.quarter_centres();
+                        near.points.extend(points.map(on_leaf));
+                    }
                     Resolves::Indirect => near.resolves_indirect = true,
                 }
             }
@@ -162,9 +164,8 @@ impl Interreflection {
         near
     }
 
-    /// The visible pieces of the leaves near `rx`, each with its centroid and its
-    /// [`DIRECT_POINTS`] direct-light points.
-    fn near_pieces(&self, rx: &Receiver) -> Vec<(Piece, DVec3, [DVec3; DIRECT_POINTS])> {
+    /// The visible pieces of the leaves near `rx`, each with its part of its leaf.
+    fn near_pieces(&self, rx: &Receiver) -> Vec<(Piece, PatchPiece)> {
         let tree = &self.operator.tree;
         let (p, n) = (rx.point + rx.normal * RECEIVER_LIFT_M, rx.normal);
         let mut out = Vec::new();
@@ -189,8 +190,7 @@ impl Interreflection {
             };
             target.pieces_toward(p, PIECE_ACCEPT, PIECE_DEPTH, |patch_piece| {
                 let f = point_to_polygon_with(p, n, patch_piece.corners(), &mut scratch);
-                let centroid = patch_piece.centroid();
-                let lifted = centroid + node.normal * RECEIVER_LIFT_M;
+                let lifted = patch_piece.centroid() + node.normal * RECEIVER_LIFT_M;
                 let visible = self.occluders.as_ref().is_none_or(|o| o.visible(p, lifted));
                 if f > 0.0 && visible {
                     let piece = Piece {
@@ -198,7 +198,7 @@ impl Interreflection {
                         form_factor: f,
                         resolves: what,
                     };
-                    out.push((piece, centroid, patch_piece.quarter_centres()));
+                    out.push((piece, *patch_piece));
                 }
             });
         }
