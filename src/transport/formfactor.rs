@@ -683,6 +683,42 @@ mod tests {
         }
     }
 
+    /// The sample points of a quad are the centres of the cells of its bilinear grid, lifted
+    /// along the normal: on a trapezoid (not a parallelogram, so the map is not affine) with
+    /// 3 × 3 samples, `c0 (1−u)(1−v) + c1 u(1−v) + c2 uv + c3 (1−u)v` at u, v ∈ {1/6, 1/2, 5/6}.
+    #[test]
+    fn sample_points_of_a_quad_are_its_bilinear_cell_centres() {
+        let c = [
+            DVec3::new(0.0, 0.0, 2.0),
+            DVec3::new(0.6, 0.0, 2.0),
+            DVec3::new(0.5, 0.3, 2.0),
+            DVec3::new(0.2, 0.3, 2.0),
+        ];
+        let target = TargetPatch {
+            corners: c,
+            n_corners: 4,
+            centroid: c.iter().sum::<DVec3>() / 4.0,
+            normal: DVec3::NEG_Z,
+            area: 0.5 * (0.6 + 0.3) * 0.3,
+            size: c[0].distance(c[2]),
+        };
+        let points = target.sample_points(3);
+        let mut want = Vec::new();
+        for u in [1.0 / 6.0, 0.5, 5.0 / 6.0] {
+            for v in [1.0 / 6.0, 0.5, 5.0 / 6.0] {
+                let q = c[0] * ((1.0 - u) * (1.0 - v))
+                    + c[1] * (u * (1.0 - v))
+                    + c[2] * (u * v)
+                    + c[3] * ((1.0 - u) * v);
+                want.push(q - DVec3::Z * SURFACE_OFFSET_M);
+            }
+        }
+        assert_eq!(points.len(), want.len());
+        for (g, w) in points.iter().zip(&want) {
+            assert!(g.distance(*w) < 1e-15, "{g} vs {w}");
+        }
+    }
+
     /// A 2 × 1 m rectangle: `A a²/12`, `A b²/12`; the right triangle with legs 1: variance 1/18
     /// and covariance −1/36 of a uniform point, times its area ½.
     #[test]

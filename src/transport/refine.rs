@@ -92,7 +92,8 @@ pub struct RefineOptions {
     /// slot: the room surface behind it is graded along the face's outline as along a contact
     /// edge, the distance to the outline counted with the gap added (so the strips there stay
     /// about half the gap wide), and both sides of the slot are meshed no coarser than twice the
-    /// gap (docs/DECISIONS.md "Slots behind furniture"); 0 turns it off. Default 0.3 m.
+    /// gap (docs/DECISIONS.md "Slots behind furniture", "Slots up to 0.6 m"); 0 turns it off.
+    /// Default 0.6 m.
     pub slot_max_m: f64,
     /// Pieces of the room's own edges (floor, ceiling and walls meeting) where the direct light
     /// next to them bends are graded like contact edges down to strips of this width (m; a strip
@@ -128,7 +129,7 @@ impl Default for RefineOptions {
             contact_ratio: 0.5,
             contact_min_m: 0.015,
             shadow_min_m: 0.005,
-            slot_max_m: 0.3,
+            slot_max_m: 0.6,
             room_edge_min_m: 0.1,
         }
     }
@@ -2439,7 +2440,7 @@ solver_patch_size = 0.5
 
     /// Two cupboards 5 cm apart make a slot between their facing faces (graded no coarser than
     /// twice the gap where the faces overlap, its leaves — the floor strip between them too —
-    /// linked alone); 0.5 m apart they make none.
+    /// linked alone); 0.7 m apart (beyond `slot_max_m`) they make none.
     #[test]
     fn slots_between_boxes_are_graded() {
         let room = |x1: f64| {
@@ -2495,7 +2496,7 @@ solver_patch_size = 0.5
             })
             .expect("a floor leaf between the boxes");
         assert!(solver.in_slot[floor_strip] && solver.alone[floor_strip]);
-        let far = refine(&room(2.1), &RefineOptions::default());
+        let far = refine(&room(2.3), &RefineOptions::default());
         assert_eq!(far.slots, 0);
         assert!(longest(&far, 1.6, 1.0) >= 0.2, "{}", longest(&far, 1.6, 1.0));
     }
@@ -2663,7 +2664,7 @@ solver_patch_size = 0.5
 
     /// An OBJ block 5 cm above the floor makes a slot under it as a box does: the floor under
     /// it is meshed no coarser than twice the gap (0.1 m) and linked alone, the floor beside it
-    /// is not. Resting on the floor (a contact, not a slot) or 0.5 m up (beyond `slot_max_m`)
+    /// is not. Resting on the floor (a contact, not a slot) or 0.7 m up (beyond `slot_max_m`)
     /// it makes none.
     #[test]
     fn slots_under_obj_objects_are_graded() {
@@ -2708,7 +2709,7 @@ solver_patch_size = 0.5
             .expect("a floor leaf away from the block");
         assert!(!solver.alone[beside] && !solver.in_slot[beside]);
         assert!(solver.notes(&scene).join("\n").contains("and 1 slots"));
-        for z0 in [0.0, 0.5] {
+        for z0 in [0.0, 0.7] {
             let (_, solver) = solved(z0);
             assert_eq!(solver.slots, 0, "{z0} m up");
             assert!(
@@ -2720,7 +2721,8 @@ solver_patch_size = 0.5
 
     /// A box standing 5 cm in front of the wall y = 3 makes a slot: the wall behind it and the
     /// box's back face are meshed no coarser than twice the gap (0.1 m) over the slot, and the
-    /// plan says so; the same box 0.5 m off the wall, or the rule off, makes no slot.
+    /// plan says so; 0.45 m off it makes a wider one, graded along its outline; 0.7 m off the
+    /// wall, or with the rule off, none.
     #[test]
     fn slots_behind_boxes_are_graded() {
         let room = |y0: f64, y1: f64| {
@@ -2804,10 +2806,29 @@ solver_patch_size = 0.5
         );
         assert_eq!(off.slots, 0);
         assert!(in_slot(&off, 3.0).0 >= 0.25, "{:?}", in_slot(&off, 3.0));
-        // 0.5 m off the wall: no slot.
-        let far = refine(&room(2.0, 2.5), &RefineOptions::default());
+        // 0.7 m off the wall (beyond `slot_max_m`, 0.6 m): no slot.
+        let far = refine(&room(1.8, 2.3), &RefineOptions::default());
         assert_eq!(far.slots, 0);
         assert!(in_slot(&far, 3.0).0 >= 0.25, "{:?}", in_slot(&far, 3.0));
+        // 0.45 m off (a pocket rather than a slot): graded along the outline (more leaves on
+        // the wall behind than with the rule off), its leaves linked alone.
+        let wide = room(2.1, 2.55);
+        let graded = refine(&wide, &RefineOptions::default());
+        let ungraded = refine(
+            &wide,
+            &RefineOptions {
+                slot_max_m: 0.0,
+                ..RefineOptions::default()
+            },
+        );
+        assert_eq!(graded.slots, 1);
+        assert!(
+            in_slot(&graded, 3.0).1 > in_slot(&ungraded, 3.0).1,
+            "{:?} against {:?}",
+            in_slot(&graded, 3.0),
+            in_slot(&ungraded, 3.0)
+        );
+        assert!(graded.in_slot.contains(&true) && !ungraded.in_slot.contains(&true));
     }
 
     /// With the default grading the strips of a box side along the floor are at most

@@ -330,3 +330,76 @@ solver_patch_size = 0.5
         "the plan's relaxed links"
     );
 }
+
+/// A dark pocket behind a box standing 36 cm off a wall, lit only through its opening: the
+/// wall behind the box, the box's back face and the floor between them, each within 2.5 % of a
+/// fresh trace (docs/DECISIONS.md "Slots up to 0.6 m"). With slots only up to 0.3 m the wall's
+/// 0.5 m leaves spread the lit band above the box's shadow line down into the pocket: the wall
+/// 0.3 m up was 9.8 % high, the face and the floor 6 %. The room is random room 126
+/// (docs/ACCURACY.md "Rooms drawn at random").
+#[test]
+fn numbers_in_a_pocket_behind_a_box_meet_a_fresh_trace() {
+    let text = r#"version = 1
+name = "random 126"
+
+[room]
+size = [7.445, 4.552, 3]
+[room.reflectance]
+floor = 0.15
+walls = 0.65
+ceiling = 0.53
+
+[[box]]
+min = [3.531, 4.205, 0]
+max = [4.578, 4.552, 0.322]
+reflectance = 0.76
+
+[[box]]
+min = [0.957, 0.358, 0]
+max = [2.175, 1.229, 1.306]
+reflectance = 0.71
+
+[[box]]
+min = [0.059, 1.087, 0]
+max = [0.793, 2.011, 1.533]
+reflectance = 0.44
+
+[[box]]
+min = [5.192, 0, 0]
+max = [5.745, 0.938, 1.652]
+reflectance = 0.64
+
+[[light]]
+name = "L0 hard spot"
+position = [3.341, 4.452, 2.95]
+aim = [0.062, 0.447, 0]
+lid = [[0, 572], [18, 572], [18, 0], [180, 0]]
+radius = 0.01
+
+[[light]]
+name = "L1 bare lamp"
+position = [2.048, 4.232, 2.95]
+aim = [4.241, 4.372, 0.322]
+lid = [[0, 322.5], [180, 322.5]]
+radius = 0.05
+
+[[light]]
+name = "L2 batwing"
+position = [3.771, 4.152, 2.7]
+aim = [4.087, 4.296, 0.322]
+lid = [[0, 728.7], [30, 1457.4], [60, 2429], [75, 1214.5], [90, 0], [180, 0]]
+radius = 0.05
+
+[settings]
+patch_size = 0.1
+solver_patch_size = 0.5
+"#;
+    let receivers: Vec<Receiver> = [
+        (glam::DVec3::new(1.513, 0.0, 0.3), glam::DVec3::Y),
+        (glam::DVec3::new(1.513, 0.358, 0.03), glam::DVec3::NEG_Y),
+        (glam::DVec3::new(1.513, 0.18, 0.0), glam::DVec3::Z),
+    ]
+    .map(|(point, normal)| Receiver { point, normal })
+    .to_vec();
+    session_meets_a_fresh_trace(text, &receivers, 0.025);
+}
