@@ -1934,8 +1934,9 @@ pub(crate) mod tests {
         assert_eq!(near(1.0, 5.0), Vec::<usize>::new());
     }
 
-    /// A coarser grading than the default (ratios 1, 6 cm strips; room edges as by default),
-    /// whose leaves the tests below state exactly.
+    /// A coarser grading than the default (ratios 1, 6 cm strips, slots up to 0.3 m as by
+    /// default until the thirty-third round; room edges as by default), whose leaves the tests
+    /// below state exactly.
     fn coarse_grading() -> RefineOptions {
         RefineOptions {
             lamp_ratio: 1.0,
@@ -2810,7 +2811,7 @@ solver_patch_size = 0.5
         let far = refine(&room(1.8, 2.3), &RefineOptions::default());
         assert_eq!(far.slots, 0);
         assert!(in_slot(&far, 3.0).0 >= 0.25, "{:?}", in_slot(&far, 3.0));
-        // 0.45 m off (a pocket rather than a slot): graded along the outline (more leaves on
+        // 0.45 m off (a wide slot): graded along the outline (more leaves on
         // the wall behind than with the rule off), its leaves linked alone.
         let wide = room(2.1, 2.55);
         let graded = refine(&wide, &RefineOptions::default());
