@@ -2798,13 +2798,16 @@ solver_patch_size = 0.5
         let notes = solver.notes(&s).join("\n");
         assert!(notes.contains("and 1 slots"), "{notes}");
         // The rule off: the wall behind keeps leaves of 0.25 m and more there.
-        let off = refine(
-            &s,
-            &RefineOptions {
-                slot_max_m: 0.0,
-                ..RefineOptions::default()
-            },
-        );
+        let rule_off = |scene: &Scene| {
+            refine(
+                scene,
+                &RefineOptions {
+                    slot_max_m: 0.0,
+                    ..RefineOptions::default()
+                },
+            )
+        };
+        let off = rule_off(&s);
         assert_eq!(off.slots, 0);
         assert!(in_slot(&off, 3.0).0 >= 0.25, "{:?}", in_slot(&off, 3.0));
         // 0.7 m off the wall (beyond `slot_max_m`, 0.6 m): no slot.
@@ -2814,21 +2817,10 @@ solver_patch_size = 0.5
         // 0.45 m off (a wide slot): graded along the outline (more leaves on
         // the wall behind than with the rule off), its leaves linked alone.
         let wide = room(2.1, 2.55);
-        let graded = refine(&wide, &RefineOptions::default());
-        let ungraded = refine(
-            &wide,
-            &RefineOptions {
-                slot_max_m: 0.0,
-                ..RefineOptions::default()
-            },
-        );
+        let (graded, ungraded) = (refine(&wide, &RefineOptions::default()), rule_off(&wide));
         assert_eq!(graded.slots, 1);
-        assert!(
-            in_slot(&graded, 3.0).1 > in_slot(&ungraded, 3.0).1,
-            "{:?} against {:?}",
-            in_slot(&graded, 3.0),
-            in_slot(&ungraded, 3.0)
-        );
+        let (behind, behind_off) = (in_slot(&graded, 3.0), in_slot(&ungraded, 3.0));
+        assert!(behind.1 > behind_off.1, "{behind:?} against {behind_off:?}");
         assert!(graded.in_slot.contains(&true) && !ungraded.in_slot.contains(&true));
     }
 
