@@ -428,8 +428,17 @@ impl Context<'_> {
         // A cluster holding a possible hot spot is never linked as a whole: its mean radiosity
         // and area-sampled visibility would misplace the spot.
         let whole = |n: &Node| n.is_leaf() || !n.hot;
-        let admissible =
-            nr.diameter.max(ns.diameter) <= self.options.eta_at(dist) * dist && whole(nr) && whole(ns);
+        let slot = [nr, ns]
+            .iter()
+            .any(|n| n.is_leaf() && self.in_slot[n.leaf as usize]);
+        // A leaf in a slot is lit through its opening by what lies beyond, so its links are
+        // not relaxed with distance (docs/DECISIONS.md "Links of a slot's leaves are not relaxed").
+        let eta = if slot {
+            self.options.eta
+        } else {
+            self.options.eta_at(dist)
+        };
+        let admissible = nr.diameter.max(ns.diameter) <= eta * dist && whole(nr) && whole(ns);
         if admissible {
             // A volume cluster is linked as a whole only when all its leaves face the other.
             if !faces(nr, ns, dist) {
@@ -452,9 +461,6 @@ impl Context<'_> {
             let shaft = self.shaft(nr, ns);
             let v = self.visibility(shaft.as_ref(), nr, ns, RAYS, &mut out.points);
             let partial = v > 0.0 && v < 1.0;
-            let slot = [nr, ns]
-                .iter()
-                .any(|n| n.is_leaf() && self.in_slot[n.leaf as usize]);
             let refine_above = if slot {
                 self.options.slot_visibility_refine
             } else {

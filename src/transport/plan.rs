@@ -320,7 +320,7 @@ fn relaxed_links_note(leaves: usize) -> String {
     let mut note = String::new();
     if links.eta_far > links.eta {
         note += &format!(
-            "; above {RELAXED_LINKS_ABOVE_LEAVES} leaves the links relax beyond {} m (admissible ratio {} growing to {}) and shadow lines are not followed inside the leaves' direct light",
+            "; above {RELAXED_LINKS_ABOVE_LEAVES} leaves the links relax beyond {} m (admissible ratio {} growing to {}; not those of leaves in slots) and shadow lines are not followed inside the leaves' direct light",
             links.near_m, links.eta, links.eta_far
         );
     }

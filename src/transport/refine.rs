@@ -437,6 +437,13 @@ fn touch_eps(size: DVec3) -> f64 {
     1e-9 * (1.0 + size.max_element())
 }
 
+/// Whether a face `gap` (m) off a parallel surface makes a slot: it does not touch it, and it
+/// stands at most `slot_max_m` off, within the touch tolerance `eps` — a gap of `slot_max_m`
+/// counts however the room's numbers round (3.0 − 2.4 is 0.6000000000000001).
+fn slot_gap(gap: f64, slot_max_m: f64, eps: f64) -> bool {
+    gap > eps && gap <= slot_max_m + eps
+}
+
 /// The slots of `scene`: box faces standing up to `slot_max_m` off a parallel room surface, and
 /// pairs of box faces facing each other across a gap up to `slot_max_m` where they overlap.
 fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
@@ -445,10 +452,7 @@ fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
         .boxes
         .iter()
         .flat_map(|b| faces_to_room(b, size).map(move |face| (b, face)))
-        .filter(|(_, (_, box_side, room_side))| {
-            let gap = (box_side - room_side).abs();
-            gap > eps && gap <= slot_max_m
-        })
+        .filter(|(_, (_, box_side, room_side))| slot_gap((box_side - room_side).abs(), slot_max_m, eps))
         .map(|(b, (axis, box_side, room_side))| Slot {
             axis,
             room_side,
@@ -468,7 +472,7 @@ fn slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
                 let overlaps = (0..3)
                     .filter(|&k| k != axis)
                     .all(|k| bounds.max[k] - bounds.min[k] > eps);
-                (gap > eps && gap <= slot_max_m && overlaps).then_some(Slot {
+                (slot_gap(gap, slot_max_m, eps) && overlaps).then_some(Slot {
                     axis,
                     room_side: b.min[axis],
                     box_side: a.max[axis],
@@ -506,7 +510,7 @@ fn mesh_slots(scene: &Scene, slot_max_m: f64) -> Vec<Slot> {
                 }
                 let gaps = t.map(|p| (p[axis] - room_side).abs());
                 let near = gaps.iter().copied().fold(f64::INFINITY, f64::min);
-                if near <= eps || gaps.iter().any(|&g| g > slot_max_m) {
+                if !gaps.iter().all(|&g| slot_gap(g, slot_max_m, eps)) {
                     continue;
                 }
                 let bounds = Aabb {
@@ -2718,6 +2722,31 @@ solver_patch_size = 0.5
                 "{z0} m up"
             );
         }
+    }
+
+    /// A gap of exactly `slot_max_m` makes a slot however the room's numbers round: two boxes
+    /// 0.6 m off the wall y = 3 (3.0 − 2.4 = 0.6000000000000001) and 0.6 m apart (2.2 − 1.6,
+    /// the same) make three slots, and moved 1 cm further, none.
+    #[test]
+    fn gaps_of_slot_max_are_slots_however_they_round() {
+        let room = |shift: f64| {
+            let boxes: String = [(1.0, 1.6), (2.2 + shift, 2.8 + shift)]
+                .iter()
+                .map(|(x0, x1)| {
+                    format!(
+                        "[[box]]\nmin = [{x0}, {}, 0.0]\nmax = [{x1}, {}, 0.8]\nreflectance = 0.4\n",
+                        1.4 - shift,
+                        2.4 - shift
+                    )
+                })
+                .collect();
+            scene(&EMPTY.replace("[[light]]", &format!("{boxes}[[light]]")))
+        };
+        let options = RefineOptions::default();
+        assert_eq!(options.slot_max_m, 0.6);
+        assert_eq!(3.0 - 2.4, 0.6000000000000001);
+        assert_eq!(slots(&room(0.0), options.slot_max_m).len(), 3);
+        assert_eq!(slots(&room(0.01), options.slot_max_m).len(), 0);
     }
 
     /// A box standing 5 cm in front of the wall y = 3 makes a slot: the wall behind it and the
