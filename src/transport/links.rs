@@ -57,7 +57,8 @@ pub struct LinkOptions {
     /// Farther than `near_m` (m) the ratio grows with the distance, `eta × distance / near_m`,
     /// up to `eta_far`, so that a leaf links to clusters beyond its neighbourhood instead of to
     /// every leaf within `1/eta` of its size (docs/DECISIONS.md "Interreflection", "Relaxed
-    /// links"). Defaults 1 m and 0.1: no growth.
+    /// links"); not for a link with a leaf in a slot at either end (docs/DECISIONS.md "Links of
+    /// a slot's leaves are not relaxed"). Defaults 1 m and 0.1: no growth.
     pub near_m: f64,
     pub eta_far: f64,
     /// Refine a partially visible link whose larger form factor exceeds this. Default 0.0001

@@ -175,7 +175,8 @@ pub struct SolverMesh {
     /// cluster's one irradiance would light it; docs/DECISIONS.md "Slots behind furniture").
     pub alone: Vec<bool>,
     /// Per leaf, true when it lies in a slot: its partly visible links are refined further
-    /// ([`crate::transport::links::LinkOptions::slot_visibility_refine`]).
+    /// ([`crate::transport::links::LinkOptions::slot_visibility_refine`]) and its links are not
+    /// relaxed with distance ([`crate::transport::links::LinkOptions::eta_far`]).
     pub in_slot: Vec<bool>,
     /// Per leaf, true when a light's beam edge (a hard cut-off of its curve) runs through it
     /// beside a contact, where the light-edge rule split it: its direct light is sampled in
