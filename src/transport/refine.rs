@@ -2725,8 +2725,8 @@ solver_patch_size = 0.5
         }
     }
 
-    /// A gap of exactly `slot_max_m` makes a slot however the room's numbers round: two boxes
-    /// 0.6 m off the wall y = 3 (3.0 − 2.4 = 0.6000000000000001) and 0.6 m apart (2.2 − 1.6,
+    /// A gap of exactly `slot_max_m` (0.6 m here) makes a slot however the room's numbers round:
+    /// two boxes 0.6 m off the wall y = 3 (3.0 − 2.4 = 0.6000000000000001) and 0.6 m apart (2.2 − 1.6,
     /// the same) make three slots, and moved 1 cm further, none.
     #[test]
     fn gaps_of_slot_max_are_slots_however_they_round() {
@@ -2743,11 +2743,10 @@ solver_patch_size = 0.5
                 .collect();
             scene(&EMPTY.replace("[[light]]", &format!("{boxes}[[light]]")))
         };
-        let options = RefineOptions::default();
-        assert_eq!(options.slot_max_m, 0.6);
+        let slot_max_m = 0.6;
         assert_eq!(3.0 - 2.4, 0.6000000000000001);
-        assert_eq!(slots(&room(0.0), options.slot_max_m).len(), 3);
-        assert_eq!(slots(&room(0.01), options.slot_max_m).len(), 0);
+        assert_eq!(slots(&room(0.0), slot_max_m).len(), 3);
+        assert_eq!(slots(&room(0.01), slot_max_m).len(), 0);
     }
 
     /// A box standing 5 cm in front of the wall y = 3 makes a slot: the wall behind it and the
